@@ -1,0 +1,55 @@
+// Query-to-reference descriptor distances (the vectors D^u of the paper, Sec. III-A).
+//
+// All distances returned here are NOT squared: Euclidean is ||q - r||_2 (the paper's), and
+// cosine is 1 - <q, r> / (||q|| ||r||), in [0, 2]. A zero-norm vector has cosine
+// similarity 0 to everything (distance 1). Both are non-negative.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/reference_set.h"
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+enum class DistanceMetric { kEuclidean, kCosine };
+
+// "euclidean" or "cosine"; throws std::invalid_argument naming the bad value.
+DistanceMetric ParseDistanceMetric(const std::string& name);
+std::string ToString(DistanceMetric metric);
+
+// Distances from one query to the places one reference set covers: a view on caller-owned
+// memory. values[k] is the (non-squared, >= 0) distance to place place_ids[k]; a null
+// place_ids means values[k] is the distance to place k.
+struct SetDistances {
+  const float* values = nullptr;
+  const int* place_ids = nullptr;
+  int count = 0;
+
+  int PlaceAt(int k) const { return place_ids ? place_ids[k] : k; }
+};
+
+// Distances from each of the Q queries (rows of `queries`, Q x D) to each of the N_u
+// descriptors of `set`; returns Q x N_u. Batched through a matrix product for Euclidean
+// (||q||^2 + ||r||^2 - 2 q.r, clamped at 0 before the square root) and cosine.
+// Throws std::invalid_argument if the dimensions differ or a query holds NaN/infinity.
+RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
+                             const ReferenceSet& set);
+
+// The same for every set of `map`: element u is Q x N_u for set u.
+std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
+                                          const ReferenceMap& map);
+
+// Views on row `query` of each per-set matrix, with each set's place ids.
+std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,
+                                        const std::vector<const std::vector<int>*>& place_ids);
+
+// Turns a Q x N similarity matrix (higher is more similar) into non-negative distances
+// c - s with c = max(1, largest similarity): for cosine similarities this is exactly the
+// cosine distance. Pass the same `offset` to all sources of one evaluation so that they
+// stay comparable; SimilarityOffset() computes it over several matrices.
+float SimilarityOffset(const std::vector<const RowMatrixXf*>& similarities);
+void SimilaritiesToDistances(float offset, RowMatrixXf* matrix);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,23 @@
+// Small file helpers shared by the writers of the core.
+#pragma once
+
+#include <string>
+
+namespace bsf_vpr {
+
+// Writes `bytes` to `path` atomically: the data goes to a temporary file in the same folder,
+// is flushed, and is renamed over `path`, so a reader sees either the old file or the new
+// one, never a partial one. Throws std::runtime_error naming the path on any failure (and
+// removes the temporary file).
+void WriteFileAtomically(const std::string& path, const std::string& bytes);
+
+// Reads a whole file. Throws std::runtime_error naming the path if it cannot be read.
+std::string ReadFile(const std::string& path);
+
+// The folder part of `path` ("." when it has none).
+std::string DirName(const std::string& path);
+
+// `path` unchanged if absolute, else joined to `base_dir`.
+std::string ResolvePath(const std::string& base_dir, const std::string& path);
+
+}  // namespace bsf_vpr

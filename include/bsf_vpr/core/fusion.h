@@ -1,0 +1,71 @@
+// Fusion of reference sets into a decision over places: Bayesian fusion with a prior
+// (paper, Eq. bayes, product_form and approach) and the minimum ensemble distance
+// (Eq. MED) of Fischer et al.
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/likelihood.h"
+#include "bsf_vpr/core/selection.h"
+
+namespace bsf_vpr {
+
+// The threshold h of the paper on a Bayesian method's belief in its best place. Given as a
+// posterior probability p in (0, 1) or directly as log-odds log(p / (1 - p)). A match is
+// accepted when the confidence (log-odds) exceeds LogOdds().
+struct Threshold {
+  enum class Kind { kProbability, kLogOdds };
+  Kind kind = Kind::kProbability;
+  double value = 0.5;
+
+  double LogOdds() const;
+  // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
+  void Validate() const;
+  // "p:0.99" or "0.99" (probability), "logodds:12" (log-odds).
+  static Threshold Parse(const std::string& text);
+};
+
+// The outcome of one query under one method.
+struct PlaceBelief {
+  int match = -1;  // the place decided on
+  // Higher means more sure. Bayesian methods: the log-odds of the match,
+  // log P(match) - log P(any other place), from the unnormalised log posterior (stays
+  // finite and ordered where the normalised maximum rounds to 1). Distance methods: minus
+  // the (mean) distance of the match.
+  double confidence = -std::numeric_limits<double>::infinity();
+  bool accepted = false;          // confidence > h (distance methods: always true)
+  std::vector<int> top_places;    // best first, at most top_k
+  Eigen::VectorXd log_posterior;  // N entries, normalised; empty for distance methods
+  Selection selection;            // sets used (selected), u*, min D^u of every set
+};
+
+// log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against
+// all the others together; +infinity when no other entry has probability.
+double LogOddsOfBest(const Eigen::VectorXd& log_p, int best);
+
+// Indices of the `k` largest entries of `score` (fewer if it is shorter), largest first,
+// ties broken towards the smaller index. Entries equal to -infinity are never returned.
+std::vector<int> TopK(const Eigen::VectorXd& score, int k);
+
+// Checks a log prior over `num_places` places: right size, no NaN or +inf, some place with
+// non-zero probability. Throws std::invalid_argument naming the problem.
+void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places);
+
+// Bayesian fusion of the sets `use` (indices into `sets`): unnormalised log posterior
+// sum_{u in use} log P(D^u | X = i) + log P(X = i). `log_prior` null means uniform.
+// Fills match, confidence, accepted, top_places and log_posterior of `out`.
+void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
+               const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
+               const Threshold& threshold, int top_k, PlaceBelief* out);
+
+// Minimum ensemble distance over the sets `use`: the place with the smallest mean distance
+// over the used sets that cover it (with full coverage exactly Eq. MED: argmin of the sum).
+// Places no used set covers cannot be matched. Fills match, confidence, accepted, top_places.
+void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
+                             int num_places, int top_k, PlaceBelief* out);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,38 @@
+// The patch-normalised downsampled image used by SeqSLAM (Milford & Wyeth, ICRA 2012): the
+// image is converted to grayscale, resized to width_px x height_px (area interpolation), and
+// each non-overlapping patch_size_px square patch is normalised to zero mean and unit
+// variance (a constant patch becomes all zeros). The descriptor is the resulting image,
+// row-major, width_px * height_px floats. Compare with Euclidean distance.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+struct PatchNormOptions {
+  int width_px = 64;
+  int height_px = 32;
+  int patch_size_px = 8;  // edge patches are smaller when the size does not divide evenly
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+  int dimension() const { return width_px * height_px; }
+  std::string DescriptorType() const;  // e.g. "patchnorm_64x32_p8"
+};
+
+// Describes one 8-bit image (1, 3 or 4 channels, BGR order as OpenCV loads it). Throws
+// std::invalid_argument for an empty image or an unsupported type.
+Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options);
+
+// The image files (.png .jpg .jpeg .bmp .pgm .ppm) in `folder`, sorted by name. Throws
+// std::runtime_error if the folder cannot be read or holds no image.
+std::vector<std::string> ListImageFiles(const std::string& folder);
+
+// Describes every image of ListImageFiles(folder), one row each. Throws std::runtime_error
+// naming a file that cannot be decoded.
+RowMatrixXf DescribeImageFolder(const std::string& folder, const PatchNormOptions& options);
+
+}  // namespace bsf_vpr

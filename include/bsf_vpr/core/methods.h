@@ -1,0 +1,53 @@
+// Every place recognition method the paper compares, selectable by name:
+//
+//   nn:<set>       single-reference nearest neighbour (minimum-value principle, Eq. mvp)
+//   bayes:<set>    single-reference Bayesian (training-free likelihood, uniform/given prior)
+//   med            Baseline Fusion: minimum ensemble distance over all sets (Eq. MED)
+//   med_selective  Baseline Selective Fusion: MED over the selected sets S
+//   bayes_full     Bayesian Full Fusion: Bayes over all sets
+//   bsf            Bayesian Selective Fusion: Bayes over the selected sets S
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/fusion.h"
+
+namespace bsf_vpr {
+
+enum class MethodKind { kNearestNeighbour, kBayesSingle, kMed, kMedSelective, kBayesFull, kBsf };
+
+struct Method {
+  MethodKind kind = MethodKind::kBsf;
+  int set_index = -1;    // for nn:/bayes:, the set's index in the map
+  std::string set_name;  // for nn:/bayes:
+
+  std::string Name() const;  // e.g. "bsf", "nn:winter"
+  bool IsBayesian() const;
+};
+
+// Parses one method name against the map's set names. Throws std::invalid_argument for an
+// unknown method or set name (the message lists the valid ones).
+Method ParseMethod(const std::string& name, const std::vector<std::string>& set_names);
+// A comma-separated list, or "all": every method, with nn: and bayes: for every set.
+std::vector<Method> ParseMethodList(const std::string& list,
+                                    const std::vector<std::string>& set_names);
+std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
+
+struct MethodOptions {
+  SelectionOptions selection;
+  LikelihoodOptions likelihood;
+  Threshold threshold;  // h, for the Bayesian methods
+  int top_k = 10;       // how many ranked places to return (recall@K needs K)
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// Runs `method` on one query's distances to every set of the map (`sets[u]` for set u,
+// each with count > 0). `log_prior` (N entries, may be unnormalised) or null for uniform;
+// only the Bayesian methods use it. The returned selection always lists the sets used.
+PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
+                      const MethodOptions& options, const Eigen::VectorXd* log_prior = nullptr);
+
+}  // namespace bsf_vpr

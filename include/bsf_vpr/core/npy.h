@@ -1,0 +1,42 @@
+// Reading and writing 2-D NumPy .npy matrices (format versions 1.0, 2.0 and 3.0).
+//
+// Supported: little-endian float16 ('<f2'), float32 ('<f4') and float64 ('<f8'), C order,
+// exactly two dimensions. Anything else (Fortran order, other dtypes, big-endian data,
+// 1-D or 3-D arrays, a header that claims more data than the file holds, sizes beyond
+// kMaxNpyElements) is refused with std::runtime_error naming the file and the problem.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+enum class NpyDtype { kFloat16, kFloat32, kFloat64 };
+
+// Largest number of elements accepted in one matrix (4 Gi floats = 16 GiB as float32).
+constexpr int64_t kMaxNpyElements = int64_t{1} << 32;
+
+struct NpyHeader {
+  NpyDtype dtype = NpyDtype::kFloat32;
+  int64_t rows = 0;
+  int64_t cols = 0;
+  size_t data_offset = 0;  // bytes from the start of the file to the first element
+};
+
+// Parses and validates the header of an .npy file held in `bytes` (`path` is only used in
+// messages). Also checks that `bytes` holds all the data the header announces.
+NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path);
+
+// Reads a 2-D .npy matrix and converts it to float32. Throws std::runtime_error.
+RowMatrixXf ReadNpyMatrix(const std::string& path);
+
+// Serialises `matrix` as a version 1.0 .npy file in the given dtype (C order).
+std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype = NpyDtype::kFloat32);
+
+// Writes `matrix` to `path` atomically (temporary file + rename). Throws std::runtime_error.
+void WriteNpyMatrix(const std::string& path, const RowMatrixXf& matrix,
+                    NpyDtype dtype = NpyDtype::kFloat32);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,70 @@
+// Reference sets (one traversal's descriptors) and the reference map that holds M of them.
+//
+// Places are numbered 0..N-1 in a place index shared by all sets of a map. A set covers some
+// of those places, with at most one descriptor per place (paper, Sec. III-A).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+// Pose of a place in the map frame: metres and radians.
+struct PlacePose {
+  double x_m = 0, y_m = 0, z_m = 0, yaw_rad = 0;
+};
+
+struct ReferenceSet {
+  std::string name;             // unique within a map, e.g. "winter"
+  std::string condition;        // optional label, e.g. "snow", "night"
+  std::string descriptor_type;  // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
+  std::string distance;         // optional, the distance the descriptors are meant for
+  RowMatrixXf descriptors;      // N_u x D, row k describes place place_ids[k]
+  std::vector<int> place_ids;   // N_u place indices, distinct, in [0, N)
+  std::vector<PlacePose> poses; // empty, or N_u poses (poses[k] is the pose of row k)
+
+  int size() const { return static_cast<int>(descriptors.rows()); }
+  int dimension() const { return static_cast<int>(descriptors.cols()); }
+  size_t MemoryBytes() const;
+
+  // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
+  // duplicated or negative, poses of the wrong count, non-finite descriptor values.
+  void Validate() const;
+};
+
+// Makes a set whose row k is place k (the usual case for frame-aligned traversals).
+ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
+                              std::string condition = "");
+
+// M reference sets sharing one descriptor dimension and one place index. M and N are
+// run-time values; N grows to cover the largest place id of any set.
+class ReferenceMap {
+ public:
+  // Adds a set after validating it. Throws std::invalid_argument if it is invalid, if its
+  // name is taken, or if its dimension differs from the sets already held; the map is
+  // unchanged when it throws.
+  void Add(ReferenceSet set);
+  // Removes the named set; returns false if there is none.
+  bool Remove(const std::string& name);
+
+  int num_sets() const { return static_cast<int>(sets_.size()); }
+  int num_places() const { return num_places_; }
+  int dimension() const { return dimension_; }  // 0 while empty
+  const std::vector<ReferenceSet>& sets() const { return sets_; }
+  const ReferenceSet& set(int u) const { return sets_.at(static_cast<size_t>(u)); }
+  // Index of the named set, or -1.
+  int IndexOf(const std::string& name) const;
+  std::vector<std::string> SetNames() const;
+  // The pose of a place from the first set that has one for it.
+  std::optional<PlacePose> PoseOf(int place) const;
+
+ private:
+  std::vector<ReferenceSet> sets_;
+  int num_places_ = 0;
+  int dimension_ = 0;
+};
+
+}  // namespace bsf_vpr

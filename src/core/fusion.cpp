@@ -1,0 +1,153 @@
+#include "bsf_vpr/core/fusion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+double Threshold::LogOdds() const {
+  if (kind == Kind::kLogOdds) return value;
+  return std::log(value) - std::log1p(-value);
+}
+
+void Threshold::Validate() const {
+  if (kind == Kind::kProbability && !(value > 0 && value < 1)) {
+    throw std::invalid_argument("threshold h as a probability must lie in (0, 1), got " +
+                                std::to_string(value));
+  }
+  if (kind == Kind::kLogOdds && !std::isfinite(value)) {
+    throw std::invalid_argument("threshold h as log-odds must be finite");
+  }
+}
+
+Threshold Threshold::Parse(const std::string& text) {
+  Threshold t;
+  std::string number = text;
+  if (text.rfind("logodds:", 0) == 0) {
+    t.kind = Kind::kLogOdds;
+    number = text.substr(8);
+  } else if (text.rfind("p:", 0) == 0) {
+    number = text.substr(2);
+  }
+  size_t used = 0;
+  try {
+    t.value = std::stod(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != number.size()) {
+    throw std::invalid_argument("threshold '" + text +
+                                "' is not a number (expected p:0.9, 0.9 or logodds:5)");
+  }
+  t.Validate();
+  return t;
+}
+
+double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {
+  double other_max = -INFINITY;
+  for (Eigen::Index i = 0; i < log_p.size(); ++i) {
+    if (i != best) other_max = std::max(other_max, log_p(i));
+  }
+  if (other_max == -INFINITY) return INFINITY;
+  double sum = 0;
+  for (Eigen::Index i = 0; i < log_p.size(); ++i) {
+    if (i != best) sum += std::exp(log_p(i) - other_max);
+  }
+  return log_p(best) - (other_max + std::log(sum));
+}
+
+std::vector<int> TopK(const Eigen::VectorXd& score, int k) {
+  std::vector<int> idx;
+  idx.reserve(static_cast<size_t>(score.size()));
+  for (Eigen::Index i = 0; i < score.size(); ++i) {
+    if (score(i) > -INFINITY) idx.push_back(static_cast<int>(i));
+  }
+  const size_t kk = std::min(idx.size(), static_cast<size_t>(std::max(k, 0)));
+  std::partial_sort(idx.begin(), idx.begin() + static_cast<long>(kk), idx.end(), [&](int a, int b) {
+    return score(a) > score(b) || (score(a) == score(b) && a < b);
+  });
+  idx.resize(kk);
+  return idx;
+}
+
+void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places) {
+  if (log_prior.size() != num_places) {
+    throw std::invalid_argument("prior has " + std::to_string(log_prior.size()) +
+                                " entries, the map has " + std::to_string(num_places) + " places");
+  }
+  bool any = false;
+  for (Eigen::Index i = 0; i < log_prior.size(); ++i) {
+    if (std::isnan(log_prior(i)) || log_prior(i) == INFINITY) {
+      throw std::invalid_argument("log prior entry " + std::to_string(i) + " is NaN or +inf");
+    }
+    any = any || log_prior(i) > -INFINITY;
+  }
+  if (!any) throw std::invalid_argument("prior gives every place probability zero");
+}
+
+void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
+               const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
+               const Threshold& threshold, int top_k, PlaceBelief* out) {
+  if (log_prior) {
+    ValidateLogPrior(*log_prior, num_places);
+    out->log_posterior = *log_prior;
+  } else {
+    out->log_posterior = Eigen::VectorXd::Zero(num_places);
+  }
+  std::vector<double> ll;
+  for (int u : use) {
+    const SetDistances& d = sets.at(static_cast<size_t>(u));
+    ll.resize(static_cast<size_t>(d.count));
+    PlaceMatchLogLikelihood(d, likelihood, ll.data());
+    for (int k = 0; k < d.count; ++k) {
+      const int place = d.PlaceAt(k);
+      if (place < 0 || place >= num_places) {
+        throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
+                                    std::to_string(num_places - 1));
+      }
+      out->log_posterior(place) += ll[static_cast<size_t>(k)];
+    }
+  }
+  Eigen::Index best = 0;
+  out->log_posterior.maxCoeff(&best);
+  out->match = static_cast<int>(best);
+  out->confidence = LogOddsOfBest(out->log_posterior, out->match);
+  out->accepted = out->confidence > threshold.LogOdds();
+  out->top_places = TopK(out->log_posterior, top_k);
+  // Normalise: log P(X = i | D^S) = l_i - logsumexp(l).
+  const double max_l = out->log_posterior(best);
+  const double lse = max_l + std::log((out->log_posterior.array() - max_l).exp().sum());
+  out->log_posterior.array() -= lse;
+}
+
+void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
+                             int num_places, int top_k, PlaceBelief* out) {
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(num_places);
+  Eigen::VectorXi covered = Eigen::VectorXi::Zero(num_places);
+  for (int u : use) {
+    const SetDistances& d = sets.at(static_cast<size_t>(u));
+    for (int k = 0; k < d.count; ++k) {
+      const int place = d.PlaceAt(k);
+      if (place < 0 || place >= num_places) {
+        throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
+                                    std::to_string(num_places - 1));
+      }
+      sum(place) += d.values[k];
+      covered(place) += 1;
+    }
+  }
+  Eigen::VectorXd neg_mean(num_places);  // higher is better; -inf where nothing covers
+  for (int i = 0; i < num_places; ++i) {
+    neg_mean(i) = covered(i) > 0 ? -sum(i) / covered(i) : -INFINITY;
+  }
+  out->top_places = TopK(neg_mean, top_k);
+  if (out->top_places.empty()) throw std::invalid_argument("no reference set covers any place");
+  out->match = out->top_places.front();
+  out->confidence = neg_mean(out->match);
+  out->accepted = true;
+  out->log_posterior.resize(0);
+}
+
+}  // namespace bsf_vpr

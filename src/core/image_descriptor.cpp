@@ -1,0 +1,121 @@
+#include "bsf_vpr/core/image_descriptor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+void PatchNormOptions::Validate() const {
+  if (width_px < 1 || height_px < 1) {
+    throw std::invalid_argument("width_px and height_px must be >= 1, got " +
+                                std::to_string(width_px) + " x " + std::to_string(height_px));
+  }
+  if (patch_size_px < 1 || patch_size_px > std::min(width_px, height_px)) {
+    throw std::invalid_argument("patch_size_px must lie in 1.." +
+                                std::to_string(std::min(width_px, height_px)) + ", got " +
+                                std::to_string(patch_size_px));
+  }
+}
+
+std::string PatchNormOptions::DescriptorType() const {
+  return "patchnorm_" + std::to_string(width_px) + "x" + std::to_string(height_px) + "_p" +
+         std::to_string(patch_size_px);
+}
+
+Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options) {
+  options.Validate();
+  if (image.empty()) throw std::invalid_argument("cannot describe an empty image");
+  if (image.depth() != CV_8U) {
+    throw std::invalid_argument("expected an 8-bit image, got OpenCV depth " +
+                                std::to_string(image.depth()));
+  }
+  cv::Mat gray;
+  switch (image.channels()) {
+    case 1:
+      gray = image;
+      break;
+    case 3:
+      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw std::invalid_argument("expected 1, 3 or 4 channels, got " +
+                                  std::to_string(image.channels()));
+  }
+  cv::Mat small;
+  const cv::Size size(options.width_px, options.height_px);
+  if (gray.size() == size) {
+    small = gray;
+  } else {
+    cv::resize(gray, small, size, 0, 0, cv::INTER_AREA);
+  }
+  cv::Mat f;
+  small.convertTo(f, CV_32F);
+  Eigen::VectorXf out(options.dimension());
+  const int p = options.patch_size_px;
+  for (int y0 = 0; y0 < options.height_px; y0 += p) {
+    for (int x0 = 0; x0 < options.width_px; x0 += p) {
+      const int y1 = std::min(y0 + p, options.height_px);
+      const int x1 = std::min(x0 + p, options.width_px);
+      double sum = 0, sq = 0;
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) sum += f.at<float>(y, x);
+      }
+      const double n = static_cast<double>((y1 - y0) * (x1 - x0));
+      const double mean = sum / n;
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) sq += (f.at<float>(y, x) - mean) * (f.at<float>(y, x) - mean);
+      }
+      const double sd = std::sqrt(sq / n);
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) {
+          out(y * options.width_px + x) =
+              sd > 0 ? static_cast<float>((f.at<float>(y, x) - mean) / sd) : 0.0f;
+        }
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> ListImageFiles(const std::string& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) throw std::runtime_error("'" + folder + "' is not a folder");
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    if (!entry.is_regular_file()) continue;
+    std::string ext = entry.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".pgm" ||
+        ext == ".ppm") {
+      files.push_back(entry.path().string());
+    }
+  }
+  if (ec) throw std::runtime_error("cannot list '" + folder + "': " + ec.message());
+  if (files.empty()) throw std::runtime_error("folder '" + folder + "' holds no image files");
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+RowMatrixXf DescribeImageFolder(const std::string& folder, const PatchNormOptions& options) {
+  options.Validate();
+  const std::vector<std::string> files = ListImageFiles(folder);
+  RowMatrixXf out(static_cast<Eigen::Index>(files.size()), options.dimension());
+  for (size_t i = 0; i < files.size(); ++i) {
+    const cv::Mat img = cv::imread(files[i], cv::IMREAD_UNCHANGED);
+    if (img.empty()) throw std::runtime_error("cannot decode image '" + files[i] + "'");
+    cv::Mat img8 = img;
+    if (img.depth() == CV_16U) img.convertTo(img8, CV_8U, 1.0 / 257.0);
+    out.row(static_cast<Eigen::Index>(i)) = DescribePatchNormalized(img8, options).transpose();
+  }
+  return out;
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,140 @@
+#include "bsf_vpr/core/methods.h"
+
+#include <algorithm>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+std::string Method::Name() const {
+  switch (kind) {
+    case MethodKind::kNearestNeighbour:
+      return "nn:" + set_name;
+    case MethodKind::kBayesSingle:
+      return "bayes:" + set_name;
+    case MethodKind::kMed:
+      return "med";
+    case MethodKind::kMedSelective:
+      return "med_selective";
+    case MethodKind::kBayesFull:
+      return "bayes_full";
+    case MethodKind::kBsf:
+      return "bsf";
+  }
+  return "";
+}
+
+bool Method::IsBayesian() const {
+  return kind == MethodKind::kBayesSingle || kind == MethodKind::kBayesFull ||
+         kind == MethodKind::kBsf;
+}
+
+namespace {
+
+std::string JoinNames(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+}  // namespace
+
+Method ParseMethod(const std::string& name, const std::vector<std::string>& set_names) {
+  Method m;
+  if (name == "med") {
+    m.kind = MethodKind::kMed;
+  } else if (name == "med_selective") {
+    m.kind = MethodKind::kMedSelective;
+  } else if (name == "bayes_full") {
+    m.kind = MethodKind::kBayesFull;
+  } else if (name == "bsf") {
+    m.kind = MethodKind::kBsf;
+  } else if (name.rfind("nn:", 0) == 0 || name.rfind("bayes:", 0) == 0) {
+    const size_t colon = name.find(':');
+    m.kind = name[0] == 'n' ? MethodKind::kNearestNeighbour : MethodKind::kBayesSingle;
+    m.set_name = name.substr(colon + 1);
+    const auto it = std::find(set_names.begin(), set_names.end(), m.set_name);
+    if (it == set_names.end()) {
+      throw std::invalid_argument("method '" + name + "' names an unknown reference set '" +
+                                  m.set_name + "' (loaded: " + JoinNames(set_names) + ")");
+    }
+    m.set_index = static_cast<int>(it - set_names.begin());
+  } else {
+    throw std::invalid_argument("unknown method '" + name +
+                                "' (expected nn:<set>, bayes:<set>, med, med_selective, "
+                                "bayes_full or bsf)");
+  }
+  return m;
+}
+
+std::vector<Method> AllMethods(const std::vector<std::string>& set_names) {
+  std::vector<Method> out;
+  for (const char* name : {"bsf", "bayes_full", "med", "med_selective"}) {
+    out.push_back(ParseMethod(name, set_names));
+  }
+  for (const std::string& s : set_names) out.push_back(ParseMethod("bayes:" + s, set_names));
+  for (const std::string& s : set_names) out.push_back(ParseMethod("nn:" + s, set_names));
+  return out;
+}
+
+std::vector<Method> ParseMethodList(const std::string& list,
+                                    const std::vector<std::string>& set_names) {
+  if (list.empty() || list == "all") return AllMethods(set_names);
+  std::vector<Method> out;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) continue;
+    Method m = ParseMethod(item, set_names);
+    const bool dup = std::any_of(out.begin(), out.end(),
+                                 [&](const Method& o) { return o.Name() == m.Name(); });
+    if (!dup) out.push_back(m);
+  }
+  if (out.empty()) throw std::invalid_argument("the method list '" + list + "' names no method");
+  return out;
+}
+
+void MethodOptions::Validate() const {
+  selection.Validate();
+  threshold.Validate();
+  if (top_k < 1) throw std::invalid_argument("top_k must be >= 1, got " + std::to_string(top_k));
+}
+
+PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
+                      const MethodOptions& options, const Eigen::VectorXd* log_prior) {
+  PlaceBelief out;
+  // Selection is computed for every method: it is cheap and its statistics (u*, min D^u)
+  // are reported with every belief.
+  out.selection = SelectReferenceSets(sets, options.selection);
+  std::vector<int> use;
+  switch (method.kind) {
+    case MethodKind::kNearestNeighbour:
+    case MethodKind::kBayesSingle:
+      if (method.set_index < 0 || method.set_index >= static_cast<int>(sets.size())) {
+        throw std::invalid_argument("method '" + method.Name() + "' refers to a set index " +
+                                    std::to_string(method.set_index) + " that is not loaded");
+      }
+      use = {method.set_index};
+      break;
+    case MethodKind::kMed:
+    case MethodKind::kBayesFull:
+      use.resize(sets.size());
+      std::iota(use.begin(), use.end(), 0);
+      break;
+    case MethodKind::kMedSelective:
+    case MethodKind::kBsf:
+      use = out.selection.selected;
+      break;
+  }
+  out.selection.selected = use;
+  if (method.IsBayesian()) {
+    FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
+              options.top_k, &out);
+  } else {
+    FuseMinEnsembleDistance(sets, use, num_places, options.top_k, &out);
+  }
+  return out;
+}
+
+}  // namespace bsf_vpr

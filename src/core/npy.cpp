@@ -1,0 +1,211 @@
+#include "bsf_vpr/core/npy.h"
+
+#include <Eigen/Core>
+#include <cctype>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include "bsf_vpr/core/file_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+constexpr char kMagic[] = "\x93NUMPY";
+constexpr size_t kMagicSize = 6;
+
+[[noreturn]] void Fail(const std::string& path, const std::string& what) {
+  throw std::runtime_error("'" + path + "' is not a usable .npy matrix: " + what);
+}
+
+// Returns the text that follows `'key':` in the header dictionary, with leading blanks
+// skipped, or fails if the key is missing.
+std::string ValueAfterKey(const std::string& header, const std::string& key,
+                          const std::string& path) {
+  const std::string quoted = "'" + key + "'";
+  size_t pos = header.find(quoted);
+  if (pos == std::string::npos) Fail(path, "header has no " + quoted + " entry");
+  pos = header.find(':', pos + quoted.size());
+  if (pos == std::string::npos) Fail(path, "header entry " + quoted + " has no value");
+  ++pos;
+  while (pos < header.size() && std::isspace(static_cast<unsigned char>(header[pos]))) ++pos;
+  return header.substr(pos);
+}
+
+size_t DtypeSize(NpyDtype dtype) {
+  switch (dtype) {
+    case NpyDtype::kFloat16:
+      return 2;
+    case NpyDtype::kFloat32:
+      return 4;
+    case NpyDtype::kFloat64:
+      return 8;
+  }
+  return 0;
+}
+
+const char* DtypeDescr(NpyDtype dtype) {
+  switch (dtype) {
+    case NpyDtype::kFloat16:
+      return "<f2";
+    case NpyDtype::kFloat32:
+      return "<f4";
+    case NpyDtype::kFloat64:
+      return "<f8";
+  }
+  return "";
+}
+
+NpyDtype ParseDescr(const std::string& value, const std::string& path) {
+  if (value.empty() || (value[0] != '\'' && value[0] != '"')) Fail(path, "'descr' is not a string");
+  const size_t end = value.find(value[0], 1);
+  if (end == std::string::npos) Fail(path, "'descr' string is not terminated");
+  const std::string descr = value.substr(1, end - 1);
+  if (descr == "<f2") return NpyDtype::kFloat16;
+  if (descr == "<f4") return NpyDtype::kFloat32;
+  if (descr == "<f8") return NpyDtype::kFloat64;
+  Fail(path, "dtype '" + descr +
+                 "' is not supported (expected little-endian float16 '<f2', float32 '<f4' or "
+                 "float64 '<f8')");
+}
+
+std::vector<int64_t> ParseShape(const std::string& value, const std::string& path) {
+  if (value.empty() || value[0] != '(') Fail(path, "'shape' is not a tuple");
+  const size_t end = value.find(')');
+  if (end == std::string::npos) Fail(path, "'shape' tuple is not terminated");
+  std::vector<int64_t> shape;
+  size_t i = 1;
+  while (i < end) {
+    while (i < end && (std::isspace(static_cast<unsigned char>(value[i])) || value[i] == ',')) ++i;
+    if (i >= end) break;
+    if (!std::isdigit(static_cast<unsigned char>(value[i]))) Fail(path, "'shape' holds a non-integer");
+    int64_t dim = 0;
+    while (i < end && std::isdigit(static_cast<unsigned char>(value[i]))) {
+      if (dim > kMaxNpyElements) Fail(path, "a dimension in 'shape' is absurdly large");
+      dim = dim * 10 + (value[i] - '0');
+      ++i;
+    }
+    shape.push_back(dim);
+  }
+  return shape;
+}
+
+}  // namespace
+
+NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
+  if (bytes.size() < 10 || std::memcmp(bytes.data(), kMagic, kMagicSize) != 0) {
+    Fail(path, "missing the \\x93NUMPY magic string");
+  }
+  const int major = static_cast<unsigned char>(bytes[6]);
+  size_t header_len = 0;
+  size_t header_start = 0;
+  if (major == 1) {
+    header_len = static_cast<unsigned char>(bytes[8]) |
+                 (static_cast<size_t>(static_cast<unsigned char>(bytes[9])) << 8);
+    header_start = 10;
+  } else if (major == 2 || major == 3) {
+    if (bytes.size() < 12) Fail(path, "truncated header");
+    for (int k = 3; k >= 0; --k) {
+      header_len = (header_len << 8) | static_cast<unsigned char>(bytes[8 + k]);
+    }
+    header_start = 12;
+  } else {
+    Fail(path, "format version " + std::to_string(major) + " is not supported");
+  }
+  if (header_start + header_len > bytes.size()) Fail(path, "truncated header");
+  const std::string header = bytes.substr(header_start, header_len);
+
+  NpyHeader result;
+  result.dtype = ParseDescr(ValueAfterKey(header, "descr", path), path);
+  const std::string fortran = ValueAfterKey(header, "fortran_order", path);
+  if (fortran.rfind("True", 0) == 0) {
+    Fail(path, "Fortran (column-major) order is not supported; save it in C order, e.g. "
+               "numpy.save(path, numpy.ascontiguousarray(a))");
+  }
+  if (fortran.rfind("False", 0) != 0) Fail(path, "'fortran_order' is neither True nor False");
+  const std::vector<int64_t> shape = ParseShape(ValueAfterKey(header, "shape", path), path);
+  if (shape.size() != 2) {
+    Fail(path, "expected a 2-D matrix, got " + std::to_string(shape.size()) + " dimension(s)");
+  }
+  result.rows = shape[0];
+  result.cols = shape[1];
+  if (result.rows != 0 && result.cols > kMaxNpyElements / result.rows) {
+    Fail(path, "shape (" + std::to_string(shape[0]) + ", " + std::to_string(shape[1]) +
+                   ") exceeds the limit of " + std::to_string(kMaxNpyElements) + " elements");
+  }
+  result.data_offset = header_start + header_len;
+  const uint64_t need = static_cast<uint64_t>(result.rows * result.cols) * DtypeSize(result.dtype);
+  const uint64_t have = bytes.size() - result.data_offset;
+  if (have < need) {
+    Fail(path, "header announces " + std::to_string(need) + " bytes of data but the file holds " +
+                   std::to_string(have) + " (truncated file?)");
+  }
+  return result;
+}
+
+RowMatrixXf ReadNpyMatrix(const std::string& path) {
+  const std::string bytes = ReadFile(path);
+  const NpyHeader h = ParseNpyHeader(bytes, path);
+  RowMatrixXf m(h.rows, h.cols);
+  const char* data = bytes.data() + h.data_offset;
+  const int64_t n = h.rows * h.cols;
+  switch (h.dtype) {
+    case NpyDtype::kFloat32:
+      std::memcpy(m.data(), data, static_cast<size_t>(n) * 4);
+      break;
+    case NpyDtype::kFloat64:
+      for (int64_t i = 0; i < n; ++i) {
+        double v;
+        std::memcpy(&v, data + 8 * i, 8);
+        m.data()[i] = static_cast<float>(v);
+      }
+      break;
+    case NpyDtype::kFloat16:
+      for (int64_t i = 0; i < n; ++i) {
+        uint16_t bits;
+        std::memcpy(&bits, data + 2 * i, 2);
+        m.data()[i] = static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(bits));
+      }
+      break;
+  }
+  return m;
+}
+
+std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
+  std::string dict = std::string("{'descr': '") + DtypeDescr(dtype) +
+                     "', 'fortran_order': False, 'shape': (" + std::to_string(matrix.rows()) +
+                     ", " + std::to_string(matrix.cols()) + "), }";
+  // Pad with spaces so that the data starts at a multiple of 64 bytes, ending with '\n'.
+  const size_t unpadded = 10 + dict.size() + 1;
+  dict.append((64 - unpadded % 64) % 64, ' ');
+  dict.push_back('\n');
+  std::string out(kMagic, kMagicSize);
+  out.push_back('\x01');
+  out.push_back('\x00');
+  out.push_back(static_cast<char>(dict.size() & 0xff));
+  out.push_back(static_cast<char>((dict.size() >> 8) & 0xff));
+  out += dict;
+  const int64_t n = matrix.size();
+  const size_t start = out.size();
+  out.resize(start + static_cast<size_t>(n) * DtypeSize(dtype));
+  char* dst = out.data() + start;
+  for (int64_t i = 0; i < n; ++i) {
+    const float v = matrix.data()[i];
+    if (dtype == NpyDtype::kFloat32) {
+      std::memcpy(dst + 4 * i, &v, 4);
+    } else if (dtype == NpyDtype::kFloat64) {
+      const double d = v;
+      std::memcpy(dst + 8 * i, &d, 8);
+    } else {
+      const uint16_t bits = Eigen::numext::bit_cast<uint16_t>(Eigen::half(v));
+      std::memcpy(dst + 2 * i, &bits, 2);
+    }
+  }
+  return out;
+}
+
+void WriteNpyMatrix(const std::string& path, const RowMatrixXf& matrix, NpyDtype dtype) {
+  WriteFileAtomically(path, EncodeNpyMatrix(matrix, dtype));
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,155 @@
+#include "evaluate_args.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace bsf_vpr {
+namespace tools {
+
+const char kEvaluateUsage[] = R"(usage: bsf_evaluate [options]
+
+Evaluates place recognition methods offline: no ROS master needed.
+
+Inputs (either descriptors, or precomputed per-source matrices):
+  --reference NAME=PATH   a reference set: descriptor .npy (N x D), reference-set .yaml,
+                          or a folder of images (described with the patch-normalised
+                          image descriptor). Repeat for M sets.
+  --query PATH            the query traversal, of the same kinds (Q x D)
+  --distances NAME=PATH   a Q x N .npy of distances from every query to every place for
+                          one source (lower is better). Repeatable.
+  --similarities NAME=PATH  the same with similarities (higher is better); they become
+                          distances c - s with c = max(1, largest similarity of all sources)
+  --distance euclidean|cosine   distance between descriptors (default euclidean)
+
+Ground truth (one of):
+  --tolerance K           query q shows place q; a match within K places is correct
+  --ground-truth CSV      lines 'query,place place ...' listing the correct places
+
+Methods and parameters:
+  --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
+                          nn:<set>, bayes:<set>; or 'all' (default: all, with nn: and
+                          bayes: for every set)
+  --gamma G               selection fraction gamma (default 0.04)
+  --selection relative|standardized   selection rule (default relative)
+  --likelihood one_sided|two_sided    likelihood variant (default one_sided)
+  --threshold H           acceptance threshold h: p:0.9 / 0.9 (posterior probability) or
+                          logodds:5 (default p:0.5); only affects the accepted flag
+  --patch-width W, --patch-height H, --patch-size P
+                          image descriptor size for image folders (default 64 32 8)
+
+Output:
+  --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
+  --no-progress           do not report progress on stderr
+  -h, --help              show this help
+
+Exit status: 0 on success, 2 on bad arguments or unreadable/invalid input.
+)";
+
+namespace {
+
+NamedPath ParseNamedPath(const std::string& flag, const std::string& value) {
+  const size_t eq = value.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == value.size()) {
+    throw std::invalid_argument(flag + " expects NAME=PATH, got '" + value + "'");
+  }
+  return {value.substr(0, eq), value.substr(eq + 1)};
+}
+
+double ParseDouble(const std::string& flag, const std::string& value) {
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != value.size() || !std::isfinite(v)) {
+    throw std::invalid_argument(flag + " expects a number, got '" + value + "'");
+  }
+  return v;
+}
+
+int ParseInt(const std::string& flag, const std::string& value) {
+  const double v = ParseDouble(flag, value);
+  if (v != std::floor(v) || std::abs(v) > 1e9) {
+    throw std::invalid_argument(flag + " expects an integer, got '" + value + "'");
+  }
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
+  EvaluateArgs a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    if (flag == "-h" || flag == "--help") {
+      a.help = true;
+      return a;
+    }
+    if (flag == "--no-progress") {
+      a.progress = false;
+      continue;
+    }
+    if (flag.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + flag + "'");
+    if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
+    const std::string value = argv[++i];
+    if (flag == "--reference") {
+      a.references.push_back(ParseNamedPath(flag, value));
+    } else if (flag == "--query") {
+      a.query = value;
+    } else if (flag == "--distances") {
+      a.distances.push_back(ParseNamedPath(flag, value));
+    } else if (flag == "--similarities") {
+      a.similarities.push_back(ParseNamedPath(flag, value));
+    } else if (flag == "--distance") {
+      a.metric = ParseDistanceMetric(value);
+    } else if (flag == "--tolerance") {
+      a.tolerance_frames = ParseInt(flag, value);
+      if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");
+    } else if (flag == "--ground-truth") {
+      a.ground_truth = value;
+    } else if (flag == "--methods") {
+      a.methods = value;
+    } else if (flag == "--gamma") {
+      a.options.selection.gamma_fraction = ParseDouble(flag, value);
+    } else if (flag == "--selection") {
+      a.options.selection.rule = ParseSelectionRule(value);
+    } else if (flag == "--likelihood") {
+      a.options.likelihood.variant = ParseLikelihoodVariant(value);
+    } else if (flag == "--threshold") {
+      a.options.threshold = Threshold::Parse(value);
+    } else if (flag == "--patch-width") {
+      a.patch_norm.width_px = ParseInt(flag, value);
+    } else if (flag == "--patch-height") {
+      a.patch_norm.height_px = ParseInt(flag, value);
+    } else if (flag == "--patch-size") {
+      a.patch_norm.patch_size_px = ParseInt(flag, value);
+    } else if (flag == "--out") {
+      a.out_dir = value;
+    } else {
+      throw std::invalid_argument("unknown option '" + flag + "' (see --help)");
+    }
+  }
+  const bool descriptor_mode = !a.references.empty() || !a.query.empty();
+  const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
+  if (descriptor_mode && matrix_mode) {
+    throw std::invalid_argument(
+        "give either --reference/--query or --distances/--similarities, not both");
+  }
+  if (!descriptor_mode && !matrix_mode) {
+    throw std::invalid_argument("no input: give --reference NAME=PATH and --query PATH, or "
+                                "--distances NAME=PATH");
+  }
+  if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
+  if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");
+  if ((a.tolerance_frames >= 0) == !a.ground_truth.empty()) {
+    throw std::invalid_argument("give exactly one of --tolerance K and --ground-truth CSV");
+  }
+  a.options.Validate();
+  a.patch_norm.Validate();
+  return a;
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr

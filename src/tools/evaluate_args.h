@@ -1,0 +1,42 @@
+// Command-line arguments of bsf_evaluate.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/methods.h"
+
+namespace bsf_vpr {
+namespace tools {
+
+struct NamedPath {
+  std::string name;
+  std::string path;
+};
+
+struct EvaluateArgs {
+  std::vector<NamedPath> references;    // --reference NAME=PATH
+  std::string query;                    // --query PATH
+  std::vector<NamedPath> distances;     // --distances NAME=PATH
+  std::vector<NamedPath> similarities;  // --similarities NAME=PATH
+  DistanceMetric metric = DistanceMetric::kEuclidean;
+  int tolerance_frames = -1;  // --tolerance K (-1: not given)
+  std::string ground_truth;   // --ground-truth CSV
+  std::string methods = "all";
+  MethodOptions options;
+  PatchNormOptions patch_norm;
+  std::string out_dir;
+  bool progress = true;
+  bool help = false;
+};
+
+// Parses argv. Throws std::invalid_argument with a one-line message naming the problem.
+EvaluateArgs ParseEvaluateArgs(int argc, char** argv);
+
+extern const char kEvaluateUsage[];
+
+}  // namespace tools
+}  // namespace bsf_vpr

@@ -1,0 +1,136 @@
+#include "evaluate_inputs.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "bsf_vpr/core/ground_truth_io.h"
+#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/npy.h"
+#include "bsf_vpr/core/reference_set_io.h"
+
+namespace bsf_vpr {
+namespace tools {
+namespace {
+
+bool IsFolder(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_directory(path, ec);
+}
+
+ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
+                        const PatchNormOptions& patch_norm) {
+  if (IsFolder(path)) {
+    ReferenceSet set = MakeReferenceSet(name, DescribeImageFolder(path, patch_norm));
+    set.descriptor_type = patch_norm.DescriptorType();
+    return set;
+  }
+  return LoadReferenceSet(path, name);
+}
+
+void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
+  for (const NamedPath& r : args.references) {
+    ReferenceSet set = LoadAnySet(r.path, r.name, args.patch_norm);
+    if (!set.distance.empty() && set.distance != ToString(args.metric)) {
+      throw std::invalid_argument("reference set '" + r.name + "' (" + r.path + ") is meant for " +
+                                  set.distance + " distance but --distance is " +
+                                  ToString(args.metric));
+    }
+    data->map.Add(std::move(set));
+  }
+  ReferenceSet query = LoadAnySet(args.query, "query", args.patch_norm);
+  if (query.dimension() != data->map.dimension()) {
+    throw std::invalid_argument("query '" + args.query + "' has dimension " +
+                                std::to_string(query.dimension()) + ", the reference sets have " +
+                                std::to_string(data->map.dimension()));
+  }
+  data->queries = std::move(query.descriptors);
+  data->input.num_queries = static_cast<int>(data->queries.rows());
+  data->input.num_places = data->map.num_places();
+  for (const ReferenceSet& s : data->map.sets()) {
+    data->input.set_names.push_back(s.name);
+    data->input.place_ids.push_back(s.place_ids);
+  }
+  const DistanceMetric metric = args.metric;
+  data->input.distances = [data, metric](int begin, int end, std::vector<RowMatrixXf>* block) {
+    const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
+    *block = ComputeDistances(metric, q, data->map);
+  };
+  data->description = std::to_string(data->map.num_sets()) + " reference set(s), " +
+                      std::to_string(data->map.num_places()) + " places, " +
+                      std::to_string(data->input.num_queries) + " queries, dimension " +
+                      std::to_string(data->map.dimension()) + ", " + ToString(args.metric) +
+                      " distance";
+}
+
+void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
+  std::vector<NamedPath> sources;
+  for (const NamedPath& p : args.distances) sources.push_back(p);
+  for (const NamedPath& p : args.similarities) sources.push_back(p);
+  for (const NamedPath& p : sources) {
+    for (const std::string& n : data->input.set_names) {
+      if (n == p.name) throw std::invalid_argument("source name '" + p.name + "' is given twice");
+    }
+    RowMatrixXf m = ReadNpyMatrix(p.path);
+    if (m.size() == 0) throw std::invalid_argument("'" + p.path + "' is an empty matrix");
+    if (!m.allFinite()) throw std::invalid_argument("'" + p.path + "' holds NaN or infinity");
+    if (!data->matrices.empty() &&
+        (m.rows() != data->matrices[0].rows() || m.cols() != data->matrices[0].cols())) {
+      throw std::invalid_argument("'" + p.path + "' is " + std::to_string(m.rows()) + " x " +
+                                  std::to_string(m.cols()) + ", the first source is " +
+                                  std::to_string(data->matrices[0].rows()) + " x " +
+                                  std::to_string(data->matrices[0].cols()));
+    }
+    data->matrices.push_back(std::move(m));
+    data->input.set_names.push_back(p.name);
+  }
+  const size_t num_dist = args.distances.size();
+  for (size_t u = 0; u < num_dist; ++u) {
+    if (data->matrices[u].minCoeff() < 0) {
+      throw std::invalid_argument("'" + args.distances[u].path +
+                                  "' holds negative distances (use --similarities for scores)");
+    }
+  }
+  std::vector<const RowMatrixXf*> sims;
+  for (size_t u = num_dist; u < data->matrices.size(); ++u) sims.push_back(&data->matrices[u]);
+  if (!sims.empty()) {
+    const float offset = SimilarityOffset(sims);
+    for (size_t u = num_dist; u < data->matrices.size(); ++u) {
+      SimilaritiesToDistances(offset, &data->matrices[u]);
+    }
+  }
+  data->input.num_queries = static_cast<int>(data->matrices[0].rows());
+  data->input.num_places = static_cast<int>(data->matrices[0].cols());
+  data->input.place_ids.assign(data->matrices.size(), {});
+  data->input.distances = [data](int begin, int end, std::vector<RowMatrixXf>* block) {
+    block->resize(data->matrices.size());
+    for (size_t u = 0; u < data->matrices.size(); ++u) {
+      (*block)[u] = data->matrices[u].middleRows(begin, end - begin);
+    }
+  };
+  data->description = std::to_string(data->matrices.size()) + " source matri" +
+                      (data->matrices.size() == 1 ? "x" : "ces") + ", " +
+                      std::to_string(data->input.num_places) + " places, " +
+                      std::to_string(data->input.num_queries) + " queries";
+}
+
+}  // namespace
+
+std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
+  auto data = std::make_unique<EvaluationData>();
+  if (!args.references.empty()) {
+    LoadDescriptors(args, data.get());
+  } else {
+    LoadMatrices(args, data.get());
+  }
+  if (args.tolerance_frames >= 0) {
+    data->truth = GroundTruth::FromFrameTolerance(data->input.num_queries, data->input.num_places,
+                                                  args.tolerance_frames);
+  } else {
+    data->truth =
+        ReadGroundTruthCsv(args.ground_truth, data->input.num_queries, data->input.num_places);
+  }
+  return data;
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr

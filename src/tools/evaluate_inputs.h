@@ -1,0 +1,29 @@
+// Loading the inputs of bsf_evaluate: reference sets and queries (descriptor files or image
+// folders), or precomputed distance/similarity matrices, plus the ground truth.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/evaluation_runner.h"
+#include "bsf_vpr/core/reference_set.h"
+#include "evaluate_args.h"
+
+namespace bsf_vpr {
+namespace tools {
+
+struct EvaluationData {
+  ReferenceMap map;                  // descriptor mode
+  RowMatrixXf queries;               // descriptor mode, Q x D
+  std::vector<RowMatrixXf> matrices; // matrix mode, one Q x N distance matrix per source
+  EvaluationInput input;             // refers to the members above: do not copy or move
+  GroundTruth truth;
+  std::string description;           // one line: what was loaded
+};
+
+// Throws std::exception with a message naming the file and the problem.
+std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args);
+
+}  // namespace tools
+}  // namespace bsf_vpr

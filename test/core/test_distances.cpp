@@ -1,0 +1,107 @@
+#include <gtest/gtest.h>
+
+#include "bsf_vpr/core/distances.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+TEST(Distances, EuclideanMatchesNaiveLoopAndIsNotSquared) {
+  const RowMatrixXf q = testing::RandomMatrix(7, 33, 1);
+  const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(50, 33, 2));
+  const RowMatrixXf d = ComputeDistances(DistanceMetric::kEuclidean, q, set);
+  ASSERT_EQ(d.rows(), 7);
+  ASSERT_EQ(d.cols(), 50);
+  for (int i = 0; i < 7; ++i) {
+    for (int j = 0; j < 50; ++j) {
+      const float naive = (q.row(i) - set.descriptors.row(j)).norm();
+      EXPECT_NEAR(d(i, j), naive, 1e-4f * (1 + naive));
+    }
+  }
+}
+
+TEST(Distances, EuclideanOfIdenticalVectorsIsZeroNotNaN) {
+  const RowMatrixXf r = testing::RandomMatrix(5, 16, 3, 100.0f);
+  const RowMatrixXf d = ComputeDistances(DistanceMetric::kEuclidean, r, MakeReferenceSet("a", r));
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_TRUE(std::isfinite(d(i, i)));
+    EXPECT_GE(d(i, i), 0.0f);
+    EXPECT_LT(d(i, i), 0.05f);  // float cancellation at norm ~400
+  }
+}
+
+TEST(Distances, CosineMatchesNaiveLoopAndHandlesZeroVectors) {
+  RowMatrixXf q = testing::RandomMatrix(4, 20, 4);
+  q.row(3).setZero();
+  RowMatrixXf r = testing::RandomMatrix(9, 20, 5);
+  r.row(2).setZero();
+  const RowMatrixXf d = ComputeDistances(DistanceMetric::kCosine, q, MakeReferenceSet("a", r));
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 9; ++j) {
+      const float nq = q.row(i).norm(), nr = r.row(j).norm();
+      const float expected = (nq > 0 && nr > 0) ? 1.0f - q.row(i).dot(r.row(j)) / (nq * nr) : 1.0f;
+      EXPECT_NEAR(d(i, j), expected, 1e-5f);
+      EXPECT_GE(d(i, j), 0.0f);
+    }
+  }
+}
+
+TEST(Distances, MapVersionGivesOneMatrixPerSetAndRowViews) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("a", testing::RandomMatrix(10, 8, 6)));
+  ReferenceSet b;
+  b.name = "b";
+  b.descriptors = testing::RandomMatrix(3, 8, 7);
+  b.place_ids = {9, 2, 5};
+  map.Add(b);
+  const RowMatrixXf q = testing::RandomMatrix(2, 8, 8);
+  const std::vector<RowMatrixXf> all = ComputeDistances(DistanceMetric::kEuclidean, q, map);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[1].cols(), 3);
+  const std::vector<SetDistances> views =
+      QueryRowViews(all, 1, {nullptr, &map.set(1).place_ids});
+  EXPECT_EQ(views[0].count, 10);
+  EXPECT_EQ(views[0].PlaceAt(4), 4);
+  EXPECT_EQ(views[1].PlaceAt(0), 9);
+  EXPECT_FLOAT_EQ(views[1].values[2], all[1](1, 2));
+}
+
+TEST(Distances, RefusesDimensionMismatchAndNonFiniteQueries) {
+  const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(5, 8, 9));
+  try {
+    ComputeDistances(DistanceMetric::kEuclidean, testing::RandomMatrix(2, 7, 1), set);
+    FAIL() << "expected a dimension error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("dimension 7"), std::string::npos) << e.what();
+  }
+  RowMatrixXf bad = testing::RandomMatrix(3, 8, 1);
+  bad(2, 4) = NAN;
+  try {
+    ComputeDistances(DistanceMetric::kCosine, bad, set);
+    FAIL() << "expected a NaN error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("query descriptor 2"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ParseDistanceMetric("manhattan"), std::invalid_argument);
+}
+
+TEST(Distances, SimilaritiesBecomeNonNegativeDistancesKeepingOrder) {
+  RowMatrixXf s(1, 3);
+  s << 0.9f, -0.2f, 0.5f;
+  RowMatrixXf t(1, 3);
+  t << 0.1f, 0.2f, 0.3f;
+  const float offset = SimilarityOffset({&s, &t});
+  EXPECT_FLOAT_EQ(offset, 1.0f);  // cosine-like similarities: d = 1 - s
+  SimilaritiesToDistances(offset, &s);
+  EXPECT_NEAR(s(0, 0), 0.1f, 1e-6f);
+  EXPECT_NEAR(s(0, 1), 1.2f, 1e-6f);
+  RowMatrixXf big(1, 2);
+  big << 40.0f, 10.0f;
+  const float big_offset = SimilarityOffset({&big});
+  SimilaritiesToDistances(big_offset, &big);
+  EXPECT_FLOAT_EQ(big(0, 0), 0.0f);
+  EXPECT_FLOAT_EQ(big(0, 1), 30.0f);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

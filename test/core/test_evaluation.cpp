@@ -1,0 +1,119 @@
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "bsf_vpr/core/evaluation.h"
+#include "bsf_vpr/core/ground_truth_io.h"
+
+namespace bsf_vpr {
+namespace {
+
+TEST(Evaluation, HandWorkedPrecisionRecallWithTies) {
+  // Five queries, four with a true match; two tied confidences are accepted together.
+  const std::vector<double> conf = {0.9, 0.8, 0.8, 0.5, 0.1};
+  const std::vector<bool> correct = {true, false, true, true, false};
+  const auto curve = PrecisionRecallCurve(conf, correct, 4);
+  ASSERT_EQ(curve.size(), 5u);  // start + 4 distinct confidences
+  EXPECT_DOUBLE_EQ(curve[0].recall, 0.0);
+  EXPECT_DOUBLE_EQ(curve[0].precision, 1.0);
+  EXPECT_DOUBLE_EQ(curve[1].recall, 0.25);
+  EXPECT_DOUBLE_EQ(curve[1].precision, 1.0);
+  EXPECT_DOUBLE_EQ(curve[2].recall, 0.5);
+  EXPECT_DOUBLE_EQ(curve[2].precision, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(curve[3].precision, 0.75);
+  EXPECT_DOUBLE_EQ(curve[4].precision, 0.6);
+  EXPECT_DOUBLE_EQ(curve[4].recall, 0.75);
+  const double auc = 0.25 * 1.0 + 0.25 * (1.0 + 2.0 / 3.0) / 2 + 0.25 * (2.0 / 3.0 + 0.75) / 2;
+  EXPECT_NEAR(AreaUnderCurve(curve), auc, 1e-12);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision(curve), 0.25);
+}
+
+TEST(Evaluation, PerfectAndAllTiedCases) {
+  const auto perfect = PrecisionRecallCurve({3, 2, 1}, {true, true, true}, 3);
+  EXPECT_NEAR(AreaUnderCurve(perfect), 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision(perfect), 1.0);
+  // All tied: a single operating point at precision 0.5, recall 0.5.
+  const auto tied = PrecisionRecallCurve({1, 1, 1, 1}, {true, false, true, false}, 4);
+  ASSERT_EQ(tied.size(), 2u);
+  EXPECT_NEAR(AreaUnderCurve(tied), 0.5 * (1 + 0.5) / 2, 1e-12);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision(tied), 0.0);
+  const auto first_wrong = PrecisionRecallCurve({2, 1}, {false, true}, 2);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision(first_wrong), 0.0);
+}
+
+TEST(Evaluation, FrameToleranceAndRecallAtK) {
+  const GroundTruth t = GroundTruth::FromFrameTolerance(6, 5, 1);
+  EXPECT_TRUE(t.IsCorrect(0, 1));
+  EXPECT_FALSE(t.IsCorrect(0, 2));
+  EXPECT_EQ(t.CorrectPlaces(4), (std::vector<int>{3, 4}));
+  EXPECT_FALSE(t.HasTrueMatch(5));  // more queries than places
+  EXPECT_EQ(t.NumWithTrueMatch(), 5);
+  const std::vector<std::vector<int>> ranked = {{3, 0}, {1}, {4, 4, 2}, {0, 1, 2, 3, 4}, {4}, {0}};
+  EXPECT_DOUBLE_EQ(RecallAtK(ranked, t, 1), 2.0 / 5.0);  // queries 1 and 4
+  EXPECT_DOUBLE_EQ(RecallAtK(ranked, t, 2), 3.0 / 5.0);  // and query 0
+  EXPECT_DOUBLE_EQ(RecallAtK(ranked, t, 5), 5.0 / 5.0);
+  EXPECT_THROW(GroundTruth::FromFrameTolerance(3, 3, -1), std::invalid_argument);
+}
+
+TEST(Evaluation, MetricToleranceUsesPlacePoses) {
+  std::vector<std::optional<PlacePose>> places = {PlacePose{0, 0, 0, 0}, PlacePose{5, 0, 0, 0},
+                                                  std::nullopt, PlacePose{30, 0, 0, 0}};
+  const GroundTruth t = GroundTruth::FromMetricTolerance({{4, 0, 0, 0}, {100, 0, 0, 0}}, places, 10);
+  EXPECT_EQ(t.CorrectPlaces(0), (std::vector<int>{0, 1}));
+  EXPECT_FALSE(t.HasTrueMatch(1));
+}
+
+TEST(Evaluation, ComputeMetricsRefusesMismatchedSizes) {
+  const GroundTruth t = GroundTruth::FromFrameTolerance(3, 3, 0);
+  EXPECT_THROW(ComputeMetrics({0, 1}, {1, 2}, {{0}, {1}}, t), std::invalid_argument);
+  const Metrics m = ComputeMetrics({0, 1, 0}, {3, 2, 1}, {{0}, {1}, {0, 2}}, t);
+  EXPECT_NEAR(m.recall_at_1, 2.0 / 3.0, 1e-12);
+  EXPECT_NEAR(m.recall_at_5, 1.0, 1e-12);
+  EXPECT_NEAR(m.recall_at_full_precision, 2.0 / 3.0, 1e-12);
+  EXPECT_EQ(m.num_queries, 3);
+}
+
+std::string WriteTemp(const std::string& text) {
+  char name[] = "/tmp/bsf_gt_XXXXXX";
+  const int fd = mkstemp(name);
+  close(fd);
+  std::ofstream(name) << text;
+  return name;
+}
+
+TEST(GroundTruthCsv, RoundTripsAndRefusesMalformedRows) {
+  const GroundTruth t({{0, 1}, {}, {2}});
+  const std::string path = WriteTemp("");
+  WriteGroundTruthCsv(path, t);
+  const GroundTruth back = ReadGroundTruthCsv(path, 3, 3);
+  EXPECT_EQ(back.CorrectPlaces(0), (std::vector<int>{0, 1}));
+  EXPECT_FALSE(back.HasTrueMatch(1));
+  EXPECT_EQ(back.CorrectPlaces(2), (std::vector<int>{2}));
+  std::remove(path.c_str());
+
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"query,correct_places\n0 1 2\n", "line 2"},
+      {"x,1\n", "not an integer"},
+      {"0,1 zz\n", "'zz'"},
+      {"7,1\n", "query 7"},
+      {"0,9\n", "place 9"},
+      {"0,1\n0,2\n", "twice"},
+  };
+  for (const auto& [text, expect] : bad) {
+    const std::string p = WriteTemp(text);
+    try {
+      ReadGroundTruthCsv(p, 3, 3);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+    std::remove(p.c_str());
+  }
+  EXPECT_THROW(ReadGroundTruthCsv("/nonexistent/gt.csv", 3, 3), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

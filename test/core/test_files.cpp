@@ -1,0 +1,144 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/npy.h"
+#include "bsf_vpr/core/reference_set_io.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+
+class Files : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_files_XXXXXX";
+    dir_ = mkdtemp(tmpl);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
+  void WriteRaw(const std::string& name, const std::string& bytes) const {
+    std::ofstream(Path(name), std::ios::binary) << bytes;
+  }
+  // An .npy with a hand-written header dictionary and `data_bytes` bytes of data.
+  std::string Npy(const std::string& dict, size_t data_bytes) const {
+    std::string h = dict;
+    while ((10 + h.size() + 1) % 64) h.push_back(' ');
+    h.push_back('\n');
+    std::string out("\x93NUMPY\x01\x00", 8);
+    out.push_back(static_cast<char>(h.size() & 0xff));
+    out.push_back(static_cast<char>(h.size() >> 8));
+    return out + h + std::string(data_bytes, '\0');
+  }
+  void ExpectNpyError(const std::string& bytes, const std::string& fragment) {
+    WriteRaw("bad.npy", bytes);
+    try {
+      ReadNpyMatrix(Path("bad.npy"));
+      ADD_FAILURE() << "accepted a file that should fail with '" << fragment << "'";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.npy"), std::string::npos) << e.what();
+    }
+  }
+  std::string dir_;
+};
+
+TEST_F(Files, NpyRoundTripsInEveryDtype) {
+  const RowMatrixXf m = testing::RandomMatrix(17, 5, 3);
+  for (NpyDtype t : {NpyDtype::kFloat32, NpyDtype::kFloat64, NpyDtype::kFloat16}) {
+    WriteNpyMatrix(Path("m.npy"), m, t);
+    const RowMatrixXf back = ReadNpyMatrix(Path("m.npy"));
+    ASSERT_EQ(back.rows(), 17);
+    ASSERT_EQ(back.cols(), 5);
+    const float tol = t == NpyDtype::kFloat16 ? 4e-3f : 0.0f;
+    EXPECT_TRUE(((back - m).array().abs() <= tol * (1 + m.array().abs())).all());
+  }
+  // numpy's own header layout (version 1.0) as written by numpy.save
+  WriteRaw("np.npy", Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 1), }", 8));
+  EXPECT_EQ(ReadNpyMatrix(Path("np.npy")).rows(), 2);
+}
+
+TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': True, 'shape': (2, 2), }", 16), "Fortran");
+  ExpectNpyError(Npy("{'descr': '<i4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'<i4'");
+  ExpectNpyError(Npy("{'descr': '>f4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'>f4'");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (4,), }", 16), "2-D");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), }", 32), "2-D");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2), }", 15), "truncated");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (100000, 100000), }", 16),
+                 "exceeds the limit");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (99999999999999999999, 1), }", 16),
+                 "absurdly large");
+  ExpectNpyError(Npy("{'descr': '<f4', 'shape': (2, 2), }", 16), "fortran_order");
+  ExpectNpyError("not an npy file at all", "magic");
+  ExpectNpyError(std::string("\x93NUMPY\x01\x00\xff\x00{'descr'", 17), "truncated header");
+  EXPECT_THROW(ReadNpyMatrix(Path("missing.npy")), std::runtime_error);
+}
+
+TEST_F(Files, AtomicWriteReplacesAndLeavesNoTemporaryFile) {
+  WriteFileAtomically(Path("a.txt"), "one");
+  WriteFileAtomically(Path("a.txt"), "two");
+  EXPECT_EQ(ReadFile(Path("a.txt")), "two");
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(dir_)) entries += e.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(entries, 1);
+  EXPECT_THROW(WriteFileAtomically(Path("no/such/dir/a.txt"), "x"), std::runtime_error);
+}
+
+TEST_F(Files, ReferenceSetYamlRoundTrips) {
+  ReferenceSet s;
+  s.name = "winter";
+  s.condition = "snow";
+  s.descriptor_type = "test_4";
+  s.distance = "cosine";
+  s.descriptors = testing::RandomMatrix(3, 4, 5);
+  s.place_ids = {4, 0, 7};
+  s.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, -1}};
+  SaveReferenceSet(s, Path("winter.yaml"));
+  EXPECT_TRUE(fs::exists(Path("winter.npy")));
+  const ReferenceSet back = LoadReferenceSet(Path("winter.yaml"), "");
+  EXPECT_EQ(back.name, "winter");
+  EXPECT_EQ(back.condition, "snow");
+  EXPECT_EQ(back.distance, "cosine");
+  EXPECT_EQ(back.place_ids, s.place_ids);
+  ASSERT_EQ(back.poses.size(), 3u);
+  EXPECT_DOUBLE_EQ(back.poses[2].y_m, 8);
+  EXPECT_TRUE(back.descriptors.isApprox(s.descriptors));
+  EXPECT_EQ(LoadReferenceSet(Path("winter.npy"), "w2").name, "w2");
+}
+
+TEST_F(Files, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"name: a\ndescriptors: d.npy\ncondtion: snow\n", "unknown key 'condtion'"},
+      {"descriptors: d.npy\n", "'name'"},
+      {"name: a\n", "'descriptors'"},
+      {"name: a\ndescriptors: d.npy\ndimension: 5\n", "dimension 5"},
+      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1]\n", "2 place_ids"},
+      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1, 1]\n", "two descriptors for place 1"},
+      {"name: a\ndescriptors: d.npy\nposes: [[0, 0, 0]]\n", "[x, y, z, yaw]"},
+      {"name: a\ndescriptors: d.npy\ndistance: hamming\n", "hamming"},
+      {"name: a\ndescriptors: gone.npy\n", "gone.npy"},
+      {"[1, 2", "bad.yaml"},
+  };
+  for (const auto& [text, expect] : bad) {
+    WriteRaw("bad.yaml", text);
+    try {
+      LoadReferenceSet(Path("bad.yaml"), "");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(LoadReferenceSet(Path("d.txt"), "x"), std::runtime_error);
+  EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

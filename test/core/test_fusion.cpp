@@ -1,0 +1,138 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "bsf_vpr/core/fusion.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+struct Fixture {
+  std::vector<std::vector<float>> d;
+  std::vector<SetDistances> views;
+  explicit Fixture(int m, int n, uint64_t seed) {
+    for (int u = 0; u < m; ++u) d.push_back(testing::RandomDistances(n, seed + u));
+    for (const auto& x : d) views.push_back({x.data(), nullptr, n});
+  }
+};
+
+PlaceBelief Fuse(const std::vector<SetDistances>& v, int n, const Eigen::VectorXd* prior = nullptr) {
+  PlaceBelief b;
+  std::vector<int> use(v.size());
+  std::iota(use.begin(), use.end(), 0);
+  FuseBayes(v, use, n, {}, prior, {}, 10, &b);
+  return b;
+}
+
+TEST(Fusion, PosteriorIsNormalisedAndMatchIsItsArgmax) {
+  Fixture f(3, 400, 1);
+  const PlaceBelief b = Fuse(f.views, 400);
+  EXPECT_NEAR(b.log_posterior.array().exp().sum(), 1.0, 1e-9);
+  Eigen::Index best;
+  b.log_posterior.maxCoeff(&best);
+  EXPECT_EQ(b.match, best);
+  EXPECT_EQ(b.top_places.front(), b.match);
+  EXPECT_EQ(b.top_places.size(), 10u);
+}
+
+TEST(Fusion, PosteriorIsInvariantToPermutingPlaces) {
+  Fixture f(3, 300, 2);
+  const PlaceBelief b = Fuse(f.views, 300);
+  std::vector<int> perm(300);
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), std::mt19937_64(5));
+  // Permuted set: row k now holds place perm[k].
+  std::vector<SetDistances> pv = f.views;
+  std::vector<std::vector<float>> pd(3, std::vector<float>(300));
+  for (int u = 0; u < 3; ++u) {
+    for (int k = 0; k < 300; ++k) pd[u][static_cast<size_t>(perm[k])] = f.d[u][static_cast<size_t>(k)];
+    pv[u].values = pd[u].data();
+  }
+  const PlaceBelief p = Fuse(pv, 300);
+  EXPECT_EQ(p.match, perm[static_cast<size_t>(b.match)]);
+  for (int k = 0; k < 300; ++k) EXPECT_NEAR(p.log_posterior(perm[k]), b.log_posterior(k), 1e-9);
+}
+
+TEST(Fusion, EqualsTheProductOfSingleReferenceLikelihoodsTimesThePrior) {
+  Fixture f(2, 50, 3);
+  Eigen::VectorXd log_prior = testing::RandomMatrix(50, 1, 9).cast<double>().col(0);
+  const PlaceBelief b = Fuse(f.views, 50, &log_prior);
+  std::vector<double> l0(50), l1(50);
+  PlaceMatchLogLikelihood(f.views[0], {}, l0.data());
+  PlaceMatchLogLikelihood(f.views[1], {}, l1.data());
+  for (int i = 1; i < 50; ++i) {
+    const double expected = (l0[i] + l1[i] + log_prior(i)) - (l0[0] + l1[0] + log_prior(0));
+    EXPECT_NEAR(b.log_posterior(i) - b.log_posterior(0), expected, 1e-9);
+  }
+}
+
+TEST(Fusion, ConfidenceIsLogOddsAndStaysOrderedWhenTheMaximumRoundsToOne) {
+  Eigen::VectorXd l(4);
+  l << 0.0, -50.0, -60.0, -70.0;  // P(best) rounds to exactly 1.0 in double
+  Eigen::VectorXd l2(4);
+  l2 << 0.0, -80.0, -90.0, -95.0;
+  EXPECT_EQ(std::exp(l(0) - std::log(l.array().exp().sum())), 1.0);
+  const double c1 = LogOddsOfBest(l, 0), c2 = LogOddsOfBest(l2, 0);
+  const double naive = 50.0 - std::log(1 + std::exp(-10.0) + std::exp(-20.0));
+  EXPECT_NEAR(c1, naive, 1e-9);
+  EXPECT_GT(c2, c1);
+  Eigen::VectorXd single(1);
+  single << -3.0;
+  EXPECT_EQ(LogOddsOfBest(single, 0), INFINITY);
+}
+
+TEST(Fusion, PlacesASetDoesNotCoverGetANeutralLikelihood) {
+  std::vector<float> a = testing::RandomDistances(10, 4);
+  std::vector<float> b = {0.9f, 1.1f, 1.3f};
+  std::vector<int> b_places = {0, 1, 2};
+  std::vector<SetDistances> v = {{a.data(), nullptr, 10}, {b.data(), b_places.data(), 3}};
+  const PlaceBelief fused = Fuse(v, 12);  // places 10, 11 covered by nobody
+  std::vector<double> la(10), lb(3);
+  PlaceMatchLogLikelihood(v[0], {}, la.data());
+  PlaceMatchLogLikelihood(v[1], {}, lb.data());
+  EXPECT_NEAR(fused.log_posterior(5) - fused.log_posterior(4), la[5] - la[4], 1e-9);
+  EXPECT_NEAR(fused.log_posterior(1) - fused.log_posterior(4), la[1] + lb[1] - la[4], 1e-9);
+  EXPECT_NEAR(fused.log_posterior(11) - fused.log_posterior(10), 0.0, 1e-12);
+}
+
+TEST(Fusion, ThresholdAcceptsAboveH) {
+  Fixture f(2, 200, 7);
+  PlaceBelief b;
+  Threshold low = Threshold::Parse("logodds:-1e9");
+  FuseBayes(f.views, {0, 1}, 200, {}, nullptr, low, 5, &b);
+  EXPECT_TRUE(b.accepted);
+  Threshold high = Threshold::Parse("p:0.999999");
+  FuseBayes(f.views, {0, 1}, 200, {}, nullptr, high, 5, &b);
+  EXPECT_EQ(b.accepted, b.confidence > high.LogOdds());
+  EXPECT_NEAR(Threshold::Parse("0.5").LogOdds(), 0.0, 1e-12);
+  EXPECT_NEAR(Threshold::Parse("p:0.9").LogOdds(), std::log(9.0), 1e-12);
+  EXPECT_THROW(Threshold::Parse("p:1.0"), std::invalid_argument);
+  EXPECT_THROW(Threshold::Parse("high"), std::invalid_argument);
+}
+
+TEST(Fusion, RefusesABadPrior) {
+  Fixture f(1, 20, 8);
+  Eigen::VectorXd wrong_size = Eigen::VectorXd::Zero(19);
+  EXPECT_THROW(Fuse(f.views, 20, &wrong_size), std::invalid_argument);
+  Eigen::VectorXd nan_prior = Eigen::VectorXd::Zero(20);
+  nan_prior(3) = NAN;
+  EXPECT_THROW(Fuse(f.views, 20, &nan_prior), std::invalid_argument);
+  Eigen::VectorXd zero_prior = Eigen::VectorXd::Constant(20, -INFINITY);
+  EXPECT_THROW(Fuse(f.views, 20, &zero_prior), std::invalid_argument);
+  // A prior that rules out all but place 7 forces the match.
+  Eigen::VectorXd point = Eigen::VectorXd::Constant(20, -INFINITY);
+  point(7) = 0;
+  EXPECT_EQ(Fuse(f.views, 20, &point).match, 7);
+}
+
+TEST(Fusion, TopKOrdersByScoreAndBreaksTiesTowardsSmallerIndex) {
+  Eigen::VectorXd s(5);
+  s << 1.0, 3.0, 3.0, -INFINITY, 2.0;
+  EXPECT_EQ(TopK(s, 3), (std::vector<int>{1, 2, 4}));
+  EXPECT_EQ(TopK(s, 10), (std::vector<int>{1, 2, 4, 0}));
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,0 +1,62 @@
+#include <gtest/gtest.h>
+
+#include "bsf_vpr/core/reference_set.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+TEST(ReferenceMap, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("summer", testing::RandomMatrix(10, 6, 1), "sunny"));
+  ReferenceSet partial;
+  partial.name = "night";
+  partial.descriptors = testing::RandomMatrix(2, 6, 2);
+  partial.place_ids = {3, 14};
+  partial.poses = {{1, 0, 0, 0}, {2, 0, 0, 0}};
+  map.Add(partial);
+  EXPECT_EQ(map.num_sets(), 2);
+  EXPECT_EQ(map.num_places(), 15);
+  EXPECT_EQ(map.dimension(), 6);
+  EXPECT_EQ(map.IndexOf("night"), 1);
+  EXPECT_EQ(map.SetNames(), (std::vector<std::string>{"summer", "night"}));
+  ASSERT_TRUE(map.PoseOf(14).has_value());
+  EXPECT_DOUBLE_EQ(map.PoseOf(14)->x_m, 2);
+  EXPECT_FALSE(map.PoseOf(0).has_value());
+  EXPECT_GT(map.set(0).MemoryBytes(), 10u * 6u * 4u - 1u);
+  EXPECT_TRUE(map.Remove("night"));
+  EXPECT_FALSE(map.Remove("night"));
+  EXPECT_EQ(map.num_places(), 10);
+}
+
+TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));
+  auto expect_refused = [&](ReferenceSet s, const std::string& fragment) {
+    try {
+      map.Add(std::move(s));
+      ADD_FAILURE() << "accepted a set that should fail with '" << fragment << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(map.num_sets(), 1);
+    EXPECT_EQ(map.num_places(), 4);
+    EXPECT_EQ(map.dimension(), 3);
+  };
+  expect_refused(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 2)), "already loaded");
+  expect_refused(MakeReferenceSet("b", testing::RandomMatrix(4, 5, 2)), "dimension 5");
+  expect_refused(MakeReferenceSet("c", RowMatrixXf(0, 3)), "empty");
+  expect_refused(MakeReferenceSet("", testing::RandomMatrix(4, 3, 2)), "name");
+  RowMatrixXf nan = testing::RandomMatrix(4, 3, 2);
+  nan(2, 1) = NAN;
+  expect_refused(MakeReferenceSet("d", nan), "row 2");
+  ReferenceSet neg = MakeReferenceSet("e", testing::RandomMatrix(2, 3, 2));
+  neg.place_ids = {-1, 0};
+  expect_refused(neg, "negative");
+  ReferenceSet poses = MakeReferenceSet("f", testing::RandomMatrix(2, 3, 2));
+  poses.poses.resize(1);
+  expect_refused(poses, "poses");
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,0 +1,52 @@
+// Helpers shared by the core tests: seeded random data and the paper's formulas written
+// the slow, obvious way, as oracles.
+#pragma once
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+namespace testing {
+
+inline RowMatrixXf RandomMatrix(int rows, int cols, uint64_t seed, float scale = 1.0f) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<float> normal(0.0f, scale);
+  RowMatrixXf m(rows, cols);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = normal(rng);
+  return m;
+}
+
+inline std::vector<float> RandomDistances(int n, uint64_t seed, bool with_ties = false) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> uni(0.5f, 2.0f);
+  std::vector<float> d(static_cast<size_t>(n));
+  for (float& v : d) v = with_ties ? std::round(uni(rng) * 4.0f) / 4.0f : uni(rng);
+  return d;
+}
+
+// Eq. placeMatch: sum_j 1{D_i <= D_j}, O(N^2).
+inline int RankCountOracle(const std::vector<float>& d, size_t i) {
+  int c = 0;
+  for (float v : d) c += d[i] <= v ? 1 : 0;
+  return c;
+}
+
+// log of Eq. obsLikelihoods with the Gaussian non-match term, up to a constant, O(N^2).
+inline double LogLikelihoodOracle(const std::vector<float>& d, size_t i, bool one_sided) {
+  double mean = 0;
+  for (float v : d) mean += v;
+  mean /= static_cast<double>(d.size());
+  double var = 0;
+  for (float v : d) var += (v - mean) * (v - mean);
+  var /= static_cast<double>(d.size());
+  double e = d[i] - mean;
+  if (one_sided && e > 0) e = 0;
+  const double log_gauss = var > 0 ? -0.5 * std::log(2 * M_PI * var) - e * e / (2 * var) : 0.0;
+  return std::log(static_cast<double>(RankCountOracle(d, i))) - log_gauss;
+}
+
+}  // namespace testing
+}  // namespace bsf_vpr

@@ -6,6 +6,19 @@
 #include <stdexcept>
 
 namespace bsf_vpr {
+namespace {
+
+// The place of d.values[k], checked against the map's place index.
+int CheckedPlace(const SetDistances& d, int k, int num_places) {
+  const int place = d.PlaceAt(k);
+  if (place < 0 || place >= num_places) {
+    throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
+                                std::to_string(num_places - 1));
+  }
+  return place;
+}
+
+}  // namespace
 
 double Threshold::LogOdds() const {
   if (kind == Kind::kLogOdds) return value;
@@ -102,12 +115,7 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
     ll.resize(static_cast<size_t>(d.count));
     PlaceMatchLogLikelihood(d, likelihood, ll.data());
     for (int k = 0; k < d.count; ++k) {
-      const int place = d.PlaceAt(k);
-      if (place < 0 || place >= num_places) {
-        throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
-                                    std::to_string(num_places - 1));
-      }
-      out->log_posterior(place) += ll[static_cast<size_t>(k)];
+      out->log_posterior(CheckedPlace(d, k, num_places)) += ll[static_cast<size_t>(k)];
     }
   }
   Eigen::Index best = 0;
@@ -129,11 +137,7 @@ void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::v
   for (int u : use) {
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     for (int k = 0; k < d.count; ++k) {
-      const int place = d.PlaceAt(k);
-      if (place < 0 || place >= num_places) {
-        throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
-                                    std::to_string(num_places - 1));
-      }
+      const int place = CheckedPlace(d, k, num_places);
       sum(place) += d.values[k];
       covered(place) += 1;
     }

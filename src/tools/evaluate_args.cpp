@@ -24,6 +24,8 @@ Inputs (either descriptors, or precomputed per-source matrices):
 Ground truth (one of):
   --tolerance K           query q shows place q; a match within K places is correct
   --ground-truth CSV      lines 'query,place place ...' listing the correct places
+  --tolerance-m R         a match is correct when its place pose lies within R metres of
+                          the query's pose (poses from the query and reference YAMLs)
 
 Methods and parameters:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
@@ -107,6 +109,9 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     } else if (flag == "--tolerance") {
       a.tolerance_frames = ParseInt(flag, value);
       if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");
+    } else if (flag == "--tolerance-m") {
+      a.tolerance_m = ParseDouble(flag, value);
+      if (a.tolerance_m < 0) throw std::invalid_argument("--tolerance-m must be >= 0");
     } else if (flag == "--ground-truth") {
       a.ground_truth = value;
     } else if (flag == "--methods") {
@@ -143,8 +148,13 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
   }
   if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
   if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");
-  if ((a.tolerance_frames >= 0) == !a.ground_truth.empty()) {
-    throw std::invalid_argument("give exactly one of --tolerance K and --ground-truth CSV");
+  const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
+  if (truths != 1) {
+    throw std::invalid_argument(
+        "give exactly one of --tolerance K, --tolerance-m R and --ground-truth CSV");
+  }
+  if (a.tolerance_m >= 0 && !descriptor_mode) {
+    throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
   }
   a.options.Validate();
   a.patch_norm.Validate();

@@ -24,6 +24,7 @@ struct EvaluateArgs {
   std::vector<NamedPath> similarities;  // --similarities NAME=PATH
   DistanceMetric metric = DistanceMetric::kEuclidean;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
+  double tolerance_m = -1;    // --tolerance-m R (-1: not given)
   std::string ground_truth;   // --ground-truth CSV
   std::string methods = "all";
   MethodOptions options;

@@ -1,5 +1,6 @@
 #include "evaluate_inputs.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <stdexcept>
 
@@ -44,6 +45,7 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
                                 std::to_string(data->map.dimension()));
   }
   data->queries = std::move(query.descriptors);
+  data->query_poses = std::move(query.poses);
   data->input.num_queries = static_cast<int>(data->queries.rows());
   data->input.num_places = data->map.num_places();
   for (const ReferenceSet& s : data->map.sets()) {
@@ -125,6 +127,18 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
   if (args.tolerance_frames >= 0) {
     data->truth = GroundTruth::FromFrameTolerance(data->input.num_queries, data->input.num_places,
                                                   args.tolerance_frames);
+  } else if (args.tolerance_m >= 0) {
+    if (data->query_poses.empty()) {
+      throw std::invalid_argument("--tolerance-m needs query poses: give the query as a YAML "
+                                  "with 'poses'");
+    }
+    std::vector<std::optional<PlacePose>> place_poses;
+    for (int i = 0; i < data->map.num_places(); ++i) place_poses.push_back(data->map.PoseOf(i));
+    if (std::none_of(place_poses.begin(), place_poses.end(),
+                     [](const auto& p) { return p.has_value(); })) {
+      throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
+    }
+    data->truth = GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
   } else {
     data->truth =
         ReadGroundTruthCsv(args.ground_truth, data->input.num_queries, data->input.num_places);

@@ -16,6 +16,7 @@ namespace tools {
 struct EvaluationData {
   ReferenceMap map;                  // descriptor mode
   RowMatrixXf queries;               // descriptor mode, Q x D
+  std::vector<PlacePose> query_poses;  // descriptor mode, from a query YAML (else empty)
   std::vector<RowMatrixXf> matrices; // matrix mode, one Q x N distance matrix per source
   EvaluationInput input;             // refers to the members above: do not copy or move
   GroundTruth truth;

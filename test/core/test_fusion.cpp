@@ -127,6 +127,15 @@ TEST(Fusion, RefusesABadPrior) {
   EXPECT_EQ(Fuse(f.views, 20, &point).match, 7);
 }
 
+TEST(Fusion, RefusesPlaceIdsOutsideTheMap) {
+  std::vector<float> d = {1.0f, 2.0f};
+  std::vector<int> ids = {0, 12};
+  const std::vector<SetDistances> v = {{d.data(), ids.data(), 2}};
+  PlaceBelief b;
+  EXPECT_THROW(FuseBayes(v, {0}, 10, {}, nullptr, {}, 5, &b), std::invalid_argument);
+  EXPECT_THROW(FuseMinEnsembleDistance(v, {0}, 10, 5, &b), std::invalid_argument);
+}
+
 TEST(Fusion, TopKOrdersByScoreAndBreaksTiesTowardsSmallerIndex) {
   Eigen::VectorXd s(5);
   s << 1.0, 3.0, 3.0, -INFINITY, 2.0;

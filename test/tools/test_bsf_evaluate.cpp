@@ -142,6 +142,30 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
   EXPECT_NE(clash.output.find("cosine"), std::string::npos) << clash.output;
 }
 
+TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
+  // 200 places 1 m apart along x; the query traversal is offset by 0.4 m.
+  ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
+  ReferenceSet night = LoadReferenceSetNpy(kGardens + "night_right.npy", "night");
+  for (int i = 0; i < 200; ++i) {
+    day.poses.push_back({1.0 * i, 0, 0, 0});
+    night.poses.push_back({1.0 * i + 0.4, 0, 0, 0});
+  }
+  SaveReferenceSet(day, dir_ + "/day.yaml");
+  SaveReferenceSet(night, dir_ + "/night.yaml");
+  const std::string in = "--reference day=" + dir_ + "/day.yaml --query " + dir_ +
+                         "/night.yaml --distance cosine --methods bsf --no-progress --out ";
+  ASSERT_EQ(Evaluate(in + dir_ + "/m --tolerance-m 3.5").exit_code, 0);
+  ASSERT_EQ(Evaluate(in + dir_ + "/f --tolerance 3").exit_code, 0);
+  // Within 3.5 m of x + 0.4 are places x-3 .. x+3: the same ground truth as +-3 frames.
+  EXPECT_DOUBLE_EQ(Summary(dir_ + "/m").at("bsf").at("auc"), Summary(dir_ + "/f").at("bsf").at("auc"));
+  ASSERT_EQ(Evaluate(in + dir_ + "/s --tolerance-m 0.3").exit_code, 0);
+  EXPECT_DOUBLE_EQ(Summary(dir_ + "/s").at("bsf").at("r_at_10"), 0.0);  // nothing within 0.3 m
+  const Result no_poses = Evaluate("--reference day=" + kGardens + "day_left.npy --query " +
+                                   dir_ + "/night.yaml --tolerance-m 3");
+  EXPECT_EQ(no_poses.exit_code, 2);
+  EXPECT_NE(no_poses.output.find("place poses"), std::string::npos) << no_poses.output;
+}
+
 TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
   const std::string day = kGardens + "day_left.npy", night = kGardens + "night_right.npy";
   WriteNpyMatrix(dir_ + "/short.npy", RowMatrixXf::Ones(5, 7));
@@ -156,6 +180,8 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
       {"--reference " + day + " --query " + night + " --tolerance 2", "NAME=PATH"},
       {"--reference day=" + day + " --query " + night, "--tolerance"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --ground-truth x.csv", "exactly one"},
+      {"--reference day=" + day + " --query " + night + " --tolerance-m 2", "query poses"},
+      {"--distances a=" + day + " --tolerance-m 2", "--tolerance-m needs poses"},
       {"--reference day=/nonexistent.npy --query " + night + " --tolerance 2", "/nonexistent.npy"},
       {"--reference day=" + dir_ + "/fortran.npy --query " + night + " --tolerance 2", "Fortran"},
       {"--reference day=" + day + " --query " + dir_ + "/short.npy --tolerance 2", "dimension 7"},

@@ -15,8 +15,7 @@ GroundTruth::GroundTruth(std::vector<std::vector<int>> correct_places)
   }
 }
 
-GroundTruth GroundTruth::FromFrameTolerance(int num_queries, int num_places,
-                                            int tolerance_frames) {
+GroundTruth GroundTruth::FromFrameTolerance(int num_queries, int num_places, int tolerance_frames) {
   if (tolerance_frames < 0) {
     throw std::invalid_argument("tolerance_frames must be >= 0, got " +
                                 std::to_string(tolerance_frames));
@@ -41,9 +40,9 @@ GroundTruth GroundTruth::FromMetricTolerance(
     for (size_t p = 0; p < place_poses.size(); ++p) {
       if (!place_poses[p]) continue;
       const PlacePose& b = *place_poses[p];
-      const double d = std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) +
-                                 (a.y_m - b.y_m) * (a.y_m - b.y_m) +
-                                 (a.z_m - b.z_m) * (a.z_m - b.z_m));
+      const double d =
+          std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m) +
+                    (a.z_m - b.z_m) * (a.z_m - b.z_m));
       if (d <= tolerance_m) correct[q].push_back(static_cast<int>(p));
     }
   }
@@ -129,8 +128,7 @@ Metrics ComputeMetrics(const std::vector<int>& matches, const std::vector<double
   const size_t q = static_cast<size_t>(truth.num_queries());
   if (matches.size() != q || confidence.size() != q || ranked_places.size() != q) {
     throw std::invalid_argument("metrics: " + std::to_string(matches.size()) +
-                                " results for a ground truth of " + std::to_string(q) +
-                                " queries");
+                                " results for a ground truth of " + std::to_string(q) + " queries");
   }
   std::vector<bool> correct(q);
   for (size_t i = 0; i < q; ++i) correct[i] = truth.IsCorrect(static_cast<int>(i), matches[i]);

@@ -28,8 +28,8 @@ GroundTruth ReadGroundTruthCsv(const std::string& path, int num_queries, int num
   std::string line;
   int line_no = 0;
   auto fail = [&](const std::string& what) {
-    throw std::runtime_error("ground truth '" + path + "' line " + std::to_string(line_no) +
-                             ": " + what);
+    throw std::runtime_error("ground truth '" + path + "' line " + std::to_string(line_no) + ": " +
+                             what);
   };
   while (std::getline(in, line)) {
     ++line_no;

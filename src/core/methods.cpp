@@ -87,8 +87,8 @@ std::vector<Method> ParseMethodList(const std::string& list,
   while (std::getline(ss, item, ',')) {
     if (item.empty()) continue;
     Method m = ParseMethod(item, set_names);
-    const bool dup = std::any_of(out.begin(), out.end(),
-                                 [&](const Method& o) { return o.Name() == m.Name(); });
+    const bool dup =
+        std::any_of(out.begin(), out.end(), [&](const Method& o) { return o.Name() == m.Name(); });
     if (!dup) out.push_back(m);
   }
   if (out.empty()) throw std::invalid_argument("the method list '" + list + "' names no method");

@@ -78,7 +78,8 @@ std::vector<int64_t> ParseShape(const std::string& value, const std::string& pat
   while (i < end) {
     while (i < end && (std::isspace(static_cast<unsigned char>(value[i])) || value[i] == ',')) ++i;
     if (i >= end) break;
-    if (!std::isdigit(static_cast<unsigned char>(value[i]))) Fail(path, "'shape' holds a non-integer");
+    if (!std::isdigit(static_cast<unsigned char>(value[i])))
+      Fail(path, "'shape' holds a non-integer");
     int64_t dim = 0;
     while (i < end && std::isdigit(static_cast<unsigned char>(value[i]))) {
       if (dim > kMaxNpyElements) Fail(path, "a dimension in 'shape' is absurdly large");
@@ -119,8 +120,9 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
   result.dtype = ParseDescr(ValueAfterKey(header, "descr", path), path);
   const std::string fortran = ValueAfterKey(header, "fortran_order", path);
   if (fortran.rfind("True", 0) == 0) {
-    Fail(path, "Fortran (column-major) order is not supported; save it in C order, e.g. "
-               "numpy.save(path, numpy.ascontiguousarray(a))");
+    Fail(path,
+         "Fortran (column-major) order is not supported; save it in C order, e.g. "
+         "numpy.save(path, numpy.ascontiguousarray(a))");
   }
   if (fortran.rfind("False", 0) != 0) Fail(path, "'fortran_order' is neither True nor False");
   const std::vector<int64_t> shape = ParseShape(ValueAfterKey(header, "shape", path), path);

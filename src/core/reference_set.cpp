@@ -7,8 +7,8 @@
 namespace bsf_vpr {
 
 size_t ReferenceSet::MemoryBytes() const {
-  return static_cast<size_t>(descriptors.size()) * sizeof(float) +
-         place_ids.size() * sizeof(int) + poses.size() * sizeof(PlacePose);
+  return static_cast<size_t>(descriptors.size()) * sizeof(float) + place_ids.size() * sizeof(int) +
+         poses.size() * sizeof(PlacePose);
 }
 
 void ReferenceSet::Validate() const {
@@ -79,7 +79,8 @@ bool ReferenceMap::Remove(const std::string& name) {
   sets_.erase(sets_.begin() + u);
   num_places_ = 0;
   for (const ReferenceSet& s : sets_) {
-    num_places_ = std::max(num_places_, 1 + *std::max_element(s.place_ids.begin(), s.place_ids.end()));
+    num_places_ =
+        std::max(num_places_, 1 + *std::max_element(s.place_ids.begin(), s.place_ids.end()));
   }
   if (sets_.empty()) dimension_ = 0;
   return true;

@@ -13,7 +13,8 @@ namespace bsf_vpr {
 namespace {
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 std::string BaseName(const std::string& path) {
@@ -23,8 +24,8 @@ std::string BaseName(const std::string& path) {
 
 ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path) {
   if (!root.IsMap()) throw std::runtime_error("is not a YAML mapping");
-  static const std::set<std::string> kKnown = {"name",     "condition", "descriptor_type",
-                                               "dimension", "distance", "descriptors",
+  static const std::set<std::string> kKnown = {"name",      "condition", "descriptor_type",
+                                               "dimension", "distance",  "descriptors",
                                                "place_ids", "poses"};
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
@@ -48,8 +49,8 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path) 
   if (root["place_ids"]) {
     set.place_ids = root["place_ids"].as<std::vector<int>>();
     if (set.place_ids.size() != static_cast<size_t>(set.size())) {
-      throw std::runtime_error("lists " + std::to_string(set.place_ids.size()) +
-                               " place_ids for " + std::to_string(set.size()) + " descriptors");
+      throw std::runtime_error("lists " + std::to_string(set.place_ids.size()) + " place_ids for " +
+                               std::to_string(set.size()) + " descriptors");
     }
   }
   if (root["poses"]) {
@@ -98,8 +99,10 @@ ReferenceSet LoadReferenceSet(const std::string& path, const std::string& name) 
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
   set.Validate();
   std::string stem = yaml_path;
-  if (EndsWith(stem, ".yaml")) stem.resize(stem.size() - 5);
-  else if (EndsWith(stem, ".yml")) stem.resize(stem.size() - 4);
+  if (EndsWith(stem, ".yaml"))
+    stem.resize(stem.size() - 5);
+  else if (EndsWith(stem, ".yml"))
+    stem.resize(stem.size() - 4);
   const std::string npy_path = stem + ".npy";
   YAML::Emitter out;
   out << YAML::BeginMap;

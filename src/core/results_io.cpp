@@ -63,8 +63,8 @@ void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResu
   for (const MethodResults& r : results) {
     const Metrics& m = r.metrics;
     summary << r.method.Name() << ',' << FormatNumber(m.auc) << ','
-            << FormatNumber(m.recall_at_full_precision) << ',' << FormatNumber(m.recall_at_1)
-            << ',' << FormatNumber(m.recall_at_5) << ',' << FormatNumber(m.recall_at_10) << ','
+            << FormatNumber(m.recall_at_full_precision) << ',' << FormatNumber(m.recall_at_1) << ','
+            << FormatNumber(m.recall_at_5) << ',' << FormatNumber(m.recall_at_10) << ','
             << m.num_queries << '\n';
     std::ostringstream matches;
     matches << "query,match,confidence\n";
@@ -89,7 +89,9 @@ std::string FormatSummaryTable(const std::vector<MethodResults>& results) {
   size_t width = 6;
   for (const MethodResults& r : results) width = std::max(width, r.method.Name().size());
   std::ostringstream out;
-  auto pad = [](const std::string& s, size_t w) { return s + std::string(w - std::min(w, s.size()), ' '); };
+  auto pad = [](const std::string& s, size_t w) {
+    return s + std::string(w - std::min(w, s.size()), ' ');
+  };
   out << pad("method", width) << "    AUC  R@100P    R@1    R@5   R@10  queries\n";
   for (const MethodResults& r : results) {
     const Metrics& m = r.metrics;

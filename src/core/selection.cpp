@@ -66,7 +66,8 @@ Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
   }
   out.best = static_cast<int>(best);
   // Relative: score = min, reference |score*| = min*. Standardized: score = -s_u, and
-  // s_u* - s_u = score_u - score*, reference s_u* = -score*. Both: score_u - score* <= gamma*|score*|.
+  // s_u* - s_u = score_u - score*, reference s_u* = -score*. Both: score_u - score* <=
+  // gamma*|score*|.
   const double slack = options.gamma_fraction * std::abs(score[best]);
   for (size_t u = 0; u < m; ++u) {
     if (u == best || score[u] - score[best] <= slack) out.selected.push_back(static_cast<int>(u));

@@ -31,12 +31,14 @@ SyntheticData GenerateMultiConditionData(const SyntheticOptions& options) {
   const int m = static_cast<int>(options.set_noise.size());
   auto gaussian = [&](int rows, int cols, double scale) {
     RowMatrixXf x(rows, cols);
-    for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] = static_cast<float>(scale) * normal(rng);
+    for (Eigen::Index i = 0; i < x.size(); ++i)
+      x.data()[i] = static_cast<float>(scale) * normal(rng);
     return x;
   };
   const RowMatrixXf base = gaussian(n, d, 1.0);
   std::vector<RowMatrixXf> condition(static_cast<size_t>(m));
-  for (int c = 0; c < m; ++c) condition[static_cast<size_t>(c)] = gaussian(n, d, options.condition_strength);
+  for (int c = 0; c < m; ++c)
+    condition[static_cast<size_t>(c)] = gaussian(n, d, options.condition_strength);
 
   SyntheticData out;
   for (int u = 0; u < m; ++u) {

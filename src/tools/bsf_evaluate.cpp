@@ -40,8 +40,8 @@ int Run(int argc, char** argv) {
   std::cout << FormatSummaryTable(results);
   if (!args.out_dir.empty()) {
     WriteEvaluationOutputs(args.out_dir, results);
-    std::cout << "bsf_evaluate: wrote " << args.out_dir << "/summary.csv and "
-              << args.out_dir << "/matches/\n";
+    std::cout << "bsf_evaluate: wrote " << args.out_dir << "/summary.csv and " << args.out_dir
+              << "/matches/\n";
   }
   return 0;
 }

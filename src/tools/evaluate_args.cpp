@@ -136,6 +136,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       throw std::invalid_argument("unknown option '" + flag + "' (see --help)");
     }
   }
+  CheckCombination(a);
+  return a;
+}
+
+void CheckCombination(const EvaluateArgs& a) {
   const bool descriptor_mode = !a.references.empty() || !a.query.empty();
   const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
   if (descriptor_mode && matrix_mode) {
@@ -143,8 +148,9 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
         "give either --reference/--query or --distances/--similarities, not both");
   }
   if (!descriptor_mode && !matrix_mode) {
-    throw std::invalid_argument("no input: give --reference NAME=PATH and --query PATH, or "
-                                "--distances NAME=PATH");
+    throw std::invalid_argument(
+        "no input: give --reference NAME=PATH and --query PATH, or "
+        "--distances NAME=PATH");
   }
   if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
   if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");
@@ -158,7 +164,6 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
   }
   a.options.Validate();
   a.patch_norm.Validate();
-  return a;
 }
 
 }  // namespace tools

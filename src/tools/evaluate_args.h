@@ -37,6 +37,10 @@ struct EvaluateArgs {
 // Parses argv. Throws std::invalid_argument with a one-line message naming the problem.
 EvaluateArgs ParseEvaluateArgs(int argc, char** argv);
 
+// Checks that the inputs and ground truth given go together (one input mode, one kind of
+// ground truth) and validates the options. Throws std::invalid_argument.
+void CheckCombination(const EvaluateArgs& args);
+
 extern const char kEvaluateUsage[];
 
 }  // namespace tools

@@ -129,8 +129,9 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
                                                   args.tolerance_frames);
   } else if (args.tolerance_m >= 0) {
     if (data->query_poses.empty()) {
-      throw std::invalid_argument("--tolerance-m needs query poses: give the query as a YAML "
-                                  "with 'poses'");
+      throw std::invalid_argument(
+          "--tolerance-m needs query poses: give the query as a YAML "
+          "with 'poses'");
     }
     std::vector<std::optional<PlacePose>> place_poses;
     for (int i = 0; i < data->map.num_places(); ++i) place_poses.push_back(data->map.PoseOf(i));
@@ -138,7 +139,8 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
                      [](const auto& p) { return p.has_value(); })) {
       throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
     }
-    data->truth = GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
+    data->truth =
+        GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
   } else {
     data->truth =
         ReadGroundTruthCsv(args.ground_truth, data->input.num_queries, data->input.num_places);

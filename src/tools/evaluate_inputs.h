@@ -14,13 +14,13 @@ namespace bsf_vpr {
 namespace tools {
 
 struct EvaluationData {
-  ReferenceMap map;                  // descriptor mode
-  RowMatrixXf queries;               // descriptor mode, Q x D
+  ReferenceMap map;                    // descriptor mode
+  RowMatrixXf queries;                 // descriptor mode, Q x D
   std::vector<PlacePose> query_poses;  // descriptor mode, from a query YAML (else empty)
-  std::vector<RowMatrixXf> matrices; // matrix mode, one Q x N distance matrix per source
-  EvaluationInput input;             // refers to the members above: do not copy or move
+  std::vector<RowMatrixXf> matrices;   // matrix mode, one Q x N distance matrix per source
+  EvaluationInput input;               // refers to the members above: do not copy or move
   GroundTruth truth;
-  std::string description;           // one line: what was loaded
+  std::string description;  // one line: what was loaded
 };
 
 // Throws std::exception with a message naming the file and the problem.

@@ -1,5 +1,4 @@
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cstdio>
@@ -61,7 +60,8 @@ TEST(Evaluation, FrameToleranceAndRecallAtK) {
 TEST(Evaluation, MetricToleranceUsesPlacePoses) {
   std::vector<std::optional<PlacePose>> places = {PlacePose{0, 0, 0, 0}, PlacePose{5, 0, 0, 0},
                                                   std::nullopt, PlacePose{30, 0, 0, 0}};
-  const GroundTruth t = GroundTruth::FromMetricTolerance({{4, 0, 0, 0}, {100, 0, 0, 0}}, places, 10);
+  const GroundTruth t =
+      GroundTruth::FromMetricTolerance({{4, 0, 0, 0}, {100, 0, 0, 0}}, places, 10);
   EXPECT_EQ(t.CorrectPlaces(0), (std::vector<int>{0, 1}));
   EXPECT_FALSE(t.HasTrueMatch(1));
 }

@@ -70,11 +70,13 @@ TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
   ExpectNpyError(Npy("{'descr': '>f4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'>f4'");
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (4,), }", 16), "2-D");
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), }", 32), "2-D");
-  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2), }", 15), "truncated");
+  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2), }", 15),
+                 "truncated");
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (100000, 100000), }", 16),
                  "exceeds the limit");
-  ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (99999999999999999999, 1), }", 16),
-                 "absurdly large");
+  ExpectNpyError(
+      Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (99999999999999999999, 1), }", 16),
+      "absurdly large");
   ExpectNpyError(Npy("{'descr': '<f4', 'shape': (2, 2), }", 16), "fortran_order");
   ExpectNpyError("not an npy file at all", "magic");
   ExpectNpyError(std::string("\x93NUMPY\x01\x00\xff\x00{'descr'", 17), "truncated header");

@@ -18,7 +18,8 @@ struct Fixture {
   }
 };
 
-PlaceBelief Fuse(const std::vector<SetDistances>& v, int n, const Eigen::VectorXd* prior = nullptr) {
+PlaceBelief Fuse(const std::vector<SetDistances>& v, int n,
+                 const Eigen::VectorXd* prior = nullptr) {
   PlaceBelief b;
   std::vector<int> use(v.size());
   std::iota(use.begin(), use.end(), 0);
@@ -47,7 +48,8 @@ TEST(Fusion, PosteriorIsInvariantToPermutingPlaces) {
   std::vector<SetDistances> pv = f.views;
   std::vector<std::vector<float>> pd(3, std::vector<float>(300));
   for (int u = 0; u < 3; ++u) {
-    for (int k = 0; k < 300; ++k) pd[u][static_cast<size_t>(perm[k])] = f.d[u][static_cast<size_t>(k)];
+    for (int k = 0; k < 300; ++k)
+      pd[u][static_cast<size_t>(perm[k])] = f.d[u][static_cast<size_t>(k)];
     pv[u].values = pd[u].data();
   }
   const PlaceBelief p = Fuse(pv, 300);

@@ -36,7 +36,8 @@ TEST(PatchNorm, ConstantImagesGiveZerosAndBrightnessIsRemoved) {
   cv::Mat img(32, 64, CV_8UC1);
   cv::randu(img, 0, 100);
   cv::Mat brighter = img + 60;
-  EXPECT_TRUE(DescribePatchNormalized(img, {}).isApprox(DescribePatchNormalized(brighter, {}), 1e-5f));
+  EXPECT_TRUE(
+      DescribePatchNormalized(img, {}).isApprox(DescribePatchNormalized(brighter, {}), 1e-5f));
 }
 
 TEST(PatchNorm, RefusesBadImagesAndOptions) {

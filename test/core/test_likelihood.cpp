@@ -6,11 +6,14 @@
 namespace bsf_vpr {
 namespace {
 
-SetDistances View(const std::vector<float>& d) { return {d.data(), nullptr, static_cast<int>(d.size())}; }
+SetDistances View(const std::vector<float>& d) {
+  return {d.data(), nullptr, static_cast<int>(d.size())};
+}
 
 TEST(Likelihood, RankCountsMatchTheQuadraticIndicatorSum) {
   for (uint64_t seed = 1; seed <= 20; ++seed) {
-    const std::vector<float> d = testing::RandomDistances(200 + static_cast<int>(seed), seed, seed % 2 == 0);
+    const std::vector<float> d =
+        testing::RandomDistances(200 + static_cast<int>(seed), seed, seed % 2 == 0);
     std::vector<int> counts(d.size());
     RankCounts(d.data(), static_cast<int>(d.size()), counts.data());
     for (size_t i = 0; i < d.size(); ++i) {
@@ -33,9 +36,13 @@ void ExpectMatchesOracle(LikelihoodVariant variant, bool one_sided) {
   }
 }
 
-TEST(Likelihood, TwoSidedIsExactlyThePaper) { ExpectMatchesOracle(LikelihoodVariant::kTwoSided, false); }
+TEST(Likelihood, TwoSidedIsExactlyThePaper) {
+  ExpectMatchesOracle(LikelihoodVariant::kTwoSided, false);
+}
 
-TEST(Likelihood, OneSidedClampsTheUpperTail) { ExpectMatchesOracle(LikelihoodVariant::kOneSided, true); }
+TEST(Likelihood, OneSidedClampsTheUpperTail) {
+  ExpectMatchesOracle(LikelihoodVariant::kOneSided, true);
+}
 
 TEST(Likelihood, OneSidedDoesNotRewardAFarOutlierTwoSidedDoes) {
   // A place far above the others (e.g. a dark frame) has the lowest rank count; only the

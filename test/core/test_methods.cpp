@@ -36,7 +36,8 @@ TEST(Methods, MedEqualsEquationMed) {
 TEST(Methods, NearestNeighbourIsTheMinimumValuePrinciple) {
   Data data(80, 4);
   const PlaceBelief b = RunMethod(ParseMethod("nn:winter", kNames), data.views, 80, {});
-  const int expected = static_cast<int>(std::min_element(data.d[1].begin(), data.d[1].end()) - data.d[1].begin());
+  const int expected =
+      static_cast<int>(std::min_element(data.d[1].begin(), data.d[1].end()) - data.d[1].begin());
   EXPECT_EQ(b.match, expected);
   EXPECT_EQ(b.selection.selected, std::vector<int>{1});
   EXPECT_EQ(b.log_posterior.size(), 0);
@@ -56,7 +57,8 @@ TEST(Methods, BsfWithLargeGammaIsBayesFullAndWithZeroGammaTheBestSetAlone) {
   const PlaceBelief one = RunMethod(ParseMethod("bsf", kNames), data.views, 150, narrow);
   ASSERT_EQ(one.selection.selected.size(), 1u);
   const std::string best_name = kNames[static_cast<size_t>(one.selection.best)];
-  const PlaceBelief single = RunMethod(ParseMethod("bayes:" + best_name, kNames), data.views, 150, {});
+  const PlaceBelief single =
+      RunMethod(ParseMethod("bayes:" + best_name, kNames), data.views, 150, {});
   EXPECT_TRUE(one.log_posterior.isApprox(single.log_posterior));
 
   const PlaceBelief meds = RunMethod(ParseMethod("med_selective", kNames), data.views, 150, narrow);

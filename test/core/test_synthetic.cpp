@@ -12,7 +12,8 @@ std::vector<MethodResults> Evaluate(const SyntheticData& data) {
   in.num_places = data.map.num_places();
   in.set_names = data.map.SetNames();
   in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
-    *block = ComputeDistances(DistanceMetric::kEuclidean, data.queries.middleRows(b, e - b), data.map);
+    *block =
+        ComputeDistances(DistanceMetric::kEuclidean, data.queries.middleRows(b, e - b), data.map);
   };
   return EvaluateMethods(in, AllMethods(in.set_names), {}, data.truth, {}, 64);
 }

@@ -37,7 +37,9 @@ Result RunCommand(const std::string& command) {
   return r;
 }
 
-Result Evaluate(const std::string& args) { return RunCommand(std::string(BSF_EVALUATE_PATH) + " " + args); }
+Result Evaluate(const std::string& args) {
+  return RunCommand(std::string(BSF_EVALUATE_PATH) + " " + args);
+}
 
 std::vector<std::string> Lines(const std::string& path) {
   std::ifstream in(path);
@@ -50,7 +52,8 @@ std::vector<std::string> Lines(const std::string& path) {
 std::map<std::string, std::map<std::string, double>> Summary(const std::string& dir) {
   const std::vector<std::string> lines = Lines(dir + "/summary.csv");
   std::map<std::string, std::map<std::string, double>> out;
-  const std::vector<std::string> cols = {"auc", "r_at_100p", "r_at_1", "r_at_5", "r_at_10", "n_queries"};
+  const std::vector<std::string> cols = {"auc",    "r_at_100p", "r_at_1",
+                                         "r_at_5", "r_at_10",   "n_queries"};
   for (size_t i = 1; i < lines.size(); ++i) {
     std::stringstream ss(lines[i]);
     std::string method, v;
@@ -74,8 +77,9 @@ class EvaluateTool : public ::testing::Test {
 };
 
 TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
-  const Result r = Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
-                            "night_right.npy --distance cosine --tolerance 3 --out " + dir_ + "/out");
+  const Result r =
+      Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+               "night_right.npy --distance cosine --tolerance 3 --out " + dir_ + "/out");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("bayes:day"), std::string::npos) << r.output;
   const std::vector<std::string> summary = Lines(dir_ + "/out/summary.csv");
@@ -94,7 +98,8 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   EXPECT_EQ(matches[0], "query,match,confidence");
   EXPECT_TRUE(fs::exists(dir_ + "/out/pr/bayes_day.csv"));
 
-  const Result plot = RunCommand(kSource + "/scripts/plot_pr " + dir_ + "/out --out " + dir_ + "/pr.png");
+  const Result plot =
+      RunCommand(kSource + "/scripts/plot_pr " + dir_ + "/out --out " + dir_ + "/pr.png");
   ASSERT_EQ(plot.exit_code, 0) << plot.output;
   std::ifstream png(dir_ + "/pr.png", std::ios::binary);
   char magic[4] = {};
@@ -108,15 +113,19 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
 TEST_F(EvaluateTool, DistanceMatricesAndSimilaritiesGiveTheSameResultsAsDescriptors) {
   const RowMatrixXf day = ReadNpyMatrix(kGardens + "day_left.npy");
   const RowMatrixXf night = ReadNpyMatrix(kGardens + "night_right.npy");
-  const RowMatrixXf cos_d = ComputeDistances(DistanceMetric::kCosine, night, MakeReferenceSet("d", day));
+  const RowMatrixXf cos_d =
+      ComputeDistances(DistanceMetric::kCosine, night, MakeReferenceSet("d", day));
   WriteNpyMatrix(dir_ + "/dist.npy", cos_d);
   RowMatrixXf sim = (1.0f - cos_d.array()).matrix();
   WriteNpyMatrix(dir_ + "/sim.npy", sim);
   const std::string common = " --tolerance 3 --methods bsf,nn:day --no-progress --out ";
   ASSERT_EQ(Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
-                     "night_right.npy --distance cosine" + common + dir_ + "/a").exit_code, 0);
+                     "night_right.npy --distance cosine" + common + dir_ + "/a")
+                .exit_code,
+            0);
   ASSERT_EQ(Evaluate("--distances day=" + dir_ + "/dist.npy" + common + dir_ + "/b").exit_code, 0);
-  ASSERT_EQ(Evaluate("--similarities day=" + dir_ + "/sim.npy" + common + dir_ + "/c").exit_code, 0);
+  ASSERT_EQ(Evaluate("--similarities day=" + dir_ + "/sim.npy" + common + dir_ + "/c").exit_code,
+            0);
   const auto a = Summary(dir_ + "/a"), b = Summary(dir_ + "/b"), c = Summary(dir_ + "/c");
   for (const char* m : {"bsf", "nn:day"}) {
     EXPECT_NEAR(a.at(m).at("auc"), b.at(m).at("auc"), 1e-6) << m;
@@ -157,11 +166,12 @@ TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
   ASSERT_EQ(Evaluate(in + dir_ + "/m --tolerance-m 3.5").exit_code, 0);
   ASSERT_EQ(Evaluate(in + dir_ + "/f --tolerance 3").exit_code, 0);
   // Within 3.5 m of x + 0.4 are places x-3 .. x+3: the same ground truth as +-3 frames.
-  EXPECT_DOUBLE_EQ(Summary(dir_ + "/m").at("bsf").at("auc"), Summary(dir_ + "/f").at("bsf").at("auc"));
+  EXPECT_DOUBLE_EQ(Summary(dir_ + "/m").at("bsf").at("auc"),
+                   Summary(dir_ + "/f").at("bsf").at("auc"));
   ASSERT_EQ(Evaluate(in + dir_ + "/s --tolerance-m 0.3").exit_code, 0);
   EXPECT_DOUBLE_EQ(Summary(dir_ + "/s").at("bsf").at("r_at_10"), 0.0);  // nothing within 0.3 m
-  const Result no_poses = Evaluate("--reference day=" + kGardens + "day_left.npy --query " +
-                                   dir_ + "/night.yaml --tolerance-m 3");
+  const Result no_poses = Evaluate("--reference day=" + kGardens + "day_left.npy --query " + dir_ +
+                                   "/night.yaml --tolerance-m 3");
   EXPECT_EQ(no_poses.exit_code, 2);
   EXPECT_NE(no_poses.output.find("place poses"), std::string::npos) << no_poses.output;
 }
@@ -170,34 +180,45 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
   const std::string day = kGardens + "day_left.npy", night = kGardens + "night_right.npy";
   WriteNpyMatrix(dir_ + "/short.npy", RowMatrixXf::Ones(5, 7));
   WriteNpyMatrix(dir_ + "/neg.npy", RowMatrixXf::Constant(5, 7, -1.0f));
-  std::ofstream(dir_ + "/fortran.npy") << std::string("\x93NUMPY\x01\x00\x76\x00", 10)
-                                       << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }"
-                                       << std::string(58, ' ') << "\n" << std::string(4, '\0');
+  std::ofstream(dir_ + "/fortran.npy")
+      << std::string("\x93NUMPY\x01\x00\x76\x00", 10)
+      << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }" << std::string(58, ' ')
+      << "\n"
+      << std::string(4, '\0');
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"", "no input"},
       {"--bogus 1", "unknown option '--bogus'"},
       {"--reference day=" + day + " --tolerance 2", "no --query"},
       {"--reference " + day + " --query " + night + " --tolerance 2", "NAME=PATH"},
       {"--reference day=" + day + " --query " + night, "--tolerance"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --ground-truth x.csv", "exactly one"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --ground-truth x.csv",
+       "exactly one"},
       {"--reference day=" + day + " --query " + night + " --tolerance-m 2", "query poses"},
       {"--distances a=" + day + " --tolerance-m 2", "--tolerance-m needs poses"},
       {"--reference day=/nonexistent.npy --query " + night + " --tolerance 2", "/nonexistent.npy"},
       {"--reference day=" + dir_ + "/fortran.npy --query " + night + " --tolerance 2", "Fortran"},
       {"--reference day=" + day + " --query " + dir_ + "/short.npy --tolerance 2", "dimension 7"},
-      {"--reference day=" + day + " --reference day=" + day + " --query " + night + " --tolerance 2", "already loaded"},
+      {"--reference day=" + day + " --reference day=" + day + " --query " + night +
+           " --tolerance 2",
+       "already loaded"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --methods nn:dusk", "dusk"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma -1", "gamma_fraction"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma abc", "--gamma expects a number"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma -1",
+       "gamma_fraction"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma abc",
+       "--gamma expects a number"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --distance l1", "'l1'"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --likelihood x", "'x'"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --selection y", "'y'"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --threshold p:2", "(0, 1)"},
-      {"--reference day=" + day + " --query " + night + " --ground-truth /nonexistent/gt.csv", "gt.csv"},
-      {"--reference day=" + day + " --distances d=" + dir_ + "/short.npy --tolerance 2", "not both"},
-      {"--distances a=" + dir_ + "/short.npy --distances b=" + day + " --tolerance 2", "first source is 5 x 7"},
+      {"--reference day=" + day + " --query " + night + " --ground-truth /nonexistent/gt.csv",
+       "gt.csv"},
+      {"--reference day=" + day + " --distances d=" + dir_ + "/short.npy --tolerance 2",
+       "not both"},
+      {"--distances a=" + dir_ + "/short.npy --distances b=" + day + " --tolerance 2",
+       "first source is 5 x 7"},
       {"--distances a=" + dir_ + "/neg.npy --tolerance 2", "negative"},
-      {"--reference day=" + kSource + "/test --query " + night + " --tolerance 2", "no image files"},
+      {"--reference day=" + kSource + "/test --query " + night + " --tolerance 2",
+       "no image files"},
   };
   for (const auto& [args, fragment] : cases) {
     const Result r = Evaluate(args);
@@ -213,7 +234,8 @@ TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {
   const std::string root = kSource + "/data/nordland_64x32/";
   const Result r = Evaluate("--reference winter=" + root + "winter --query " + root +
                             "summer --distance cosine --tolerance 2 --methods bsf,nn:winter "
-                            "--no-progress --out " + dir_ + "/n");
+                            "--no-progress --out " +
+                            dir_ + "/n");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto s = Summary(dir_ + "/n");
   // Measured: R@1 0.212, AUC bsf 0.111 vs nn 0.080. Chance R@1 is 5/1500.

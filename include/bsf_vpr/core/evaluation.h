@@ -26,7 +26,9 @@ class GroundTruth {
                                          double tolerance_m);
 
   int num_queries() const { return static_cast<int>(correct_.size()); }
-  const std::vector<int>& CorrectPlaces(int query) const { return correct_.at(static_cast<size_t>(query)); }
+  const std::vector<int>& CorrectPlaces(int query) const {
+    return correct_.at(static_cast<size_t>(query));
+  }
   bool HasTrueMatch(int query) const { return !CorrectPlaces(query).empty(); }
   bool IsCorrect(int query, int place) const;
   int NumWithTrueMatch() const;

@@ -18,13 +18,13 @@ struct PlacePose {
 };
 
 struct ReferenceSet {
-  std::string name;             // unique within a map, e.g. "winter"
-  std::string condition;        // optional label, e.g. "snow", "night"
-  std::string descriptor_type;  // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
-  std::string distance;         // optional, the distance the descriptors are meant for
-  RowMatrixXf descriptors;      // N_u x D, row k describes place place_ids[k]
-  std::vector<int> place_ids;   // N_u place indices, distinct, in [0, N)
-  std::vector<PlacePose> poses; // empty, or N_u poses (poses[k] is the pose of row k)
+  std::string name;              // unique within a map, e.g. "winter"
+  std::string condition;         // optional label, e.g. "snow", "night"
+  std::string descriptor_type;   // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
+  std::string distance;          // optional, the distance the descriptors are meant for
+  RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
+  std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
+  std::vector<PlacePose> poses;  // empty, or N_u poses (poses[k] is the pose of row k)
 
   int size() const { return static_cast<int>(descriptors.rows()); }
   int dimension() const { return static_cast<int>(descriptors.cols()); }

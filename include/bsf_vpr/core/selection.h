@@ -34,15 +34,15 @@ struct SelectionOptions {
 // Summary statistics of one D^u: min, mean and population standard deviation.
 struct DistanceStats {
   float min = 0;
-  int argmin = 0;      // index k into the set's values (not a place id)
+  int argmin = 0;  // index k into the set's values (not a place id)
   double mean = 0;
   double stddev = 0;
 };
 DistanceStats ComputeDistanceStats(const SetDistances& d);
 
 struct Selection {
-  int best = -1;              // u*, an index into the sets passed in
-  std::vector<int> selected;  // S, ascending set indices; always contains `best`
+  int best = -1;                         // u*, an index into the sets passed in
+  std::vector<int> selected;             // S, ascending set indices; always contains `best`
   std::vector<float> set_min_distances;  // min D^u for every set passed in
 };
 

@@ -1,0 +1,26 @@
+// Topic and service names of the bsf_vpr nodes, in one place. All are relative (resolved in
+// the node's namespace) so that launch files can remap them.
+#pragma once
+
+namespace bsf_vpr {
+namespace names {
+
+// descriptor_ingest
+constexpr char kImageTopic[] = "image";                   // sensor_msgs/Image in
+constexpr char kExternalDescriptorTopic[] = "descriptor_in";  // bsf_vpr/Descriptor in
+constexpr char kDescriptorTopic[] = "descriptor";         // bsf_vpr/Descriptor out
+
+// fusion
+constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out
+constexpr char kMatchTopic[] = "match";                   // bsf_vpr/Match out
+constexpr char kBeliefMarkersTopic[] = "belief_markers";  // visualization_msgs/MarkerArray
+
+constexpr char kListReferenceSetsService[] = "list_reference_sets";
+constexpr char kLoadReferenceSetService[] = "load_reference_set";
+constexpr char kUnloadReferenceSetService[] = "unload_reference_set";
+constexpr char kQueryPlaceService[] = "query_place";
+constexpr char kStartRecordingService[] = "start_recording";
+constexpr char kStopRecordingService[] = "stop_recording";
+
+}  // namespace names
+}  // namespace bsf_vpr

@@ -3,9 +3,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -57,6 +59,24 @@ std::string DirName(const std::string& path) {
 std::string ResolvePath(const std::string& base_dir, const std::string& path) {
   if (path.empty() || path[0] == '/') return path;
   return base_dir + "/" + path;
+}
+
+std::string ResolveBelowDirectory(const std::string& base_dir, const std::string& path) {
+  namespace fs = std::filesystem;
+  if (base_dir.empty()) throw std::invalid_argument("no data directory is configured");
+  if (path.empty()) throw std::invalid_argument("empty path");
+  std::error_code ec;
+  const fs::path base = fs::weakly_canonical(fs::absolute(base_dir), ec);
+  if (ec) throw std::invalid_argument("cannot resolve data directory '" + base_dir + "'");
+  const fs::path joined = fs::path(path).is_absolute() ? fs::path(path) : base / path;
+  const fs::path resolved = fs::weakly_canonical(joined, ec);
+  if (ec) throw std::invalid_argument("cannot resolve path '" + path + "'");
+  const auto mismatch = std::mismatch(base.begin(), base.end(), resolved.begin(), resolved.end());
+  if (mismatch.first != base.end() || resolved == base) {
+    throw std::invalid_argument("path '" + path + "' lies outside the data directory '" +
+                                base.string() + "'");
+  }
+  return resolved.string();
 }
 
 }  // namespace bsf_vpr

@@ -20,4 +20,9 @@ std::string DirName(const std::string& path);
 // `path` unchanged if absolute, else joined to `base_dir`.
 std::string ResolvePath(const std::string& base_dir, const std::string& path);
 
+// Resolves `path` (relative paths are taken relative to `base_dir`) and checks that the
+// result lies inside `base_dir` after resolving "..", "." and symbolic links. Returns the
+// resolved absolute path; throws std::invalid_argument naming both if it escapes.
+std::string ResolveBelowDirectory(const std::string& base_dir, const std::string& path);
+
 }  // namespace bsf_vpr

@@ -1,0 +1,68 @@
+// The online place recogniser: M reference sets in memory, one method, and optionally a prior
+// carried from one query to the next. This is what the fusion node wraps.
+//
+// Not thread-safe: callers serialise access (the fusion node holds a mutex).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/methods.h"
+#include "bsf_vpr/core/reference_set.h"
+
+namespace bsf_vpr {
+
+struct RecognizerOptions {
+  std::string method = "bsf";  // a method name, see methods.h
+  DistanceMetric metric = DistanceMetric::kEuclidean;
+  MethodOptions method_options;
+  // Carry the belief from query to query: the prior of query t is
+  // (1 - prior_uniform_fraction) * P(X | query t-1) + prior_uniform_fraction / N.
+  // Off reproduces the paper's single-image setting (uniform prior).
+  bool carry_prior = false;
+  double prior_uniform_fraction = 0.1;  // in (0, 1]; keeps every place reachable
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct Recognition {
+  PlaceBelief belief;
+  // Among the sets the method used, the one whose descriptor of the matched place is closest
+  // to the query (-1 if none of them covers the match).
+  int closest_set = -1;
+};
+
+class PlaceRecognizer {
+ public:
+  explicit PlaceRecognizer(RecognizerOptions options = {});
+
+  // Replaces the options. Throws std::invalid_argument (and keeps the old options) if they are
+  // invalid or the method names a set that is not loaded. Resets the carried prior.
+  void SetOptions(const RecognizerOptions& options);
+  const RecognizerOptions& options() const { return options_; }
+  const Method& method() const { return method_; }
+
+  // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried prior.
+  void AddReferenceSet(ReferenceSet set);
+  // Removes a set. Throws std::invalid_argument if it is not loaded or the current method
+  // needs it (nn:<set>, bayes:<set>). Resets the carried prior.
+  void RemoveReferenceSet(const std::string& name);
+  const ReferenceMap& map() const { return map_; }
+
+  // Recognises the place of one descriptor (D floats). With update_state, a carried prior
+  // is updated from the result; without, the recogniser is left exactly as it was (a
+  // what-if query). Throws std::invalid_argument for a descriptor of the wrong dimension,
+  // with NaN/inf, or when no set is loaded.
+  Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state);
+
+  void ResetPrior() { carried_log_prior_.resize(0); }
+
+ private:
+  RecognizerOptions options_;
+  Method method_;
+  ReferenceMap map_;
+  Eigen::VectorXd carried_log_prior_;  // empty: uniform
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,89 @@
+#include "bsf_vpr/core/place_recognizer.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+void RecognizerOptions::Validate() const {
+  method_options.Validate();
+  if (!(prior_uniform_fraction > 0 && prior_uniform_fraction <= 1)) {
+    throw std::invalid_argument("prior_uniform_fraction must lie in (0, 1], got " +
+                                std::to_string(prior_uniform_fraction));
+  }
+}
+
+PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move(options)) {
+  options_.Validate();
+  // The method is checked against the sets when they are known (SetOptions / Recognize).
+}
+
+void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
+  options.Validate();
+  Method method = ParseMethod(options.method, map_.SetNames());
+  options_ = options;
+  method_ = method;
+  ResetPrior();
+}
+
+void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
+  map_.Add(std::move(set));
+  ResetPrior();
+}
+
+void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
+  if (map_.IndexOf(name) < 0) {
+    throw std::invalid_argument("no reference set named '" + name + "' is loaded");
+  }
+  if (options_.method == "nn:" + name || options_.method == "bayes:" + name) {
+    throw std::invalid_argument("reference set '" + name + "' is used by method '" +
+                                options_.method + "'; change the method first");
+  }
+  map_.Remove(name);
+  ResetPrior();
+}
+
+Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
+                                       bool update_state) {
+  if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
+  if (descriptor.size() != map_.dimension()) {
+    throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
+                                ", the reference sets have dimension " +
+                                std::to_string(map_.dimension()));
+  }
+  if (!descriptor.allFinite()) throw std::invalid_argument("descriptor holds NaN or infinity");
+  // The method may refer to sets by index: re-resolve it against the current map.
+  method_ = ParseMethod(options_.method, map_.SetNames());
+
+  const RowMatrixXf query = descriptor.transpose();
+  const std::vector<RowMatrixXf> distances = ComputeDistances(options_.metric, query, map_);
+  std::vector<const std::vector<int>*> ids;
+  for (const ReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids);
+  const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);
+
+  const int n = map_.num_places();
+  const bool use_prior = options_.carry_prior && carried_log_prior_.size() == n;
+  Recognition out;
+  out.belief = RunMethod(method_, views, n, options_.method_options,
+                         use_prior ? &carried_log_prior_ : nullptr);
+
+  float best = INFINITY;
+  for (int u : out.belief.selection.selected) {
+    const SetDistances& d = views[static_cast<size_t>(u)];
+    for (int k = 0; k < d.count; ++k) {
+      if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {
+        best = d.values[k];
+        out.closest_set = u;
+      }
+    }
+  }
+
+  if (update_state && options_.carry_prior && out.belief.log_posterior.size() == n) {
+    const double eps = options_.prior_uniform_fraction;
+    carried_log_prior_ =
+        ((1.0 - eps) * out.belief.log_posterior.array().exp() + eps / n).log().matrix();
+  }
+  return out;
+}
+
+}  // namespace bsf_vpr

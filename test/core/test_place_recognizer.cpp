@@ -1,0 +1,133 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/reference_recorder.h"
+#include "bsf_vpr/core/synthetic.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+SyntheticData Data() {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  opt.dimension = 16;
+  opt.set_noise = {0.3, 0.3};
+  opt.condition_strength = 0.5;
+  opt.query_noise = 0.3;
+  return GenerateMultiConditionData(opt);
+}
+
+PlaceRecognizer Loaded(const SyntheticData& data, RecognizerOptions opt = {}) {
+  PlaceRecognizer r;
+  for (const ReferenceSet& s : data.map.sets()) r.AddReferenceSet(s);
+  r.SetOptions(opt);
+  return r;
+}
+
+TEST(PlaceRecognizer, MatchesTheOfflineMethodForEveryQuery) {
+  const SyntheticData data = Data();
+  PlaceRecognizer r = Loaded(data);
+  const std::vector<RowMatrixXf> all =
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
+  const Method bsf = ParseMethod("bsf", data.map.SetNames());
+  for (int q = 0; q < 30; ++q) {
+    const Recognition online = r.Recognize(data.queries.row(q).transpose(), true);
+    const PlaceBelief offline =
+        RunMethod(bsf, QueryRowViews(all, q, {nullptr, nullptr}), data.map.num_places(), {});
+    EXPECT_EQ(online.belief.match, offline.match);
+    // One-row and batched products sum in different orders: equal to float precision.
+    EXPECT_NEAR(online.belief.confidence, offline.confidence,
+                1e-4 * (1 + std::abs(offline.confidence)));
+    ASSERT_GE(online.closest_set, 0);
+  }
+}
+
+TEST(PlaceRecognizer, CarriedPriorChangesTheBeliefOnlyWhenEnabledAndUpdated) {
+  const SyntheticData data = Data();
+  RecognizerOptions opt;
+  opt.carry_prior = true;
+  PlaceRecognizer r = Loaded(data, opt);
+  const Eigen::VectorXf q0 = data.queries.row(10).transpose();
+  const Eigen::VectorXf q1 = data.queries.row(11).transpose();
+  const Recognition first = r.Recognize(q1, false);  // what-if: state untouched
+  const Recognition again = r.Recognize(q1, false);
+  EXPECT_TRUE(first.belief.log_posterior.isApprox(again.belief.log_posterior));
+  r.Recognize(q0, true);
+  const Recognition with_prior = r.Recognize(q1, false);
+  EXPECT_FALSE(with_prior.belief.log_posterior.isApprox(first.belief.log_posterior));
+  r.ResetPrior();
+  EXPECT_TRUE(r.Recognize(q1, false).belief.log_posterior.isApprox(first.belief.log_posterior));
+}
+
+TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
+  const SyntheticData data = Data();
+  PlaceRecognizer empty;
+  EXPECT_THROW(empty.Recognize(Eigen::VectorXf::Zero(16), true), std::invalid_argument);
+  PlaceRecognizer r = Loaded(data);
+  EXPECT_THROW(r.Recognize(Eigen::VectorXf::Zero(15), true), std::invalid_argument);
+  Eigen::VectorXf nan = Eigen::VectorXf::Zero(16);
+  nan(3) = NAN;
+  EXPECT_THROW(r.Recognize(nan, true), std::invalid_argument);
+  RecognizerOptions bad;
+  bad.method = "nn:missing";
+  EXPECT_THROW(r.SetOptions(bad), std::invalid_argument);
+  EXPECT_EQ(r.options().method, "bsf");
+  RecognizerOptions single;
+  single.method = "nn:c1";
+  r.SetOptions(single);
+  EXPECT_THROW(r.RemoveReferenceSet("c1"), std::invalid_argument);
+  EXPECT_THROW(r.RemoveReferenceSet("nope"), std::invalid_argument);
+  r.RemoveReferenceSet("c0");
+  EXPECT_EQ(r.map().num_sets(), 1);
+  EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.selection.selected,
+            std::vector<int>{0});
+}
+
+TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
+  ReferenceRecorder rec;
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(4)), std::invalid_argument);
+  EXPECT_THROW(rec.Finish(), std::invalid_argument);
+  rec.Start("today", "rain", 0);
+  EXPECT_THROW(rec.Start("other", "", 0), std::invalid_argument);
+  EXPECT_THROW(rec.Finish(), std::invalid_argument);  // nothing recorded yet
+  EXPECT_TRUE(rec.recording());
+  rec.Add(Eigen::VectorXf::Constant(4, 1.0f), PlacePose{1, 0, 0, 0});
+  rec.Add(Eigen::VectorXf::Constant(4, 2.0f), PlacePose{2, 0, 0, 0});
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(5)), std::invalid_argument);
+  EXPECT_EQ(rec.count(), 2);
+  const ReferenceSet s = rec.Finish("test_4");
+  EXPECT_FALSE(rec.recording());
+  EXPECT_EQ(s.name, "today");
+  EXPECT_EQ(s.condition, "rain");
+  EXPECT_EQ(s.place_ids, (std::vector<int>{0, 1}));
+  EXPECT_FLOAT_EQ(s.descriptors(1, 3), 2.0f);
+  ASSERT_EQ(s.poses.size(), 2u);
+  rec.Start("partial", "", 4);
+  rec.Add(Eigen::VectorXf::Ones(4), PlacePose{});
+  rec.Add(Eigen::VectorXf::Ones(4));
+  EXPECT_TRUE(rec.Finish().poses.empty());  // poses only when every descriptor had one
+}
+
+TEST(ResolveBelowDirectory, AcceptsPathsInsideAndRefusesEscapes) {
+  char tmpl[] = "/tmp/bsf_dir_XXXXXX";
+  const std::string dir = mkdtemp(tmpl);
+  std::filesystem::create_directory(dir + "/sets");
+  std::filesystem::create_directory_symlink("/etc", dir + "/link");
+  EXPECT_EQ(ResolveBelowDirectory(dir, "sets/a.yaml"), dir + "/sets/a.yaml");
+  EXPECT_EQ(ResolveBelowDirectory(dir, dir + "/b.npy"), dir + "/b.npy");
+  for (const std::string& bad :
+       {std::string("../x.yaml"), std::string("/etc/passwd"), std::string("sets/../../x"),
+        std::string("link/passwd"), std::string("."), std::string("")}) {
+    EXPECT_THROW(ResolveBelowDirectory(dir, bad), std::invalid_argument) << bad;
+  }
+  EXPECT_THROW(ResolveBelowDirectory("", "a.yaml"), std::invalid_argument);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -86,7 +86,7 @@ ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string&
   return set;
 }
 
-ReferenceSet LoadReferenceSet(const std::string& path, const std::string& name) {
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
     ReferenceSet set = LoadReferenceSetYaml(path);
     if (!name.empty()) set.name = name;

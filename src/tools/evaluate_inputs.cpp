@@ -25,7 +25,7 @@ ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
     set.descriptor_type = patch_norm.DescriptorType();
     return set;
   }
-  return LoadReferenceSet(path, name);
+  return LoadReferenceSetFile(path, name);
 }
 
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {

@@ -104,7 +104,7 @@ TEST_F(Files, ReferenceSetYamlRoundTrips) {
   s.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, -1}};
   SaveReferenceSet(s, Path("winter.yaml"));
   EXPECT_TRUE(fs::exists(Path("winter.npy")));
-  const ReferenceSet back = LoadReferenceSet(Path("winter.yaml"), "");
+  const ReferenceSet back = LoadReferenceSetFile(Path("winter.yaml"), "");
   EXPECT_EQ(back.name, "winter");
   EXPECT_EQ(back.condition, "snow");
   EXPECT_EQ(back.distance, "cosine");
@@ -112,7 +112,7 @@ TEST_F(Files, ReferenceSetYamlRoundTrips) {
   ASSERT_EQ(back.poses.size(), 3u);
   EXPECT_DOUBLE_EQ(back.poses[2].y_m, 8);
   EXPECT_TRUE(back.descriptors.isApprox(s.descriptors));
-  EXPECT_EQ(LoadReferenceSet(Path("winter.npy"), "w2").name, "w2");
+  EXPECT_EQ(LoadReferenceSetFile(Path("winter.npy"), "w2").name, "w2");
 }
 
 TEST_F(Files, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
@@ -132,13 +132,13 @@ TEST_F(Files, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
   for (const auto& [text, expect] : bad) {
     WriteRaw("bad.yaml", text);
     try {
-      LoadReferenceSet(Path("bad.yaml"), "");
+      LoadReferenceSetFile(Path("bad.yaml"), "");
       ADD_FAILURE() << "accepted: " << text;
     } catch (const std::runtime_error& e) {
       EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
     }
   }
-  EXPECT_THROW(LoadReferenceSet(Path("d.txt"), "x"), std::runtime_error);
+  EXPECT_THROW(LoadReferenceSetFile(Path("d.txt"), "x"), std::runtime_error);
   EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
 }
 

@@ -28,7 +28,7 @@ ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string&
 
 // Dispatches on the extension: .yaml/.yml sidecar, or .npy (named `name`). Throws
 // std::runtime_error for other paths. (Image folders are described by the caller.)
-ReferenceSet LoadReferenceSet(const std::string& path, const std::string& name);
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name);
 
 // Writes `set` as `yaml_path` plus its descriptors as `<yaml_path without .yaml>.npy` (float32),
 // both atomically; the YAML refers to the .npy by its file name.

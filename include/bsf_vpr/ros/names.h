@@ -6,9 +6,9 @@ namespace bsf_vpr {
 namespace names {
 
 // descriptor_ingest
-constexpr char kImageTopic[] = "image";                   // sensor_msgs/Image in
+constexpr char kImageTopic[] = "image";                       // sensor_msgs/Image in
 constexpr char kExternalDescriptorTopic[] = "descriptor_in";  // bsf_vpr/Descriptor in
-constexpr char kDescriptorTopic[] = "descriptor";         // bsf_vpr/Descriptor out
+constexpr char kDescriptorTopic[] = "descriptor";             // bsf_vpr/Descriptor out
 
 // fusion
 constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out

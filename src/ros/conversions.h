@@ -1,0 +1,35 @@
+// Conversions between bsf_vpr messages and core types. No copies of descriptor data where a
+// view will do.
+#pragma once
+
+#include <bsf_vpr/Belief.h>
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/Match.h>
+#include <bsf_vpr/ReferenceSetInfo.h>
+#include <geometry_msgs/Pose.h>
+
+#include <Eigen/Core>
+
+#include "bsf_vpr/core/place_recognizer.h"
+
+namespace bsf_vpr {
+
+// A read-only view on the message's data (valid while the message lives).
+inline Eigen::Map<const Eigen::VectorXf> DescriptorView(const Descriptor& msg) {
+  return Eigen::Map<const Eigen::VectorXf>(msg.data.data(),
+                                           static_cast<Eigen::Index>(msg.data.size()));
+}
+
+// Fills `out` (header left to the caller) from a recognition. belief_top_k 0 lists every
+// place; otherwise the K most probable, best first.
+void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
+                 Belief* out);
+
+// Fills `out` (header left to the caller) for the match of `r`.
+void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out);
+
+geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
+
+ReferenceSetInfo ToInfoMsg(const ReferenceSet& set);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,157 @@
+#include "descriptor_ingest.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <cmath>
+
+#include "bsf_vpr/ros/names.h"
+#include "fusion_params.h"
+
+namespace bsf_vpr {
+namespace {
+
+template <typename T>
+T Get(const ros::NodeHandle& pnh, const std::string& key, const T& fallback) {
+  if (!pnh.hasParam(key)) return fallback;
+  T value;
+  if (!pnh.getParam(key, value)) {
+    throw std::invalid_argument("parameter '" + pnh.resolveName(key) + "' has the wrong type");
+  }
+  return value;
+}
+
+}  // namespace
+
+IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
+  RefuseUnknownParams(pnh, {"input", "expected_dimension", "l2_normalize", "descriptor_type",
+                            "patch_width_px", "patch_height_px", "patch_size_px", "queue_size",
+                            "diagnostic_period", "image_transport"});
+  IngestParams p;
+  p.input = Get<std::string>(pnh, "input", p.input);
+  if (p.input != "image" && p.input != "descriptor") {
+    throw std::invalid_argument("input must be image or descriptor, got '" + p.input + "'");
+  }
+  p.expected_dimension = Get<int>(pnh, "expected_dimension", p.expected_dimension);
+  if (p.expected_dimension < 0) throw std::invalid_argument("expected_dimension must be >= 0");
+  p.l2_normalize = Get<bool>(pnh, "l2_normalize", p.l2_normalize);
+  p.patch_norm.width_px = Get<int>(pnh, "patch_width_px", p.patch_norm.width_px);
+  p.patch_norm.height_px = Get<int>(pnh, "patch_height_px", p.patch_norm.height_px);
+  p.patch_norm.patch_size_px = Get<int>(pnh, "patch_size_px", p.patch_norm.patch_size_px);
+  p.patch_norm.Validate();
+  p.descriptor_type = Get<std::string>(pnh, "descriptor_type",
+                                       p.input == "image" ? p.patch_norm.DescriptorType() : "");
+  p.queue_size = Get<int>(pnh, "queue_size", p.queue_size);
+  if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
+  if (p.input == "image" && p.expected_dimension != 0 &&
+      p.expected_dimension != p.patch_norm.dimension()) {
+    throw std::invalid_argument("expected_dimension " + std::to_string(p.expected_dimension) +
+                                " differs from the image descriptor's " +
+                                std::to_string(p.patch_norm.dimension()));
+  }
+  return p;
+}
+
+DescriptorIngest::DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(std::move(nh)), pnh_(std::move(pnh)), it_(nh_) {}
+
+void DescriptorIngest::Start() {
+  params_ = LoadIngestParams(pnh_);
+  auto on_connect = [this](const ros::SingleSubscriberPublisher&) { UpdateSubscription(); };
+  pub_ = nh_.advertise<Descriptor>(
+      names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size), on_connect, on_connect);
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+  diagnostics_->setHardwareID("bsf_vpr");
+  diagnostics_->add("descriptor_ingest", this, &DescriptorIngest::Diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1),
+                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  UpdateSubscription();
+}
+
+void DescriptorIngest::UpdateSubscription() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const bool wanted = pub_.getNumSubscribers() > 0;
+  const bool subscribed = image_sub_ || descriptor_sub_;
+  if (wanted && !subscribed) {
+    const uint32_t q = static_cast<uint32_t>(params_.queue_size);
+    if (params_.input == "image") {
+      image_sub_ = it_.subscribe(names::kImageTopic, q, &DescriptorIngest::OnImage, this);
+    } else {
+      descriptor_sub_ =
+          nh_.subscribe(names::kExternalDescriptorTopic, q, &DescriptorIngest::OnDescriptor, this);
+    }
+  } else if (!wanted && subscribed) {
+    image_sub_.shutdown();
+    descriptor_sub_.shutdown();
+  }
+}
+
+void DescriptorIngest::Reject(const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++rejected_;
+  last_rejection_ = why;
+  ROS_ERROR_THROTTLE(1.0, "bsf_vpr: descriptor_ingest dropped an input: %s", why.c_str());
+}
+
+void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
+  auto out = boost::make_shared<Descriptor>();
+  try {
+    // toCvShare converts only when the encoding differs (e.g. rgb8 -> mono8).
+    const cv_bridge::CvImageConstPtr cv =
+        cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::MONO8);
+    const Eigen::VectorXf d = DescribePatchNormalized(cv->image, params_.patch_norm);
+    out->data.assign(d.data(), d.data() + d.size());
+  } catch (const std::exception& e) {
+    Reject(std::string("cannot describe image: ") + e.what());
+    return;
+  }
+  out->header = msg->header;
+  out->descriptor_type = params_.descriptor_type;
+  ValidateAndPublish(out);
+}
+
+void DescriptorIngest::OnDescriptor(const Descriptor::ConstPtr& msg) {
+  // One copy: the output must be mutable for normalisation; the input is shared.
+  auto out = boost::make_shared<Descriptor>(*msg);
+  if (!params_.descriptor_type.empty()) out->descriptor_type = params_.descriptor_type;
+  ValidateAndPublish(out);
+}
+
+void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
+  const size_t n = out->data.size();
+  if (n == 0) return Reject("empty descriptor");
+  if (params_.expected_dimension != 0 && n != static_cast<size_t>(params_.expected_dimension)) {
+    return Reject("descriptor has dimension " + std::to_string(n) + ", expected " +
+                  std::to_string(params_.expected_dimension));
+  }
+  double sq = 0;
+  for (float v : out->data) {
+    if (!std::isfinite(v)) return Reject("descriptor holds NaN or infinity");
+    sq += static_cast<double>(v) * v;
+  }
+  if (params_.l2_normalize) {
+    if (sq <= 0) return Reject("cannot L2-normalise a zero descriptor");
+    const float inv = static_cast<float>(1.0 / std::sqrt(sq));
+    for (float& v : out->data) v *= inv;
+  }
+  pub_.publish(out);  // shared pointer: no copy to nodelets in the same manager
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++published_;
+}
+
+void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (rejected_ > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %ld bad input(s): %s",
+                    rejected_, last_rejection_.c_str());
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
+  }
+  status.add("input", params_.input);
+  status.add("published", published_);
+  status.add("dropped", rejected_);
+  status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));
+  rejected_ = 0;
+}
+
+}  // namespace bsf_vpr

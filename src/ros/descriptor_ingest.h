@@ -1,0 +1,60 @@
+// descriptor_ingest: turns images (described with the core's patch-normalised image
+// descriptor) or descriptor messages from another node (NetVLAD, ...) into validated
+// bsf_vpr/Descriptor messages: non-empty, finite, of the expected dimension, optionally
+// L2-normalised. Bad input is dropped with a throttled error and counted in diagnostics.
+// It subscribes to its input only while someone listens to its output (a pure transform).
+#pragma once
+
+#include <bsf_vpr/Descriptor.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "bsf_vpr/core/image_descriptor.h"
+
+namespace bsf_vpr {
+
+struct IngestParams {
+  std::string input = "image";  // "image" (sensor_msgs/Image) or "descriptor"
+  int expected_dimension = 0;   // 0: any non-empty dimension
+  bool l2_normalize = false;
+  std::string descriptor_type;  // stamped on the output; default: the image descriptor's name
+  PatchNormOptions patch_norm;
+  int queue_size = 10;
+};
+
+// Reads and validates ~ parameters; throws std::invalid_argument naming a bad or unknown one.
+IngestParams LoadIngestParams(const ros::NodeHandle& pnh);
+
+class DescriptorIngest {
+ public:
+  DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh);
+  void Start();  // throws std::exception naming the problem if it cannot start
+
+ private:
+  void UpdateSubscription();
+  void OnImage(const sensor_msgs::ImageConstPtr& msg);
+  void OnDescriptor(const Descriptor::ConstPtr& msg);
+  // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
+  void ValidateAndPublish(const Descriptor::Ptr& out);
+  void Reject(const std::string& why);
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_, pnh_;
+  IngestParams params_;
+  std::mutex mutex_;
+  image_transport::ImageTransport it_;
+  image_transport::Subscriber image_sub_;
+  ros::Subscriber descriptor_sub_;
+  ros::Publisher pub_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+  long published_ = 0, rejected_ = 0;
+  std::string last_rejection_;
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,215 @@
+#include "fusion_node.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <chrono>
+
+#include "belief_markers.h"
+#include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/reference_set_io.h"
+#include "bsf_vpr/ros/names.h"
+#include "conversions.h"
+
+namespace bsf_vpr {
+
+FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
+
+ReferenceSet FusionNode::LoadEntry(const ReferenceSetEntry& entry,
+                                   const std::string& base_dir) const {
+  const std::string path = ResolvePath(base_dir, entry.path);
+  ReferenceSet set = LoadReferenceSetFile(path, entry.name);
+  if (!entry.condition.empty()) set.condition = entry.condition;
+  const std::string metric = ToString(params_.recognizer.metric);
+  if (!set.distance.empty() && set.distance != metric) {
+    throw std::invalid_argument("reference set '" + set.name + "' (" + path + ") is meant for " +
+                                set.distance + " distance, the node uses " + metric);
+  }
+  return set;
+}
+
+void FusionNode::Start() {
+  params_ = LoadFusionParams(pnh_);
+  // Config paths are relative to the data directory when one is set.
+  const std::string base = params_.data_directory.empty() ? "." : params_.data_directory;
+  for (const ReferenceSetEntry& e : params_.reference_sets) {
+    recognizer_.AddReferenceSet(LoadEntry(e, base));
+    const ReferenceSet& s = recognizer_.map().sets().back();
+    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d)", s.name.c_str(),
+             s.size(), s.dimension());
+  }
+  recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
+
+  belief_pub_ = nh_.advertise<Belief>(names::kBeliefTopic, 10);
+  match_pub_ = nh_.advertise<Match>(names::kMatchTopic, 10);
+  marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
+  if (params_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  services_.push_back(
+      nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
+  services_.push_back(
+      nh_.advertiseService(names::kLoadReferenceSetService, &FusionNode::OnLoad, this));
+  services_.push_back(
+      nh_.advertiseService(names::kUnloadReferenceSetService, &FusionNode::OnUnload, this));
+  services_.push_back(nh_.advertiseService(names::kQueryPlaceService, &FusionNode::OnQuery, this));
+  services_.push_back(
+      nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
+  services_.push_back(
+      nh_.advertiseService(names::kStopRecordingService, &FusionNode::OnStopRecording, this));
+
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<FusionConfig>>(pnh_);
+  reconfigure_->setCallback(
+      [this](FusionConfig& config, uint32_t level) { OnReconfigure(config, level); });
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+  diagnostics_->setHardwareID("bsf_vpr");
+  diagnostics_->add("fusion", this, &FusionNode::Diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
+    diagnostics_->update();  // publishes at ~diagnostic_period
+  });
+  last_diagnostics_ = ros::WallTime::now();
+
+  // Always subscribed: the belief is state that must follow every query.
+  descriptor_sub_ =
+      nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
+                    &FusionNode::OnDescriptor, this);
+  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
+           params_.recognizer.method.c_str(), recognizer_.map().num_sets(),
+           recognizer_.map().num_places());
+}
+
+void FusionNode::RejectMessage(const std::string& why) {
+  ++rejected_;
+  last_rejection_ = why;
+  ROS_ERROR_THROTTLE(1.0, "bsf_vpr: dropped a descriptor: %s", why.c_str());
+}
+
+void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
+  if (recorder_.recording()) {
+    try {
+      recorder_.Add(d);
+    } catch (const std::exception& e) {
+      RejectMessage(std::string("recording: ") + e.what());
+      return;
+    }
+  }
+  if (recognizer_.map().num_sets() == 0) {
+    if (!recorder_.recording()) RejectMessage("no reference set is loaded");
+    return;
+  }
+  Recognition r;
+  try {
+    r = recognizer_.Recognize(d, true);
+  } catch (const std::exception& e) {
+    RejectMessage(e.what());
+    return;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++processed_;
+  ++total_processed_;
+  processing_s_sum_ += seconds;
+  processing_s_max_ = std::max(processing_s_max_, seconds);
+  for (int u : r.belief.selection.selected) ++selected_count_[recognizer_.map().set(u).name];
+  Publish(*msg, r);
+}
+
+void FusionNode::Publish(const Descriptor& msg, const Recognition& r) {
+  auto belief = boost::make_shared<Belief>();
+  belief->header = msg.header;
+  ToBeliefMsg(r, recognizer_, params_.belief_top_k, belief.get());
+  belief_pub_.publish(belief);
+  if (r.belief.accepted) {
+    auto match = boost::make_shared<Match>();
+    match->header = msg.header;
+    match->header.frame_id = params_.map_frame;
+    ToMatchMsg(r, recognizer_.map(), match.get());
+    match_pub_.publish(match);
+    if (tf_ && match->has_pose) {
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = msg.header.stamp.isZero() ? ros::Time::now() : msg.header.stamp;
+      t.header.frame_id = params_.map_frame;
+      t.child_frame_id = params_.place_frame;
+      t.transform.translation.x = match->pose.position.x;
+      t.transform.translation.y = match->pose.position.y;
+      t.transform.translation.z = match->pose.position.z;
+      t.transform.rotation = match->pose.orientation;
+      tf_->sendTransform(t);
+    }
+  }
+  if (marker_pub_.getNumSubscribers() > 0) {
+    marker_pub_.publish(
+        MakeBeliefMarkers(recognizer_.map(), *belief, params_.map_frame, params_.marker_spacing_m));
+  }
+}
+
+void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  RecognizerOptions o = recognizer_.options();
+  try {
+    o.method = config.method;
+    o.method_options.selection.gamma_fraction = config.gamma_fraction;
+    o.method_options.selection.rule = ParseSelectionRule(config.selection);
+    o.method_options.likelihood.variant = ParseLikelihoodVariant(config.likelihood);
+    o.method_options.threshold = MakeThreshold(config.threshold, config.threshold_kind);
+    o.carry_prior = config.carry_prior;
+    o.prior_uniform_fraction = config.prior_uniform_fraction;
+    recognizer_.SetOptions(o);
+    ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
+             o.method.c_str(), o.method_options.selection.gamma_fraction, config.selection.c_str(),
+             config.likelihood.c_str());
+  } catch (const std::exception& e) {
+    ROS_ERROR("bsf_vpr: reconfiguration refused, keeping the previous settings: %s", e.what());
+  }
+  // Report what is in force (the previous values where the request was refused).
+  const RecognizerOptions& now = recognizer_.options();
+  config.method = now.method;
+  config.gamma_fraction = now.method_options.selection.gamma_fraction;
+  config.selection = ToString(now.method_options.selection.rule);
+  config.likelihood = ToString(now.method_options.likelihood.variant);
+  config.threshold = now.method_options.threshold.value;
+  config.threshold_kind = now.method_options.threshold.kind == Threshold::Kind::kProbability
+                              ? "probability"
+                              : "log_odds";
+  config.carry_prior = now.carry_prior;
+  config.prior_uniform_fraction = now.prior_uniform_fraction;
+}
+
+void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
+  const ReferenceMap& map = recognizer_.map();
+  if (rejected_ > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
+                    rejected_, last_rejection_.c_str());
+  } else if (map.num_sets() == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "recognising places");
+  }
+  status.add("input rate (Hz)", processed_ / elapsed);
+  status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
+  status.add("max processing time (ms)", 1e3 * processing_s_max_);
+  status.add("dropped descriptors", rejected_);
+  status.add("method", recognizer_.options().method);
+  status.add("loaded reference sets", map.num_sets());
+  status.add("places", map.num_places());
+  for (const ReferenceSet& s : map.sets()) {
+    const auto it = selected_count_.find(s.name);
+    const long n = it == selected_count_.end() ? 0 : it->second;
+    status.addf("selected: " + s.name, "%.1f%% of %ld queries",
+                total_processed_ ? 100.0 * n / total_processed_ : 0.0, total_processed_);
+  }
+  if (recorder_.recording()) {
+    status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());
+  }
+  processed_ = rejected_ = 0;
+  processing_s_sum_ = processing_s_max_ = 0;
+  last_diagnostics_ = now;
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,83 @@
+// The fusion node: holds the M reference sets in memory, recognises the place of every
+// descriptor that arrives, and publishes the belief, the accepted matches, a tf frame for
+// the matched place, rviz markers and diagnostics. Services list, load and unload reference
+// sets, answer what-if queries, and record a new set from the incoming descriptors.
+//
+// Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
+// Every callback takes mutex_: services and reconfiguration may run while descriptors
+// stream in, from any thread.
+#pragma once
+
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/FusionConfig.h>
+#include <bsf_vpr/ListReferenceSets.h>
+#include <bsf_vpr/LoadReferenceSet.h>
+#include <bsf_vpr/QueryPlace.h>
+#include <bsf_vpr/StartRecording.h>
+#include <bsf_vpr/StopRecording.h>
+#include <bsf_vpr/UnloadReferenceSet.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/reference_recorder.h"
+#include "fusion_params.h"
+
+namespace bsf_vpr {
+
+class FusionNode {
+ public:
+  FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+  // Reads the parameters and loads the configured reference sets, then starts listening.
+  // Throws std::exception with a message naming the problem if the node cannot start.
+  void Start();
+
+ private:
+  void OnDescriptor(const Descriptor::ConstPtr& msg);
+  void Publish(const Descriptor& msg, const Recognition& r);
+  void OnReconfigure(FusionConfig& config, uint32_t level);
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void RejectMessage(const std::string& why);
+
+  bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
+  bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res);
+  bool OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res);
+  bool OnQuery(QueryPlace::Request& req, QueryPlace::Response& res);
+  bool OnStartRecording(StartRecording::Request& req, StartRecording::Response& res);
+  bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res);
+
+  ReferenceSet LoadEntry(const ReferenceSetEntry& entry, const std::string& base_dir) const;
+
+  ros::NodeHandle nh_, pnh_;
+  FusionParams params_;
+  std::mutex mutex_;
+  PlaceRecognizer recognizer_;
+  ReferenceRecorder recorder_;
+
+  ros::Subscriber descriptor_sub_;
+  ros::Publisher belief_pub_, match_pub_, marker_pub_;
+  std::vector<ros::ServiceServer> services_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  // Statistics since the last diagnostics update (guarded by mutex_).
+  int processed_ = 0, rejected_ = 0;
+  double processing_s_sum_ = 0, processing_s_max_ = 0;
+  std::string last_rejection_;
+  std::map<std::string, long> selected_count_;  // per set name, since start
+  long total_processed_ = 0;
+  ros::WallTime last_diagnostics_;
+};
+
+}  // namespace bsf_vpr

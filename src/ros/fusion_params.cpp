@@ -1,0 +1,160 @@
+#include "fusion_params.h"
+
+#include <ros/param.h>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace bsf_vpr {
+namespace {
+
+template <typename T>
+T Get(const ros::NodeHandle& pnh, const std::string& key, const T& fallback) {
+  if (!pnh.hasParam(key)) return fallback;
+  T value;
+  if (!pnh.getParam(key, value)) {
+    throw std::invalid_argument("parameter '" + pnh.resolveName(key) + "' has the wrong type");
+  }
+  return value;
+}
+
+std::string Member(XmlRpc::XmlRpcValue& entry, const char* key, size_t index, bool required) {
+  if (!entry.hasMember(key)) {
+    if (required) {
+      throw std::invalid_argument("reference_sets[" + std::to_string(index) + "] has no '" + key +
+                                  "'");
+    }
+    return "";
+  }
+  if (entry[key].getType() != XmlRpc::XmlRpcValue::TypeString) {
+    throw std::invalid_argument("reference_sets[" + std::to_string(index) + "]." + key +
+                                " must be a string");
+  }
+  return static_cast<std::string>(entry[key]);
+}
+
+std::vector<ReferenceSetEntry> LoadReferenceSetEntries(const ros::NodeHandle& pnh) {
+  std::vector<ReferenceSetEntry> out;
+  if (!pnh.hasParam("reference_sets")) return out;
+  XmlRpc::XmlRpcValue list;
+  pnh.getParam("reference_sets", list);
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    throw std::invalid_argument("reference_sets must be a list of {name, path, condition}");
+  }
+  for (int i = 0; i < list.size(); ++i) {
+    XmlRpc::XmlRpcValue& e = list[i];
+    const size_t idx = static_cast<size_t>(i);
+    if (e.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+      throw std::invalid_argument("reference_sets[" + std::to_string(idx) + "] is not a mapping");
+    }
+    for (auto it = e.begin(); it != e.end(); ++it) {
+      if (it->first != "name" && it->first != "path" && it->first != "condition") {
+        throw std::invalid_argument("reference_sets[" + std::to_string(idx) +
+                                    "] has unknown key '" + it->first +
+                                    "' (expected name, path, condition)");
+      }
+    }
+    out.push_back({Member(e, "name", idx, false), Member(e, "path", idx, true),
+                   Member(e, "condition", idx, false)});
+  }
+  return out;
+}
+
+}  // namespace
+
+const std::vector<std::string>& FusionParamNames() {
+  static const std::vector<std::string> kNames = {"reference_sets",
+                                                  "data_directory",
+                                                  "distance",
+                                                  "method",
+                                                  "gamma_fraction",
+                                                  "selection",
+                                                  "likelihood",
+                                                  "threshold",
+                                                  "threshold_kind",
+                                                  "carry_prior",
+                                                  "prior_uniform_fraction",
+                                                  "top_k",
+                                                  "belief_top_k",
+                                                  "map_frame",
+                                                  "place_frame",
+                                                  "publish_tf",
+                                                  "queue_size",
+                                                  "marker_spacing_m",
+                                                  "diagnostic_period"};
+  return kNames;
+}
+
+void RefuseUnknownParams(const ros::NodeHandle& pnh, const std::vector<std::string>& known) {
+  std::vector<std::string> all;
+  ros::param::getParamNames(all);
+  const std::string prefix = pnh.getNamespace() + "/";
+  std::vector<std::string> unknown;
+  for (const std::string& name : all) {
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string key =
+        name.substr(prefix.size(), name.find('/', prefix.size()) - prefix.size());
+    if (std::find(known.begin(), known.end(), key) == known.end() &&
+        std::find(unknown.begin(), unknown.end(), key) == unknown.end()) {
+      unknown.push_back(key);
+    }
+  }
+  if (!unknown.empty()) {
+    std::string list;
+    for (const std::string& k : unknown) list += (list.empty() ? "" : ", ") + prefix + k;
+    throw std::invalid_argument("unknown parameter(s): " + list);
+  }
+}
+
+Threshold MakeThreshold(double value, const std::string& kind) {
+  Threshold t;
+  if (kind == "probability") {
+    t.kind = Threshold::Kind::kProbability;
+  } else if (kind == "log_odds") {
+    t.kind = Threshold::Kind::kLogOdds;
+  } else {
+    throw std::invalid_argument("threshold_kind must be probability or log_odds, got '" + kind +
+                                "'");
+  }
+  t.value = value;
+  t.Validate();
+  return t;
+}
+
+FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
+  RefuseUnknownParams(pnh, FusionParamNames());
+  FusionParams p;
+  RecognizerOptions& r = p.recognizer;
+  p.reference_sets = LoadReferenceSetEntries(pnh);
+  p.data_directory = Get<std::string>(pnh, "data_directory", "");
+  r.metric = ParseDistanceMetric(Get<std::string>(pnh, "distance", "euclidean"));
+  r.method = Get<std::string>(pnh, "method", r.method);
+  r.method_options.selection.gamma_fraction =
+      Get<double>(pnh, "gamma_fraction", r.method_options.selection.gamma_fraction);
+  r.method_options.selection.rule =
+      ParseSelectionRule(Get<std::string>(pnh, "selection", "relative"));
+  r.method_options.likelihood.variant =
+      ParseLikelihoodVariant(Get<std::string>(pnh, "likelihood", "one_sided"));
+  r.method_options.threshold = MakeThreshold(
+      Get<double>(pnh, "threshold", 0.9), Get<std::string>(pnh, "threshold_kind", "probability"));
+  r.method_options.top_k = Get<int>(pnh, "top_k", r.method_options.top_k);
+  r.carry_prior = Get<bool>(pnh, "carry_prior", r.carry_prior);
+  r.prior_uniform_fraction = Get<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
+  r.Validate();
+  p.belief_top_k = Get<int>(pnh, "belief_top_k", p.belief_top_k);
+  p.map_frame = Get<std::string>(pnh, "map_frame", p.map_frame);
+  p.place_frame = Get<std::string>(pnh, "place_frame", p.place_frame);
+  p.publish_tf = Get<bool>(pnh, "publish_tf", p.publish_tf);
+  p.queue_size = Get<int>(pnh, "queue_size", p.queue_size);
+  p.marker_spacing_m = Get<double>(pnh, "marker_spacing_m", p.marker_spacing_m);
+  if (p.belief_top_k < 0) throw std::invalid_argument("belief_top_k must be >= 0");
+  if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
+  if (!(p.marker_spacing_m > 0)) throw std::invalid_argument("marker_spacing_m must be > 0");
+  if (p.map_frame.empty() || p.place_frame.empty()) {
+    throw std::invalid_argument("map_frame and place_frame must not be empty");
+  }
+  return p;
+}
+
+}  // namespace bsf_vpr

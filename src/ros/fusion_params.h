@@ -1,0 +1,47 @@
+// Parameters of the fusion node, read from its private namespace (config/fusion.yaml
+// documents each one with its default and unit).
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_recognizer.h"
+
+namespace bsf_vpr {
+
+struct ReferenceSetEntry {
+  std::string name;       // required for a .npy; overrides a YAML's name if set
+  std::string path;       // descriptor .npy or reference-set .yaml
+  std::string condition;  // optional
+};
+
+struct FusionParams {
+  RecognizerOptions recognizer;
+  std::vector<ReferenceSetEntry> reference_sets;
+  std::string data_directory;  // services read and write files only below it
+  std::string map_frame = "map";
+  std::string place_frame = "vpr_place";
+  bool publish_tf = true;
+  int belief_top_k = 0;           // 0: the belief message carries every place
+  int queue_size = 100;           // descriptors buffered before the oldest are dropped
+  double marker_spacing_m = 1.0;  // route layout for places without poses
+  // (diagnostic_period, seconds, is read by diagnostic_updater itself.)
+};
+
+// Reads and validates every parameter. Throws std::invalid_argument naming the parameter:
+// a wrong type, a bad value, or a key that is not a parameter of this node (a misspelt
+// parameter would otherwise be silently ignored).
+FusionParams LoadFusionParams(const ros::NodeHandle& pnh);
+
+// The names LoadFusionParams accepts (also the dynamic_reconfigure ones).
+const std::vector<std::string>& FusionParamNames();
+
+// Throws std::invalid_argument listing the keys under `pnh` that are not in `known`.
+void RefuseUnknownParams(const ros::NodeHandle& pnh, const std::vector<std::string>& known);
+
+// Threshold from its two parameters: kind "probability" or "log_odds".
+Threshold MakeThreshold(double value, const std::string& kind);
+
+}  // namespace bsf_vpr

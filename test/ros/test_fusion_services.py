@@ -1,0 +1,208 @@
+#!/usr/bin/python3
+"""rostest: services, recording, bad messages, reconfiguration and tf of the fusion node."""
+import shutil
+import os
+import sys
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+import tf2_ros
+from diagnostic_msgs.msg import DiagnosticArray
+from dynamic_reconfigure.client import Client
+
+from bsf_vpr.msg import Belief, Descriptor, Match
+from bsf_vpr.srv import (ListReferenceSets, LoadReferenceSet, QueryPlace, StartRecording,
+                         StopRecording, UnloadReferenceSet)
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rostest_util import wait_for, write_reference_set  # noqa: E402
+
+NS = "/bsf_vpr/"
+
+
+class FusionServices(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_fusion_services")
+        cls.data_dir = rospy.get_param("~data_dir")
+        shutil.rmtree(cls.data_dir, ignore_errors=True)  # a clean scratch folder per run
+        gp = rospy.get_param("~gardens_point_dir")
+        cls.day = np.load(os.path.join(gp, "day_left.npy"))
+        cls.night = np.load(os.path.join(gp, "night_right.npy"))
+        # The day traversal with poses 1 m apart along x, and a set of the wrong dimension.
+        write_reference_set(cls.data_dir, "day", cls.day,
+                            poses=[(float(i), 0.0, 0.0, 0.0) for i in range(len(cls.day))])
+        write_reference_set(cls.data_dir, "short", np.ones((10, 5), np.float32))
+        cls.beliefs, cls.matches, cls.diagnostics = [], [], []
+        rospy.Subscriber(NS + "belief", Belief, cls.beliefs.append)
+        rospy.Subscriber(NS + "match", Match, cls.matches.append)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append)
+        cls.raw = rospy.Publisher(NS + "descriptor", Descriptor, queue_size=100)  # into fusion
+        cls.external = rospy.Publisher("/vpr/descriptor", Descriptor, queue_size=100)  # into ingest
+        for srv in ["list_reference_sets", "load_reference_set", "unload_reference_set",
+                    "query_place", "start_recording", "stop_recording"]:
+            rospy.wait_for_service(NS + srv, timeout=60)
+        cls.list = rospy.ServiceProxy(NS + "list_reference_sets", ListReferenceSets)
+        cls.load = rospy.ServiceProxy(NS + "load_reference_set", LoadReferenceSet)
+        cls.unload = rospy.ServiceProxy(NS + "unload_reference_set", UnloadReferenceSet)
+        cls.query = rospy.ServiceProxy(NS + "query_place", QueryPlace)
+        cls.start = rospy.ServiceProxy(NS + "start_recording", StartRecording)
+        cls.stop = rospy.ServiceProxy(NS + "stop_recording", StopRecording)
+        wait_for(lambda: cls.raw.get_num_connections() > 0, 30, "fusion to subscribe")
+        wait_for(lambda: cls.external.get_num_connections() > 0, 30, "ingest to subscribe")
+        cls.stamp = 0
+
+    def names(self):
+        return [s.name for s in self.list().sets]
+
+    def send(self, vector, publisher=None):
+        """Publishes one descriptor with a fresh stamp; returns the stamp."""
+        FusionServices.stamp += 1
+        msg = Descriptor()
+        msg.header.stamp = rospy.Time(FusionServices.stamp)
+        msg.data = list(map(float, vector))
+        (publisher or self.raw).publish(msg)
+        return msg.header.stamp
+
+    def belief_for(self, stamp):
+        wait_for(lambda: any(b.header.stamp == stamp for b in self.beliefs), 20, "a belief")
+        return [b for b in self.beliefs if b.header.stamp == stamp][0]
+
+    def ensure_day_loaded(self):
+        if "day" not in self.names():
+            r = self.load(path="day.yaml", name="", condition="")
+            self.assertTrue(r.success, r.message)
+
+    def test_load_list_query_unload(self):
+        self.ensure_day_loaded()
+        info = [s for s in self.list().sets if s.name == "day"][0]
+        self.assertEqual(info.num_places, 200)
+        self.assertEqual(info.dimension, 4096)
+        self.assertGreaterEqual(info.memory_bytes, 200 * 4096 * 4)
+        d = Descriptor()
+        d.data = list(map(float, self.night[17]))
+        r = self.query(descriptor=d)
+        self.assertTrue(r.success, r.message)
+        self.assertLessEqual(abs(r.belief.match - 17), 8)
+        self.assertAlmostEqual(sum(r.belief.posterior), 1.0, places=3)
+        r = self.load(path="day.npy", name="day_again", condition="test")
+        self.assertTrue(r.success, r.message)
+        self.assertIn("day_again", self.names())
+        r = self.unload(name="day_again")
+        self.assertTrue(r.success, r.message)
+        self.assertNotIn("day_again", self.names())
+
+    def test_failures_leave_the_sets_unchanged(self):
+        self.ensure_day_loaded()
+        before = self.names()
+        cases = [
+            (dict(path="missing.yaml", name="", condition=""), "missing.yaml"),
+            (dict(path="short.yaml", name="", condition=""), "dimension 5"),
+            (dict(path="day.yaml", name="", condition=""), "already loaded"),
+            (dict(path="../outside.yaml", name="", condition=""), "outside the data directory"),
+            (dict(path="/etc/hostname", name="x", condition=""), "outside the data directory"),
+        ]
+        for request, fragment in cases:
+            r = self.load(**request)
+            self.assertFalse(r.success, request)
+            self.assertIn(fragment, r.message)
+            self.assertEqual(self.names(), before)
+        r = self.unload(name="no_such_set")
+        self.assertFalse(r.success)
+        self.assertIn("no_such_set", r.message)
+        bad = Descriptor()
+        bad.data = [1.0, 2.0]
+        r = self.query(descriptor=bad)
+        self.assertFalse(r.success)
+        self.assertIn("dimension 2", r.message)
+        self.assertEqual(self.names(), before)
+
+    def test_bad_messages_are_dropped_and_the_next_is_processed(self):
+        self.ensure_day_loaded()
+        n_diag = len(self.diagnostics)
+        for data in ([], [1.0] * 7, [float("nan")] * 4096):
+            self.send(data)
+        good = self.send(self.night[40])
+        self.assertLessEqual(abs(self.belief_for(good).match - 40), 8)
+        bad_stamps = range(good.secs - 3, good.secs)
+        self.assertFalse(any(b.header.stamp.secs in bad_stamps for b in self.beliefs))
+
+        def fusion_warned():
+            for array in self.diagnostics[n_diag:]:
+                for s in array.status:
+                    if "fusion" in s.name and s.level == 1 and "dropped" in s.message:
+                        return True
+            return False
+        wait_for(fusion_warned, 20, "a diagnostics warning about dropped descriptors")
+        # The ingest node drops them too, and passes the good one on.
+        for data in ([], [float("inf")] * 4096):
+            self.send(data, self.external)
+        good = self.send(self.night[41], self.external)
+        self.assertLessEqual(abs(self.belief_for(good).match - 41), 8)
+
+    def test_reconfigure_changes_the_belief(self):
+        self.ensure_day_loaded()
+        client = Client(NS + "fusion", timeout=30)
+        try:
+            client.update_configuration({"method": "nn:day", "gamma_fraction": 0.2})
+            b = self.belief_for(self.send(self.night[60]))
+            self.assertEqual(b.method, "nn:day")
+            self.assertAlmostEqual(b.gamma, 0.2)
+            self.assertEqual(len(b.posterior), 0)  # a distance method has no posterior
+            config = client.update_configuration({"method": "nn:unknown"})
+            self.assertEqual(config["method"], "nn:day")  # refused, previous kept
+        finally:
+            client.update_configuration({"method": "bsf", "gamma_fraction": 0.04})
+        b = self.belief_for(self.send(self.night[60]))
+        self.assertEqual(b.method, "bsf")
+        self.assertEqual(len(b.posterior), 200)
+
+    def test_tf_frame_for_an_accepted_match_with_a_pose(self):
+        self.ensure_day_loaded()
+        buffer = tf2_ros.Buffer()
+        tf2_ros.TransformListener(buffer)
+        n = len(self.matches)
+        stamps = [self.send(self.night[i]) for i in range(100, 140)]
+        self.belief_for(stamps[-1])
+        wait_for(lambda: len(self.matches) > n, 20, "an accepted match")
+        m = self.matches[n]
+        self.assertTrue(m.has_pose)
+        self.assertEqual(m.reference_set, "day")
+        self.assertAlmostEqual(m.pose.position.x, float(m.place_id))
+        wait_for(lambda: buffer.can_transform("map", "vpr_place", rospy.Time(0)), 20,
+                 "the map -> vpr_place transform")
+        t = buffer.lookup_transform("map", "vpr_place", rospy.Time(0))
+        self.assertTrue(any(abs(t.transform.translation.x - mm.place_id) < 1e-6
+                            for mm in self.matches[n:]))
+
+    def test_recording_a_new_reference_set(self):
+        self.ensure_day_loaded()
+        r = self.stop(discard=False)
+        self.assertFalse(r.success)
+        self.assertIn("no recording", r.message)
+        self.assertFalse(self.start(name="day", condition="").success)  # name taken
+        self.assertFalse(self.start(name="../escape", condition="").success)
+        r = self.start(name="tonight", condition="night")
+        self.assertTrue(r.success, r.message)
+        r = self.stop(discard=False)  # nothing arrived yet
+        self.assertFalse(r.success)
+        self.assertIn("no descriptor", r.message)
+        stamps = [self.send(self.night[i]) for i in range(30)]
+        self.belief_for(stamps[-1])  # processed in order: all 30 were recorded
+        r = self.stop(discard=False)
+        self.assertTrue(r.success, r.message)
+        self.assertEqual(r.num_descriptors, 30)
+        self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.yaml")))
+        self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.npy")))
+        saved = np.load(os.path.join(self.data_dir, "tonight.npy"))
+        np.testing.assert_allclose(saved, self.night[:30], rtol=1e-6)
+        info = [s for s in self.list().sets if s.name == "tonight"][0]
+        self.assertEqual(info.condition, "night")
+        self.assertEqual(info.num_places, 30)
+        self.assertTrue(self.unload(name="tonight").success)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bsf_vpr", "test_fusion_services", FusionServices)

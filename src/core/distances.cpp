@@ -1,6 +1,7 @@
 #include "bsf_vpr/core/distances.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace bsf_vpr {
@@ -35,24 +36,57 @@ void CheckQueries(const RowMatrixXf& queries, const ReferenceSet& set) {
 
 }  // namespace
 
+namespace {
+
+// Inner product with a fixed summation order: eight interleaved partial sums (which the
+// compiler maps onto vector lanes), combined in a fixed tree. A query's distances are thus
+// bitwise the same whether it is computed alone (online) or in a batch (offline), which a
+// matrix-product library does not promise (GEMV and GEMM sum in different orders).
+float FixedOrderDot(const float* a, const float* b, int n) {
+  float acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    for (int k = 0; k < 8; ++k) acc[k] += a[i + k] * b[i + k];
+  }
+  float tail = 0;
+  for (; i < n; ++i) tail += a[i] * b[i];
+  return (((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]))) + tail;
+}
+
+}  // namespace
+
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set) {
   CheckQueries(queries, set);
   const RowMatrixXf& refs = set.descriptors;
-  RowMatrixXf out = queries * refs.transpose();  // Q x N_u inner products
-  if (metric == DistanceMetric::kEuclidean) {
-    const Eigen::VectorXf qn = queries.rowwise().squaredNorm();
-    const Eigen::RowVectorXf rn = refs.rowwise().squaredNorm().transpose();
-    for (Eigen::Index q = 0; q < out.rows(); ++q) {
-      out.row(q) = ((-2.0f * out.row(q) + rn).array() + qn(q)).max(0.0f).sqrt().matrix();
+  const int d = static_cast<int>(refs.cols());
+  const Eigen::Index nq = queries.rows(), nr = refs.rows();
+  Eigen::VectorXf qn(nq), rn(nr);  // squared norms
+  for (Eigen::Index q = 0; q < nq; ++q)
+    qn(q) = FixedOrderDot(queries.row(q).data(), queries.row(q).data(), d);
+  for (Eigen::Index r = 0; r < nr; ++r)
+    rn(r) = FixedOrderDot(refs.row(r).data(), refs.row(r).data(), d);
+  RowMatrixXf out(nq, nr);
+  // Blocks of queries share each reference row while it is in cache.
+  constexpr Eigen::Index kBlock = 16;
+  for (Eigen::Index q0 = 0; q0 < nq; q0 += kBlock) {
+    const Eigen::Index q1 = std::min(nq, q0 + kBlock);
+    for (Eigen::Index r = 0; r < nr; ++r) {
+      const float* ref = refs.row(r).data();
+      for (Eigen::Index q = q0; q < q1; ++q) {
+        out(q, r) = FixedOrderDot(queries.row(q).data(), ref, d);
+      }
     }
-  } else {
-    const Eigen::VectorXf qn = queries.rowwise().norm();
-    const Eigen::RowVectorXf rn = refs.rowwise().norm().transpose();
-    const Eigen::RowVectorXf r_inv = (rn.array() > 0).select(rn.array().inverse(), 0.0f);
-    for (Eigen::Index q = 0; q < out.rows(); ++q) {
-      const float q_inv = qn(q) > 0 ? 1.0f / qn(q) : 0.0f;
-      out.row(q) = (1.0f - (out.row(q).array() * r_inv.array() * q_inv)).max(0.0f).matrix();
+  }
+  for (Eigen::Index q = 0; q < nq; ++q) {
+    for (Eigen::Index r = 0; r < nr; ++r) {
+      const float dot = out(q, r);
+      if (metric == DistanceMetric::kEuclidean) {
+        out(q, r) = std::sqrt(std::max(qn(q) + rn(r) - 2.0f * dot, 0.0f));
+      } else {
+        const float denom = std::sqrt(qn(q)) * std::sqrt(rn(r));
+        out(q, r) = denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
+      }
     }
   }
   return out;

@@ -10,6 +10,7 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   const ReferenceMap& map = recognizer.map();
   out->method = recognizer.options().method;
   out->gamma = recognizer.options().method_options.selection.gamma_fraction;
+  out->num_places = map.num_places();
   out->place_ids.clear();
   out->posterior.clear();
   if (b.log_posterior.size() > 0) {

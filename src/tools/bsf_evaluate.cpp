@@ -4,13 +4,61 @@
 #include <cstdio>
 #include <iostream>
 
+#include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/results_io.h"
 #include "evaluate_args.h"
 #include "evaluate_inputs.h"
+#include "evaluate_results_bag.h"
 
 namespace {
 
 constexpr int kExitBadInput = 2;
+
+void Report(const std::vector<bsf_vpr::MethodResults>& results, const std::string& out_dir) {
+  std::cout << bsf_vpr::FormatSummaryTable(results);
+  if (!out_dir.empty()) {
+    bsf_vpr::WriteEvaluationOutputs(out_dir, results);
+    std::cout << "bsf_evaluate: wrote " << out_dir << "/summary.csv and " << out_dir
+              << "/matches/\n";
+  }
+}
+
+// Scores the beliefs recorded during a replay exactly as the offline mode scores a method.
+int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
+  using namespace bsf_vpr;
+  tools::ResultsBag bag =
+      tools::ReadResultsBag(args.results_bag, args.belief_topic, args.truth_topic);
+  const int q = static_cast<int>(bag.outcomes.size());
+  GroundTruth truth;
+  if (args.tolerance_frames >= 0) {
+    truth = GroundTruth::FromFrameTolerance(q, bag.num_places, args.tolerance_frames);
+  } else if (!args.ground_truth.empty()) {
+    truth = ReadGroundTruthCsv(args.ground_truth, q, bag.num_places);
+  } else if (bag.truth) {
+    truth = *bag.truth;
+  } else {
+    throw std::invalid_argument("no ground truth: give --tolerance or --ground-truth, or record " +
+                                args.truth_topic + " in the results bag");
+  }
+  MethodResults r;
+  r.method = ParseMethod(bag.method, bag.set_names);
+  r.outcomes = std::move(bag.outcomes);
+  std::vector<int> matches;
+  std::vector<double> confidence;
+  std::vector<std::vector<int>> ranked;
+  for (const QueryOutcome& o : r.outcomes) {
+    matches.push_back(o.match);
+    confidence.push_back(o.confidence);
+    ranked.push_back(o.top_places);
+  }
+  r.metrics = ComputeMetrics(matches, confidence, ranked, truth);
+  std::cout << "bsf_evaluate: results bag " << args.results_bag << ": " << q << " queries, method "
+            << bag.method;
+  if (bag.missing > 0) std::cout << ", " << bag.missing << " without a belief (counted as wrong)";
+  std::cout << std::endl;
+  Report({r}, args.out_dir);
+  return 0;
+}
 
 int Run(int argc, char** argv) {
   using namespace bsf_vpr;
@@ -19,6 +67,7 @@ int Run(int argc, char** argv) {
     std::cout << tools::kEvaluateUsage;
     return 0;
   }
+  if (!args.results_bag.empty()) return RunResultsBag(args);
   const auto data = tools::LoadEvaluationData(args);
   const std::vector<Method> methods = ParseMethodList(args.methods, data->input.set_names);
   std::cout << "bsf_evaluate: " << data->description << std::endl;
@@ -37,12 +86,7 @@ int Run(int argc, char** argv) {
   }
   const std::vector<MethodResults> results =
       EvaluateMethods(data->input, methods, args.options, data->truth, progress);
-  std::cout << FormatSummaryTable(results);
-  if (!args.out_dir.empty()) {
-    WriteEvaluationOutputs(args.out_dir, results);
-    std::cout << "bsf_evaluate: wrote " << args.out_dir << "/summary.csv and " << args.out_dir
-              << "/matches/\n";
-  }
+  Report(results, args.out_dir);
   return 0;
 }
 

@@ -20,6 +20,12 @@ Inputs (either descriptors, or precomputed per-source matrices):
   --similarities NAME=PATH  the same with similarities (higher is better); they become
                           distances c - s with c = max(1, largest similarity of all sources)
   --distance euclidean|cosine   distance between descriptors (default euclidean)
+  --results-bag PATH      instead: the beliefs a node published during a replay (recorded by
+                          launch/replay.launch), scored exactly as offline for the method the
+                          node ran; ground truth from --tolerance/--ground-truth or, if
+                          neither is given, the bsf_vpr/QueryGroundTruth recorded in the bag
+  --belief-topic T, --truth-topic T   topics in the results bag (default /bsf_vpr/belief,
+                          /vpr/ground_truth)
 
 Ground truth (one of):
   --tolerance K           query q shows place q; a match within K places is correct
@@ -104,6 +110,12 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.distances.push_back(ParseNamedPath(flag, value));
     } else if (flag == "--similarities") {
       a.similarities.push_back(ParseNamedPath(flag, value));
+    } else if (flag == "--results-bag") {
+      a.results_bag = value;
+    } else if (flag == "--belief-topic") {
+      a.belief_topic = value;
+    } else if (flag == "--truth-topic") {
+      a.truth_topic = value;
     } else if (flag == "--distance") {
       a.metric = ParseDistanceMetric(value);
     } else if (flag == "--tolerance") {
@@ -143,14 +155,26 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
 void CheckCombination(const EvaluateArgs& a) {
   const bool descriptor_mode = !a.references.empty() || !a.query.empty();
   const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
+  if (!a.results_bag.empty()) {
+    if (descriptor_mode || matrix_mode) {
+      throw std::invalid_argument("--results-bag goes without --reference/--query/--distances");
+    }
+    if (a.tolerance_m >= 0)
+      throw std::invalid_argument("--tolerance-m is not available with --results-bag");
+    if (a.tolerance_frames >= 0 && !a.ground_truth.empty()) {
+      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth CSV");
+    }
+    a.options.Validate();
+    return;
+  }
   if (descriptor_mode && matrix_mode) {
     throw std::invalid_argument(
         "give either --reference/--query or --distances/--similarities, not both");
   }
   if (!descriptor_mode && !matrix_mode) {
     throw std::invalid_argument(
-        "no input: give --reference NAME=PATH and --query PATH, or "
-        "--distances NAME=PATH");
+        "no input: give --reference NAME=PATH and --query PATH, "
+        "--distances NAME=PATH, or --results-bag PATH");
   }
   if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
   if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");

@@ -22,6 +22,9 @@ struct EvaluateArgs {
   std::string query;                    // --query PATH
   std::vector<NamedPath> distances;     // --distances NAME=PATH
   std::vector<NamedPath> similarities;  // --similarities NAME=PATH
+  std::string results_bag;              // --results-bag PATH
+  std::string belief_topic = "/bsf_vpr/belief";
+  std::string truth_topic = "/vpr/ground_truth";
   DistanceMetric metric = DistanceMetric::kEuclidean;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)

@@ -20,6 +20,20 @@ TEST(Distances, EuclideanMatchesNaiveLoopAndIsNotSquared) {
   }
 }
 
+TEST(Distances, AQueryAloneGetsBitwiseTheSameDistancesAsInABatch) {
+  // Online (one query) and offline (batched) evaluation must agree exactly, so that a replay
+  // reproduces the offline matches. Odd dimension: rows start at varying alignments.
+  const RowMatrixXf q = testing::RandomMatrix(37, 1001, 11);
+  const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(53, 1001, 12));
+  for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+    const RowMatrixXf batch = ComputeDistances(m, q, set);
+    for (int i = 0; i < q.rows(); ++i) {
+      const RowMatrixXf one = ComputeDistances(m, RowMatrixXf(q.row(i)), set);
+      for (int j = 0; j < set.size(); ++j) ASSERT_EQ(one(0, j), batch(i, j)) << i << "," << j;
+    }
+  }
+}
+
 TEST(Distances, EuclideanOfIdenticalVectorsIsZeroNotNaN) {
   const RowMatrixXf r = testing::RandomMatrix(5, 16, 3, 100.0f);
   const RowMatrixXf d = ComputeDistances(DistanceMetric::kEuclidean, r, MakeReferenceSet("a", r));

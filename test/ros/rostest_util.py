@@ -15,7 +15,7 @@ def wait_for(condition, timeout_s, what):
             raise AssertionError("timed out after %.0f s waiting for %s" % (timeout_s, what))
         if rospy.is_shutdown():
             raise AssertionError("ROS shut down while waiting for %s" % what)
-        time.sleep(0.01)
+        time.sleep(0.002)
 
 
 def write_reference_set(directory, name, descriptors, distance="cosine", poses=None):

@@ -1,0 +1,230 @@
+// bsf_make_bag: turns an image folder or a descriptor .npy (plus optional ground truth and
+// query poses) into a bag that replays a traversal (see --help).
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/QueryGroundTruth.h>
+#include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "bsf_vpr/core/evaluation.h"
+#include "bsf_vpr/core/ground_truth_io.h"
+#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/npy.h"
+
+namespace {
+
+const char kUsage[] =
+    R"(usage: bsf_make_bag (--images DIR | --descriptors PATH.npy) --out BAG [options]
+
+Writes one message per query at a fixed rate, so that a traversal can be replayed with
+`rosbag play --clock` (or launch/replay.launch):
+  --images DIR           images (sorted by name) as sensor_msgs/Image (bgr8) on --topic
+                         (default /camera/image_raw)
+  --descriptors PATH     rows of a Q x D .npy as bsf_vpr/Descriptor on --topic
+                         (default /vpr/descriptor)
+  --out BAG              the bag to write (written to a temporary name, then renamed)
+  --rate HZ              messages per second (default 10)
+  --ground-truth CSV     correct places per query ('query,place place ...'), written as
+                         bsf_vpr/QueryGroundTruth on /vpr/ground_truth with each query's stamp
+  --tolerance K          instead: query q is correct at places q-K .. q+K (frame-aligned)
+  --num-places N         with --tolerance: size of the place index (default: Q)
+  --poses CSV            query poses 'query,x,y,z,yaw' (metres, radians), written as
+                         geometry_msgs/PoseStamped on /vpr/query_pose in --frame (default map)
+  --topic NAME           topic of the images or descriptors
+  --limit N              only the first N queries
+  -h, --help             this help
+Exit status 2 with one line naming the problem on bad arguments or input.
+)";
+
+constexpr double kStartTime = 1000.0;  // seconds: a fixed, non-zero stamp of the first query
+
+struct Args {
+  std::string images, descriptors, out, ground_truth, poses, topic, frame = "map";
+  double rate_hz = 10;
+  int tolerance = -1, num_places = 0, limit = 0;
+};
+
+double Number(const std::string& flag, const std::string& v) {
+  size_t used = 0;
+  double x = 0;
+  try {
+    x = std::stod(v, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != v.size() || !std::isfinite(x)) {
+    throw std::invalid_argument(flag + " expects a number, got '" + v + "'");
+  }
+  return x;
+}
+
+Args Parse(int argc, char** argv, bool* help) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string f = argv[i];
+    if (f == "-h" || f == "--help") {
+      *help = true;
+      return a;
+    }
+    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
+    const std::string v = argv[++i];
+    if (f == "--images")
+      a.images = v;
+    else if (f == "--descriptors")
+      a.descriptors = v;
+    else if (f == "--out")
+      a.out = v;
+    else if (f == "--rate")
+      a.rate_hz = Number(f, v);
+    else if (f == "--ground-truth")
+      a.ground_truth = v;
+    else if (f == "--tolerance")
+      a.tolerance = static_cast<int>(Number(f, v));
+    else if (f == "--num-places")
+      a.num_places = static_cast<int>(Number(f, v));
+    else if (f == "--poses")
+      a.poses = v;
+    else if (f == "--topic")
+      a.topic = v;
+    else if (f == "--frame")
+      a.frame = v;
+    else if (f == "--limit")
+      a.limit = static_cast<int>(Number(f, v));
+    else
+      throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+  }
+  if (a.images.empty() == a.descriptors.empty()) {
+    throw std::invalid_argument("give exactly one of --images DIR and --descriptors PATH.npy");
+  }
+  if (a.out.empty()) throw std::invalid_argument("no --out BAG given");
+  if (!(a.rate_hz > 0)) throw std::invalid_argument("--rate must be > 0");
+  if (!a.ground_truth.empty() && a.tolerance >= 0) {
+    throw std::invalid_argument("give at most one of --ground-truth and --tolerance");
+  }
+  if (a.limit < 0 || a.num_places < 0)
+    throw std::invalid_argument("--limit and --num-places must be >= 0");
+  if (a.topic.empty()) a.topic = a.images.empty() ? "/vpr/descriptor" : "/camera/image_raw";
+  return a;
+}
+
+// 'query,x,y,z,yaw' rows; returns poses indexed by query (missing rows: none).
+std::vector<std::optional<bsf_vpr::PlacePose>> ReadPoses(const std::string& path, int queries) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read poses '" + path + "'");
+  std::vector<std::optional<bsf_vpr::PlacePose>> poses(static_cast<size_t>(queries));
+  std::string line;
+  for (int line_no = 1; std::getline(in, line); ++line_no) {
+    if (line.empty() || (line_no == 1 && line.rfind("query", 0) == 0)) continue;
+    std::stringstream ss(line);
+    std::string cell;
+    std::vector<double> v;
+    while (std::getline(ss, cell, ','))
+      v.push_back(Number("poses '" + path + "' line " + std::to_string(line_no), cell));
+    if (v.size() != 5 || v[0] < 0 || v[0] >= queries || v[0] != std::floor(v[0])) {
+      throw std::runtime_error("poses '" + path + "' line " + std::to_string(line_no) +
+                               ": expected 'query,x,y,z,yaw' with a query in 0.." +
+                               std::to_string(queries - 1));
+    }
+    poses[static_cast<size_t>(v[0])] = bsf_vpr::PlacePose{v[1], v[2], v[3], v[4]};
+  }
+  return poses;
+}
+
+int Run(int argc, char** argv) {
+  using namespace bsf_vpr;
+  bool help = false;
+  const Args a = Parse(argc, argv, &help);
+  if (help) {
+    std::cout << kUsage;
+    return 0;
+  }
+  std::vector<std::string> files;
+  RowMatrixXf descriptors;
+  if (!a.images.empty()) {
+    files = ListImageFiles(a.images);
+  } else {
+    descriptors = ReadNpyMatrix(a.descriptors);
+    if (!descriptors.allFinite())
+      throw std::invalid_argument("'" + a.descriptors + "' holds NaN or infinity");
+  }
+  int q = static_cast<int>(a.images.empty() ? descriptors.rows()
+                                            : static_cast<Eigen::Index>(files.size()));
+  if (a.limit > 0) q = std::min(q, a.limit);
+  std::optional<GroundTruth> truth;
+  if (!a.ground_truth.empty())
+    truth = ReadGroundTruthCsv(a.ground_truth, q, a.num_places > 0 ? a.num_places : 1 << 30);
+  if (a.tolerance >= 0)
+    truth = GroundTruth::FromFrameTolerance(q, a.num_places > 0 ? a.num_places : q, a.tolerance);
+  const auto poses =
+      a.poses.empty() ? std::vector<std::optional<PlacePose>>() : ReadPoses(a.poses, q);
+
+  const std::string tmp = a.out + ".tmp";
+  try {
+    rosbag::Bag bag(tmp, rosbag::bagmode::Write);
+    for (int k = 0; k < q; ++k) {
+      std_msgs::Header header;
+      header.stamp = ros::Time(kStartTime + k / a.rate_hz);
+      header.frame_id = "camera";
+      if (!a.images.empty()) {
+        const cv::Mat img = cv::imread(files[static_cast<size_t>(k)], cv::IMREAD_COLOR);
+        if (img.empty())
+          throw std::runtime_error("cannot decode image '" + files[static_cast<size_t>(k)] + "'");
+        bag.write(a.topic, header.stamp,
+                  cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, img).toImageMsg());
+      } else {
+        Descriptor d;
+        d.header = header;
+        d.data.assign(descriptors.row(k).data(), descriptors.row(k).data() + descriptors.cols());
+        bag.write(a.topic, header.stamp, d);
+      }
+      if (truth) {
+        QueryGroundTruth g;
+        g.header = header;
+        g.query_index = k;
+        g.correct_places = truth->CorrectPlaces(k);
+        bag.write("/vpr/ground_truth", header.stamp, g);
+      }
+      if (!poses.empty() && poses[static_cast<size_t>(k)]) {
+        const PlacePose& p = *poses[static_cast<size_t>(k)];
+        geometry_msgs::PoseStamped ps;
+        ps.header = header;
+        ps.header.frame_id = a.frame;
+        ps.pose.position.x = p.x_m;
+        ps.pose.position.y = p.y_m;
+        ps.pose.position.z = p.z_m;
+        ps.pose.orientation.z = std::sin(p.yaw_rad / 2);
+        ps.pose.orientation.w = std::cos(p.yaw_rad / 2);
+        bag.write("/vpr/query_pose", header.stamp, ps);
+      }
+    }
+    bag.close();
+    std::filesystem::rename(tmp, a.out);
+  } catch (...) {
+    std::remove(tmp.c_str());  // never leave half a bag behind
+    throw;
+  }
+  std::cout << "bsf_make_bag: wrote " << q << " queries at " << a.rate_hz << " Hz to " << a.out
+            << " (" << a.topic << (truth ? ", /vpr/ground_truth" : "")
+            << (poses.empty() ? "" : ", /vpr/query_pose") << ")\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "bsf_make_bag: error: " << e.what() << '\n';
+    return 2;
+  }
+}

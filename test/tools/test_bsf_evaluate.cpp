@@ -229,6 +229,57 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
   EXPECT_EQ(Evaluate("--help").exit_code, 0);
 }
 
+TEST_F(EvaluateTool, MakeReferenceAndMakeBagWriteFilesOrFailCleanly) {
+  const std::string mk_ref = BSF_MAKE_REFERENCE_PATH, mk_bag = BSF_MAKE_BAG_PATH;
+  EXPECT_EQ(RunCommand(mk_ref + " --help").exit_code, 0);
+  EXPECT_EQ(RunCommand(mk_bag + " --help").exit_code, 0);
+  const Result ref =
+      RunCommand(mk_ref + " --descriptors " + kGardens + "day_left.npy --name day " +
+                 "--condition day --distance cosine --out " + dir_ + "/sets/day.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  const ReferenceSet day = LoadReferenceSetFile(dir_ + "/sets/day.yaml", "");
+  EXPECT_EQ(day.size(), 200);
+  EXPECT_EQ(day.condition, "day");
+  EXPECT_EQ(day.distance, "cosine");
+  const Result bag = RunCommand(mk_bag + " --descriptors " + kGardens + "night_right.npy " +
+                                "--tolerance 8 --rate 20 --limit 50 --out " + dir_ + "/night.bag");
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  EXPECT_NE(bag.output.find("50 queries"), std::string::npos) << bag.output;
+  EXPECT_TRUE(fs::exists(dir_ + "/night.bag"));
+  // A bag of queries holds no beliefs: the results-bag mode says so.
+  const Result no_beliefs = Evaluate("--results-bag " + dir_ + "/night.bag --tolerance 2");
+  EXPECT_EQ(no_beliefs.exit_code, 2);
+  EXPECT_NE(no_beliefs.output.find("no bsf_vpr/Belief"), std::string::npos) << no_beliefs.output;
+
+  std::ofstream(dir_ + "/poses.csv") << "query,x,y,z,yaw\n0,1,2,3\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {mk_ref + " --images " + dir_ + " --name x --out " + dir_ + "/x.yaml", "no image files"},
+      {mk_ref + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/x.yaml", "--name"},
+      {mk_ref + " --descriptors " + kGardens + "day_left.npy --name x --out " + dir_ + "/x.npy",
+       ".yaml"},
+      {mk_ref + " --images a --descriptors b --name x --out x.yaml", "exactly one"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy", "--out"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/b.bag --rate 0",
+       "--rate"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/b.bag --poses " +
+           dir_ + "/poses.csv",
+       "query,x,y,z,yaw"},
+      {mk_bag + " --images /nonexistent --out " + dir_ + "/b.bag", "/nonexistent"},
+      {std::string(BSF_EVALUATE_PATH) + " --results-bag /nonexistent.bag",
+       "cannot read results bag"},
+      {std::string(BSF_EVALUATE_PATH) + " --results-bag x.bag --reference a=" + kGardens +
+           "day_left.npy",
+       "--results-bag goes without"},
+  };
+  for (const auto& [command, fragment] : cases) {
+    const Result r = RunCommand(command);
+    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << command << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/b.bag"));  // nothing half-written is left behind
+  EXPECT_FALSE(fs::exists(dir_ + "/b.bag.tmp"));
+}
+
 TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {
   // Real shipped data: 1500 summer queries against the winter reference (images).
   const std::string root = kSource + "/data/nordland_64x32/";

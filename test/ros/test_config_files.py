@@ -1,0 +1,105 @@
+#!/usr/bin/python3
+"""rostest: the shipped config, launch and rviz files."""
+import glob
+import os
+import subprocess
+import sys
+import unittest
+
+import roslaunch.config
+import roslaunch.xmlloader
+import rosgraph
+import rospy
+import rostest
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rostest_util import wait_for  # noqa: E402
+
+from bsf_vpr.srv import ListReferenceSets  # noqa: E402
+
+
+class ConfigFiles(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_config_files")
+        cls.pkg = rospy.get_param("~package_dir")
+        cls.fixture = rospy.get_param("~fixture")
+
+    def list_sets(self, ns):
+        rospy.wait_for_service(ns + "/list_reference_sets", timeout=60)
+        return rospy.ServiceProxy(ns + "/list_reference_sets", ListReferenceSets)()
+
+    def test_every_fusion_config_starts_the_node(self):
+        self.assertEqual(self.list_sets("/cfg_default").sets, [])
+        self.assertEqual(self.list_sets("/cfg_cosine").sets, [])
+        gp = self.list_sets("/cfg_gardens_point")
+        self.assertEqual([s.name for s in gp.sets], ["day_left"])
+        self.assertEqual(gp.num_places, 200)
+        nl = self.list_sets("/cfg_nordland")
+        self.assertEqual([s.name for s in nl.sets], ["winter"])
+        self.assertEqual(rospy.get_param("/cfg_cosine/fusion/distance"), "cosine")
+        # Every documented key of the shipped defaults is a parameter the node knows: it
+        # would have refused to start otherwise. Check the file lists them all.
+        with open(os.path.join(self.pkg, "config", "fusion.yaml")) as f:
+            keys = set(yaml.safe_load(f))
+        self.assertIn("gamma_fraction", keys)
+        self.assertIn("reference_sets", keys)
+
+    def test_ingest_config_starts_the_node(self):
+        master = rosgraph.Master("/test_config_files")
+        wait_for(lambda: any(n == "/cfg_ingest/descriptor_ingest"
+                             for n in master.getSystemState()[0][0][1] +
+                             sum((p[1] for p in master.getSystemState()[0]), [])),
+                 60, "descriptor_ingest to advertise its output")
+        self.assertEqual(rospy.get_param("/cfg_ingest/descriptor_ingest/patch_size_px"), 8)
+
+    @staticmethod
+    def load_launch(path, args):
+        config = roslaunch.config.ROSLaunchConfig()
+        loader = roslaunch.xmlloader.XmlLoader(resolve_anon=False)
+        loader.load(path, config, argv=["roslaunch"] + ["%s:=%s" % kv for kv in args.items()],
+                    verbose=False)
+        return config
+
+    def test_every_launch_file_parses(self):
+        launches = sorted(glob.glob(os.path.join(self.pkg, "launch", "*.launch")))
+        self.assertGreaterEqual(len(launches), 2)
+        for path in launches:
+            args = {"bag": "/tmp/none.bag"} if path.endswith("replay.launch") else {}
+            config = self.load_launch(path, args)
+            names = {n.name for n in config.nodes}
+            self.assertIn("fusion", names, path)
+            self.assertIn("descriptor_ingest", names, path)
+        for use_nodelets in ("true", "false"):
+            config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
+                                      {"use_nodelets": use_nodelets})
+            types = {n.type for n in config.nodes}
+            self.assertEqual("nodelet" in types, use_nodelets == "true")
+
+    def test_rviz_file_shows_the_published_topics(self):
+        with open(os.path.join(self.pkg, "rviz", "bsf_vpr.rviz")) as f:
+            rviz = yaml.safe_load(f)
+        displays = rviz["Visualization Manager"]["Displays"]
+        topics = [d.get("Marker Topic") for d in displays]
+        self.assertIn("/bsf_vpr/belief_markers", topics)
+        self.assertIn("rviz/TF", [d["Class"] for d in displays])
+        self.assertEqual(rviz["Visualization Manager"]["Global Options"]["Fixed Frame"], "map")
+
+    def test_a_bad_parameter_stops_the_node_with_a_reason(self):
+        cases = [(["_gama_fraction:=0.1"], "unknown parameter"),
+                 (["_method:=seqslam"], "seqslam"),
+                 (["_threshold:=1.5"], "(0, 1)"),
+                 ([], "missing.npy")]
+        rospy.set_param("/bad/bad3/reference_sets", [{"path": "missing.npy", "name": "m"}])
+        for i, (params, fragment) in enumerate(cases):
+            r = subprocess.run(["rosrun", "bsf_vpr", "fusion_node", "__name:=bad%d" % i,
+                                "__ns:=/bad"] + params,
+                               capture_output=True, text=True, timeout=60, check=False)
+            self.assertEqual(r.returncode, 1, params)
+            self.assertIn(fragment, r.stdout + r.stderr, params)
+        rospy.delete_param("/bad")  # the private parameters set for these nodes
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bsf_vpr", "test_config_files", ConfigFiles)

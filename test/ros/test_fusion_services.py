@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """rostest: services, recording, bad messages, reconfiguration and tf of the fusion node."""
-import shutil
 import os
+import shutil
 import sys
+import threading
+import time
 import unittest
 
 import numpy as np
@@ -176,6 +178,42 @@ class FusionServices(unittest.TestCase):
         t = buffer.lookup_transform("map", "vpr_place", rospy.Time(0))
         self.assertTrue(any(abs(t.transform.translation.x - mm.place_id) < 1e-6
                             for mm in self.matches[n:]))
+
+    def test_services_and_reconfiguration_while_descriptors_stream(self):
+        self.ensure_day_loaded()
+        client = Client(NS + "fusion", timeout=30)
+        n_before = len(self.beliefs)
+        stop = threading.Event()
+
+        def stream():
+            i = 0
+            while not stop.is_set() and not rospy.is_shutdown():
+                self.send(self.night[i % 200])
+                i += 1
+                time.sleep(0.002)
+
+        streamer = threading.Thread(target=stream)
+        streamer.start()
+        try:
+            for k in range(10):
+                self.assertTrue(self.load(path="day.npy", name="extra", condition="").success)
+                client.update_configuration({"gamma_fraction": 0.01 * (k + 1),
+                                             "method": "bayes_full" if k % 2 else "bsf"})
+                self.assertTrue(self.unload(name="extra").success)
+        finally:
+            stop.set()
+            streamer.join()
+            client.update_configuration({"method": "bsf", "gamma_fraction": 0.04})
+        wait_for(lambda: len(self.beliefs) > n_before + 50, 20, "beliefs while streaming")
+        # Every belief is internally consistent: no torn state between sets and selection.
+        for b in self.beliefs[n_before:]:
+            self.assertTrue(set(b.selected_sets) <= set(b.set_names), b.set_names)
+            self.assertEqual(len(b.set_names), len(b.set_min_distances))
+            self.assertIn(b.method, ("bsf", "bayes_full"))
+            self.assertEqual(len(b.posterior), 200)
+        self.assertEqual(self.names(), ["day"])
+        last = self.belief_for(self.send(self.night[5]))
+        self.assertLessEqual(abs(last.match - 5), 8)
 
     def test_recording_a_new_reference_set(self):
         self.ensure_day_loaded()

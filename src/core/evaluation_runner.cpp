@@ -48,18 +48,20 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     }
     if (progress) progress(end, input.num_queries);
   }
-  for (MethodResults& r : results) {
-    std::vector<int> matches;
-    std::vector<double> confidence;
-    std::vector<std::vector<int>> ranked;
-    for (const QueryOutcome& o : r.outcomes) {
-      matches.push_back(o.match);
-      confidence.push_back(o.confidence);
-      ranked.push_back(o.top_places);
-    }
-    r.metrics = ComputeMetrics(matches, confidence, ranked, truth);
-  }
+  for (MethodResults& r : results) r.metrics = ScoreOutcomes(r.outcomes, truth);
   return results;
+}
+
+Metrics ScoreOutcomes(const std::vector<QueryOutcome>& outcomes, const GroundTruth& truth) {
+  std::vector<int> matches;
+  std::vector<double> confidence;
+  std::vector<std::vector<int>> ranked;
+  for (const QueryOutcome& o : outcomes) {
+    matches.push_back(o.match);
+    confidence.push_back(o.confidence);
+    ranked.push_back(o.top_places);
+  }
+  return ComputeMetrics(matches, confidence, ranked, truth);
 }
 
 }  // namespace bsf_vpr

@@ -7,41 +7,28 @@
 
 #include "bsf_vpr/ros/names.h"
 #include "fusion_params.h"
+#include "param_util.h"
 
 namespace bsf_vpr {
-namespace {
-
-template <typename T>
-T Get(const ros::NodeHandle& pnh, const std::string& key, const T& fallback) {
-  if (!pnh.hasParam(key)) return fallback;
-  T value;
-  if (!pnh.getParam(key, value)) {
-    throw std::invalid_argument("parameter '" + pnh.resolveName(key) + "' has the wrong type");
-  }
-  return value;
-}
-
-}  // namespace
-
 IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
   RefuseUnknownParams(pnh, {"input", "expected_dimension", "l2_normalize", "descriptor_type",
                             "patch_width_px", "patch_height_px", "patch_size_px", "queue_size",
                             "diagnostic_period", "image_transport"});
   IngestParams p;
-  p.input = Get<std::string>(pnh, "input", p.input);
+  p.input = GetParam<std::string>(pnh, "input", p.input);
   if (p.input != "image" && p.input != "descriptor") {
     throw std::invalid_argument("input must be image or descriptor, got '" + p.input + "'");
   }
-  p.expected_dimension = Get<int>(pnh, "expected_dimension", p.expected_dimension);
+  p.expected_dimension = GetParam<int>(pnh, "expected_dimension", p.expected_dimension);
   if (p.expected_dimension < 0) throw std::invalid_argument("expected_dimension must be >= 0");
-  p.l2_normalize = Get<bool>(pnh, "l2_normalize", p.l2_normalize);
-  p.patch_norm.width_px = Get<int>(pnh, "patch_width_px", p.patch_norm.width_px);
-  p.patch_norm.height_px = Get<int>(pnh, "patch_height_px", p.patch_norm.height_px);
-  p.patch_norm.patch_size_px = Get<int>(pnh, "patch_size_px", p.patch_norm.patch_size_px);
+  p.l2_normalize = GetParam<bool>(pnh, "l2_normalize", p.l2_normalize);
+  p.patch_norm.width_px = GetParam<int>(pnh, "patch_width_px", p.patch_norm.width_px);
+  p.patch_norm.height_px = GetParam<int>(pnh, "patch_height_px", p.patch_norm.height_px);
+  p.patch_norm.patch_size_px = GetParam<int>(pnh, "patch_size_px", p.patch_norm.patch_size_px);
   p.patch_norm.Validate();
-  p.descriptor_type = Get<std::string>(pnh, "descriptor_type",
-                                       p.input == "image" ? p.patch_norm.DescriptorType() : "");
-  p.queue_size = Get<int>(pnh, "queue_size", p.queue_size);
+  p.descriptor_type = GetParam<std::string>(
+      pnh, "descriptor_type", p.input == "image" ? p.patch_norm.DescriptorType() : "");
+  p.queue_size = GetParam<int>(pnh, "queue_size", p.queue_size);
   if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
   if (p.input == "image" && p.expected_dimension != 0 &&
       p.expected_dimension != p.patch_norm.dimension()) {

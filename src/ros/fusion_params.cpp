@@ -6,18 +6,10 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "param_util.h"
+
 namespace bsf_vpr {
 namespace {
-
-template <typename T>
-T Get(const ros::NodeHandle& pnh, const std::string& key, const T& fallback) {
-  if (!pnh.hasParam(key)) return fallback;
-  T value;
-  if (!pnh.getParam(key, value)) {
-    throw std::invalid_argument("parameter '" + pnh.resolveName(key) + "' has the wrong type");
-  }
-  return value;
-}
 
 std::string Member(XmlRpc::XmlRpcValue& entry, const char* key, size_t index, bool required) {
   if (!entry.hasMember(key)) {
@@ -127,27 +119,29 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   FusionParams p;
   RecognizerOptions& r = p.recognizer;
   p.reference_sets = LoadReferenceSetEntries(pnh);
-  p.data_directory = Get<std::string>(pnh, "data_directory", "");
-  r.metric = ParseDistanceMetric(Get<std::string>(pnh, "distance", "euclidean"));
-  r.method = Get<std::string>(pnh, "method", r.method);
+  p.data_directory = GetParam<std::string>(pnh, "data_directory", "");
+  r.metric = ParseDistanceMetric(GetParam<std::string>(pnh, "distance", "euclidean"));
+  r.method = GetParam<std::string>(pnh, "method", r.method);
   r.method_options.selection.gamma_fraction =
-      Get<double>(pnh, "gamma_fraction", r.method_options.selection.gamma_fraction);
+      GetParam<double>(pnh, "gamma_fraction", r.method_options.selection.gamma_fraction);
   r.method_options.selection.rule =
-      ParseSelectionRule(Get<std::string>(pnh, "selection", "relative"));
+      ParseSelectionRule(GetParam<std::string>(pnh, "selection", "relative"));
   r.method_options.likelihood.variant =
-      ParseLikelihoodVariant(Get<std::string>(pnh, "likelihood", "one_sided"));
-  r.method_options.threshold = MakeThreshold(
-      Get<double>(pnh, "threshold", 0.9), Get<std::string>(pnh, "threshold_kind", "probability"));
-  r.method_options.top_k = Get<int>(pnh, "top_k", r.method_options.top_k);
-  r.carry_prior = Get<bool>(pnh, "carry_prior", r.carry_prior);
-  r.prior_uniform_fraction = Get<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
+      ParseLikelihoodVariant(GetParam<std::string>(pnh, "likelihood", "one_sided"));
+  r.method_options.threshold =
+      MakeThreshold(GetParam<double>(pnh, "threshold", 0.9),
+                    GetParam<std::string>(pnh, "threshold_kind", "probability"));
+  r.method_options.top_k = GetParam<int>(pnh, "top_k", r.method_options.top_k);
+  r.carry_prior = GetParam<bool>(pnh, "carry_prior", r.carry_prior);
+  r.prior_uniform_fraction =
+      GetParam<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
   r.Validate();
-  p.belief_top_k = Get<int>(pnh, "belief_top_k", p.belief_top_k);
-  p.map_frame = Get<std::string>(pnh, "map_frame", p.map_frame);
-  p.place_frame = Get<std::string>(pnh, "place_frame", p.place_frame);
-  p.publish_tf = Get<bool>(pnh, "publish_tf", p.publish_tf);
-  p.queue_size = Get<int>(pnh, "queue_size", p.queue_size);
-  p.marker_spacing_m = Get<double>(pnh, "marker_spacing_m", p.marker_spacing_m);
+  p.belief_top_k = GetParam<int>(pnh, "belief_top_k", p.belief_top_k);
+  p.map_frame = GetParam<std::string>(pnh, "map_frame", p.map_frame);
+  p.place_frame = GetParam<std::string>(pnh, "place_frame", p.place_frame);
+  p.publish_tf = GetParam<bool>(pnh, "publish_tf", p.publish_tf);
+  p.queue_size = GetParam<int>(pnh, "queue_size", p.queue_size);
+  p.marker_spacing_m = GetParam<double>(pnh, "marker_spacing_m", p.marker_spacing_m);
   if (p.belief_top_k < 0) throw std::invalid_argument("belief_top_k must be >= 0");
   if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
   if (!(p.marker_spacing_m > 0)) throw std::invalid_argument("marker_spacing_m must be > 0");

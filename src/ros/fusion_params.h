@@ -38,9 +38,6 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh);
 // The names LoadFusionParams accepts (also the dynamic_reconfigure ones).
 const std::vector<std::string>& FusionParamNames();
 
-// Throws std::invalid_argument listing the keys under `pnh` that are not in `known`.
-void RefuseUnknownParams(const ros::NodeHandle& pnh, const std::vector<std::string>& known);
-
 // Threshold from its two parameters: kind "probability" or "log_odds".
 Threshold MakeThreshold(double value, const std::string& kind);
 

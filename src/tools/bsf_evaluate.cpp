@@ -6,13 +6,12 @@
 
 #include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/results_io.h"
+#include "cli_util.h"
 #include "evaluate_args.h"
 #include "evaluate_inputs.h"
 #include "evaluate_results_bag.h"
 
 namespace {
-
-constexpr int kExitBadInput = 2;
 
 void Report(const std::vector<bsf_vpr::MethodResults>& results, const std::string& out_dir) {
   std::cout << bsf_vpr::FormatSummaryTable(results);
@@ -43,15 +42,7 @@ int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
   MethodResults r;
   r.method = ParseMethod(bag.method, bag.set_names);
   r.outcomes = std::move(bag.outcomes);
-  std::vector<int> matches;
-  std::vector<double> confidence;
-  std::vector<std::vector<int>> ranked;
-  for (const QueryOutcome& o : r.outcomes) {
-    matches.push_back(o.match);
-    confidence.push_back(o.confidence);
-    ranked.push_back(o.top_places);
-  }
-  r.metrics = ComputeMetrics(matches, confidence, ranked, truth);
+  r.metrics = ScoreOutcomes(r.outcomes, truth);
   std::cout << "bsf_evaluate: results bag " << args.results_bag << ": " << q << " queries, method "
             << bag.method;
   if (bag.missing > 0) std::cout << ", " << bag.missing << " without a belief (counted as wrong)";
@@ -92,11 +83,4 @@ int Run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "bsf_evaluate: error: " << e.what() << '\n';
-    return kExitBadInput;
-  }
-}
+int main(int argc, char** argv) { return bsf_vpr::tools::RunTool("bsf_evaluate", Run, argc, argv); }

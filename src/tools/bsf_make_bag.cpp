@@ -19,6 +19,7 @@
 #include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/image_descriptor.h"
 #include "bsf_vpr/core/npy.h"
+#include "cli_util.h"
 
 namespace {
 
@@ -53,20 +54,6 @@ struct Args {
   int tolerance = -1, num_places = 0, limit = 0;
 };
 
-double Number(const std::string& flag, const std::string& v) {
-  size_t used = 0;
-  double x = 0;
-  try {
-    x = std::stod(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != v.size() || !std::isfinite(x)) {
-    throw std::invalid_argument(flag + " expects a number, got '" + v + "'");
-  }
-  return x;
-}
-
 Args Parse(int argc, char** argv, bool* help) {
   Args a;
   for (int i = 1; i < argc; ++i) {
@@ -84,13 +71,13 @@ Args Parse(int argc, char** argv, bool* help) {
     else if (f == "--out")
       a.out = v;
     else if (f == "--rate")
-      a.rate_hz = Number(f, v);
+      a.rate_hz = bsf_vpr::tools::ParseNumber(f, v);
     else if (f == "--ground-truth")
       a.ground_truth = v;
     else if (f == "--tolerance")
-      a.tolerance = static_cast<int>(Number(f, v));
+      a.tolerance = bsf_vpr::tools::ParseInteger(f, v);
     else if (f == "--num-places")
-      a.num_places = static_cast<int>(Number(f, v));
+      a.num_places = bsf_vpr::tools::ParseInteger(f, v);
     else if (f == "--poses")
       a.poses = v;
     else if (f == "--topic")
@@ -98,7 +85,7 @@ Args Parse(int argc, char** argv, bool* help) {
     else if (f == "--frame")
       a.frame = v;
     else if (f == "--limit")
-      a.limit = static_cast<int>(Number(f, v));
+      a.limit = bsf_vpr::tools::ParseInteger(f, v);
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -128,7 +115,8 @@ std::vector<std::optional<bsf_vpr::PlacePose>> ReadPoses(const std::string& path
     std::string cell;
     std::vector<double> v;
     while (std::getline(ss, cell, ','))
-      v.push_back(Number("poses '" + path + "' line " + std::to_string(line_no), cell));
+      v.push_back(bsf_vpr::tools::ParseNumber(
+          "poses '" + path + "' line " + std::to_string(line_no), cell));
     if (v.size() != 5 || v[0] < 0 || v[0] >= queries || v[0] != std::floor(v[0])) {
       throw std::runtime_error("poses '" + path + "' line " + std::to_string(line_no) +
                                ": expected 'query,x,y,z,yaw' with a query in 0.." +
@@ -220,11 +208,4 @@ int Run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "bsf_make_bag: error: " << e.what() << '\n';
-    return 2;
-  }
-}
+int main(int argc, char** argv) { return bsf_vpr::tools::RunTool("bsf_make_bag", Run, argc, argv); }

@@ -7,6 +7,7 @@
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/image_descriptor.h"
 #include "bsf_vpr/core/reference_set_io.h"
+#include "cli_util.h"
 
 namespace {
 
@@ -24,19 +25,6 @@ Writes PATH.yaml and PATH.npy (atomically): row k is place k (images sorted by n
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments or input.
 )";
-
-int ToInt(const std::string& flag, const std::string& v) {
-  size_t used = 0;
-  int x = 0;
-  try {
-    x = std::stoi(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != v.size())
-    throw std::invalid_argument(flag + " expects an integer, got '" + v + "'");
-  return x;
-}
 
 int Run(int argc, char** argv) {
   using namespace bsf_vpr;
@@ -63,11 +51,11 @@ int Run(int argc, char** argv) {
     else if (f == "--distance")
       distance = ToString(ParseDistanceMetric(v));
     else if (f == "--patch-width")
-      patch.width_px = ToInt(f, v);
+      patch.width_px = tools::ParseInteger(f, v);
     else if (f == "--patch-height")
-      patch.height_px = ToInt(f, v);
+      patch.height_px = tools::ParseInteger(f, v);
     else if (f == "--patch-size")
-      patch.patch_size_px = ToInt(f, v);
+      patch.patch_size_px = tools::ParseInteger(f, v);
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -99,10 +87,5 @@ int Run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "bsf_make_reference: error: " << e.what() << '\n';
-    return 2;
-  }
+  return bsf_vpr::tools::RunTool("bsf_make_reference", Run, argc, argv);
 }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "cli_util.h"
+
 namespace bsf_vpr {
 namespace tools {
 
@@ -63,28 +65,6 @@ NamedPath ParseNamedPath(const std::string& flag, const std::string& value) {
   return {value.substr(0, eq), value.substr(eq + 1)};
 }
 
-double ParseDouble(const std::string& flag, const std::string& value) {
-  size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != value.size() || !std::isfinite(v)) {
-    throw std::invalid_argument(flag + " expects a number, got '" + value + "'");
-  }
-  return v;
-}
-
-int ParseInt(const std::string& flag, const std::string& value) {
-  const double v = ParseDouble(flag, value);
-  if (v != std::floor(v) || std::abs(v) > 1e9) {
-    throw std::invalid_argument(flag + " expects an integer, got '" + value + "'");
-  }
-  return static_cast<int>(v);
-}
-
 }  // namespace
 
 EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
@@ -119,17 +99,17 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     } else if (flag == "--distance") {
       a.metric = ParseDistanceMetric(value);
     } else if (flag == "--tolerance") {
-      a.tolerance_frames = ParseInt(flag, value);
+      a.tolerance_frames = ParseInteger(flag, value);
       if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");
     } else if (flag == "--tolerance-m") {
-      a.tolerance_m = ParseDouble(flag, value);
+      a.tolerance_m = ParseNumber(flag, value);
       if (a.tolerance_m < 0) throw std::invalid_argument("--tolerance-m must be >= 0");
     } else if (flag == "--ground-truth") {
       a.ground_truth = value;
     } else if (flag == "--methods") {
       a.methods = value;
     } else if (flag == "--gamma") {
-      a.options.selection.gamma_fraction = ParseDouble(flag, value);
+      a.options.selection.gamma_fraction = ParseNumber(flag, value);
     } else if (flag == "--selection") {
       a.options.selection.rule = ParseSelectionRule(value);
     } else if (flag == "--likelihood") {
@@ -137,11 +117,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     } else if (flag == "--threshold") {
       a.options.threshold = Threshold::Parse(value);
     } else if (flag == "--patch-width") {
-      a.patch_norm.width_px = ParseInt(flag, value);
+      a.patch_norm.width_px = ParseInteger(flag, value);
     } else if (flag == "--patch-height") {
-      a.patch_norm.height_px = ParseInt(flag, value);
+      a.patch_norm.height_px = ParseInteger(flag, value);
     } else if (flag == "--patch-size") {
-      a.patch_norm.patch_size_px = ParseInt(flag, value);
+      a.patch_norm.patch_size_px = ParseInteger(flag, value);
     } else if (flag == "--out") {
       a.out_dir = value;
     } else {

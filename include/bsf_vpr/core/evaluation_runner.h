@@ -25,6 +25,9 @@ struct MethodResults {
   Metrics metrics;
 };
 
+// The metrics of one method's outcomes (one per query) against `truth`.
+Metrics ScoreOutcomes(const std::vector<QueryOutcome>& outcomes, const GroundTruth& truth);
+
 // Fills (*block)[u] with the (end - begin) x N_u distances of queries [begin, end) to set u.
 using DistanceBlockFn = std::function<void(int begin, int end, std::vector<RowMatrixXf>* block)>;
 

@@ -1,0 +1,42 @@
+#include "cli_util.h"
+
+#include <cmath>
+#include <iostream>
+#include <stdexcept>
+
+namespace bsf_vpr {
+namespace tools {
+
+double ParseNumber(const std::string& flag, const std::string& value) {
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != value.size() || !std::isfinite(v)) {
+    throw std::invalid_argument(flag + " expects a number, got '" + value + "'");
+  }
+  return v;
+}
+
+int ParseInteger(const std::string& flag, const std::string& value) {
+  const double v = ParseNumber(flag, value);
+  if (v != std::floor(v) || std::abs(v) > 1e9) {
+    throw std::invalid_argument(flag + " expects an integer, got '" + value + "'");
+  }
+  return static_cast<int>(v);
+}
+
+int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << tool << ": error: " << e.what() << '\n';
+    return kExitBadInput;
+  }
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr

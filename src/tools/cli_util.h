@@ -1,0 +1,20 @@
+// Shared by the command-line tools: number parsing with messages naming the flag, and the
+// convention that any error ends the tool with one line on stderr and exit status 2.
+#pragma once
+
+#include <string>
+
+namespace bsf_vpr {
+namespace tools {
+
+constexpr int kExitBadInput = 2;
+
+// A finite number / a whole number; throws std::invalid_argument "<flag> expects ...".
+double ParseNumber(const std::string& flag, const std::string& value);
+int ParseInteger(const std::string& flag, const std::string& value);
+
+// Runs `run(argc, argv)`; an exception becomes "<tool>: error: <what>" and kExitBadInput.
+int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv);
+
+}  // namespace tools
+}  // namespace bsf_vpr

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "bsf_vpr/core/method_runner.h"
+
 namespace bsf_vpr {
 
 std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
@@ -22,7 +24,9 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     if (!input.place_ids[u].empty()) ids[u] = &input.place_ids[u];
   }
   std::vector<MethodResults> results(methods.size());
+  std::vector<MethodRunner> runners;
   for (size_t k = 0; k < methods.size(); ++k) {
+    runners.emplace_back(methods[k], options);
     results[k].method = methods[k];
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
@@ -38,7 +42,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     for (int q = begin; q < end; ++q) {
       const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids);
       for (size_t k = 0; k < methods.size(); ++k) {
-        const PlaceBelief b = RunMethod(methods[k], views, input.num_places, options);
+        const PlaceBelief b = runners[k].Step(views, input.num_places, nullptr, std::nullopt, true);
         QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
         o.match = b.match;
         o.confidence = b.confidence;

@@ -128,6 +128,7 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
   const double max_l = out->log_posterior(best);
   const double lse = max_l + std::log((out->log_posterior.array() - max_l).exp().sum());
   out->log_posterior.array() -= lse;
+  out->cost = -out->log_posterior;
 }
 
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
@@ -152,6 +153,7 @@ void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::v
   out->confidence = neg_mean(out->match);
   out->accepted = true;
   out->log_posterior.resize(0);
+  out->cost = -neg_mean;
 }
 
 }  // namespace bsf_vpr

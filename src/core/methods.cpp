@@ -8,6 +8,10 @@
 namespace bsf_vpr {
 
 std::string Method::Name() const {
+  return BaseName() + (temporal_filter ? "+filter" : "") + (sequence ? "+seq" : "");
+}
+
+std::string Method::BaseName() const {
   switch (kind) {
     case MethodKind::kNearestNeighbour:
       return "nn:" + set_name;
@@ -40,8 +44,23 @@ std::string JoinNames(const std::vector<std::string>& names) {
 
 }  // namespace
 
-Method ParseMethod(const std::string& name, const std::vector<std::string>& set_names) {
+Method ParseMethod(const std::string& full_name, const std::vector<std::string>& set_names) {
   Method m;
+  std::string name = full_name;
+  for (;;) {  // suffixes, in any order
+    const size_t plus = name.rfind('+');
+    if (plus == std::string::npos) break;
+    const std::string suffix = name.substr(plus + 1);
+    if (suffix == "filter") {
+      m.temporal_filter = true;
+    } else if (suffix == "seq") {
+      m.sequence = true;
+    } else {
+      throw std::invalid_argument("unknown method suffix '+" + suffix + "' in '" + full_name +
+                                  "' (expected +filter or +seq)");
+    }
+    name.resize(plus);
+  }
   if (name == "med") {
     m.kind = MethodKind::kMed;
   } else if (name == "med_selective") {
@@ -61,9 +80,13 @@ Method ParseMethod(const std::string& name, const std::vector<std::string>& set_
     }
     m.set_index = static_cast<int>(it - set_names.begin());
   } else {
-    throw std::invalid_argument("unknown method '" + name +
+    throw std::invalid_argument("unknown method '" + full_name +
                                 "' (expected nn:<set>, bayes:<set>, med, med_selective, "
                                 "bayes_full or bsf)");
+  }
+  if (m.temporal_filter && !m.IsBayesian()) {
+    throw std::invalid_argument("method '" + full_name +
+                                "': +filter needs a Bayesian method (a posterior to carry)");
   }
   return m;
 }
@@ -99,6 +122,8 @@ void MethodOptions::Validate() const {
   selection.Validate();
   threshold.Validate();
   if (top_k < 1) throw std::invalid_argument("top_k must be >= 1, got " + std::to_string(top_k));
+  sequence.Validate();
+  filter.Validate();
 }
 
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,

@@ -23,11 +23,13 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
   Method method = ParseMethod(options.method, map_.SetNames());
   options_ = options;
   method_ = method;
+  runner_.reset();
   ResetPrior();
 }
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   map_.Add(std::move(set));
+  runner_.reset();
   ResetPrior();
 }
 
@@ -40,11 +42,26 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
                                 options_.method + "'; change the method first");
   }
   map_.Remove(name);
+  runner_.reset();
   ResetPrior();
 }
 
+void PlaceRecognizer::ResetPrior() {
+  carried_log_prior_.resize(0);
+  if (runner_) runner_->Reset();
+}
+
+MethodRunner& PlaceRecognizer::Runner() {
+  if (!runner_) {
+    // The method refers to sets by index: resolve it against the current map.
+    method_ = ParseMethod(options_.method, map_.SetNames());
+    runner_ = std::make_unique<MethodRunner>(method_, options_.method_options);
+  }
+  return *runner_;
+}
+
 Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
-                                       bool update_state) {
+                                       bool update_state, std::optional<double> step_places) {
   if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
   if (descriptor.size() != map_.dimension()) {
     throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
@@ -52,9 +69,6 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
                                 std::to_string(map_.dimension()));
   }
   if (!descriptor.allFinite()) throw std::invalid_argument("descriptor holds NaN or infinity");
-  // The method may refer to sets by index: re-resolve it against the current map.
-  method_ = ParseMethod(options_.method, map_.SetNames());
-
   const RowMatrixXf query = descriptor.transpose();
   const std::vector<RowMatrixXf> distances = ComputeDistances(options_.metric, query, map_);
   std::vector<const std::vector<int>*> ids;
@@ -64,8 +78,8 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const int n = map_.num_places();
   const bool use_prior = options_.carry_prior && carried_log_prior_.size() == n;
   Recognition out;
-  out.belief = RunMethod(method_, views, n, options_.method_options,
-                         use_prior ? &carried_log_prior_ : nullptr);
+  out.belief =
+      Runner().Step(views, n, use_prior ? &carried_log_prior_ : nullptr, step_places, update_state);
 
   float best = INFINITY;
   for (int u : out.belief.selection.selected) {

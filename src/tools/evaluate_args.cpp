@@ -38,12 +38,20 @@ Ground truth (one of):
 Methods and parameters:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
                           nn:<set>, bayes:<set>; or 'all' (default: all, with nn: and
-                          bayes: for every set)
+                          bayes: for every set). Suffixes over time (queries in traversal
+                          order): +filter (temporal filter prior, Bayesian methods) and
+                          +seq (sequence matching), e.g. bsf+seq, nn:winter+seq, bsf+filter
   --gamma G               selection fraction gamma (default 0.04)
   --selection relative|standardized   selection rule (default relative)
   --likelihood one_sided|two_sided    likelihood variant (default one_sided)
   --threshold H           acceptance threshold h: p:0.9 / 0.9 (posterior probability) or
                           logodds:5 (default p:0.5); only affects the accepted flag
+  --seq-length L          queries per sequence for +seq (default 5)
+  --seq-min-velocity V, --seq-max-velocity V, --seq-velocity-step V
+                          places per query searched by +seq (default 0.8 1.25 0.05)
+  --filter-step S, --filter-std S   +filter: mean and standard deviation of the progress
+                          per query, in places (default 1 1)
+  --relocalization R      +filter: probability of re-localising anywhere (default 0.01)
   --patch-width W, --patch-height H, --patch-size P
                           image descriptor size for image folders (default 64 32 8)
 
@@ -116,6 +124,20 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.options.likelihood.variant = ParseLikelihoodVariant(value);
     } else if (flag == "--threshold") {
       a.options.threshold = Threshold::Parse(value);
+    } else if (flag == "--seq-length") {
+      a.options.sequence.length = ParseInteger(flag, value);
+    } else if (flag == "--seq-min-velocity") {
+      a.options.sequence.min_velocity = ParseNumber(flag, value);
+    } else if (flag == "--seq-max-velocity") {
+      a.options.sequence.max_velocity = ParseNumber(flag, value);
+    } else if (flag == "--seq-velocity-step") {
+      a.options.sequence.velocity_step = ParseNumber(flag, value);
+    } else if (flag == "--filter-step") {
+      a.options.filter.step_mean_places = ParseNumber(flag, value);
+    } else if (flag == "--filter-std") {
+      a.options.filter.step_std_places = ParseNumber(flag, value);
+    } else if (flag == "--relocalization") {
+      a.options.filter.relocalization_probability = ParseNumber(flag, value);
     } else if (flag == "--patch-width") {
       a.patch_norm.width_px = ParseInteger(flag, value);
     } else if (flag == "--patch-height") {

@@ -39,7 +39,8 @@ struct EvaluationInput {
   DistanceBlockFn distances;
 };
 
-// Evaluates every method on every query, `block_size` queries at a time (bounding memory
+// Evaluates every method on every query, in order (+filter and +seq carry state from one
+// query to the next), `block_size` queries at a time (bounding memory
 // to block_size x sum N_u distances), and scores them against `truth` (which must have
 // num_queries queries). `progress(done, total)` is called after each block if given.
 std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,

@@ -40,7 +40,10 @@ struct PlaceBelief {
   bool accepted = false;          // confidence > h (distance methods: always true)
   std::vector<int> top_places;    // best first, at most top_k
   Eigen::VectorXd log_posterior;  // N entries, normalised; empty for distance methods
-  Selection selection;            // sets used (selected), u*, min D^u of every set
+  // Per place, lower is better: -log posterior (Bayesian) or the mean distance (distance
+  // methods; +infinity where no used set covers the place). Input of sequence matching.
+  Eigen::VectorXd cost;
+  Selection selection;  // sets used (selected), u*, min D^u of every set
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against

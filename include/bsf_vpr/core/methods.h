@@ -6,6 +6,12 @@
 //   med_selective  Baseline Selective Fusion: MED over the selected sets S
 //   bayes_full     Bayesian Full Fusion: Bayes over all sets
 //   bsf            Bayesian Selective Fusion: Bayes over the selected sets S
+//
+// Suffixes extend a method over time (queries must then arrive in traversal order):
+//   +filter        the prior of each query is the temporal filter's prediction from the
+//                  previous posterior (Bayesian methods only; temporal_filter.h)
+//   +seq           the match is the end of the best sequence of the last L queries
+//                  (sequence_matcher.h); e.g. bsf+seq, nn:winter+seq, bsf+filter+seq
 #pragma once
 
 #include <Eigen/Core>
@@ -13,6 +19,8 @@
 #include <vector>
 
 #include "bsf_vpr/core/fusion.h"
+#include "bsf_vpr/core/sequence_matcher.h"
+#include "bsf_vpr/core/temporal_filter.h"
 
 namespace bsf_vpr {
 
@@ -20,11 +28,14 @@ enum class MethodKind { kNearestNeighbour, kBayesSingle, kMed, kMedSelective, kB
 
 struct Method {
   MethodKind kind = MethodKind::kBsf;
-  int set_index = -1;    // for nn:/bayes:, the set's index in the map
-  std::string set_name;  // for nn:/bayes:
+  int set_index = -1;            // for nn:/bayes:, the set's index in the map
+  std::string set_name;          // for nn:/bayes:
+  bool temporal_filter = false;  // +filter
+  bool sequence = false;         // +seq
 
-  std::string Name() const;  // e.g. "bsf", "nn:winter"
+  std::string Name() const;  // e.g. "bsf", "nn:winter", "bsf+filter+seq"
   bool IsBayesian() const;
+  std::string BaseName() const;  // without suffixes
 };
 
 // Parses one method name against the map's set names. Throws std::invalid_argument for an
@@ -38,8 +49,10 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
 struct MethodOptions {
   SelectionOptions selection;
   LikelihoodOptions likelihood;
-  Threshold threshold;  // h, for the Bayesian methods
-  int top_k = 10;       // how many ranked places to return (recall@K needs K)
+  Threshold threshold;           // h, for the Bayesian methods
+  int top_k = 10;                // how many ranked places to return (recall@K needs K)
+  SequenceOptions sequence;      // for +seq methods
+  TemporalFilterOptions filter;  // for +filter methods
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };

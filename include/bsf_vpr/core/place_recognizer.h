@@ -5,21 +5,24 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/methods.h"
+#include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/core/reference_set.h"
 
 namespace bsf_vpr {
 
 struct RecognizerOptions {
-  std::string method = "bsf";  // a method name, see methods.h
+  std::string method = "bsf";  // a method name, see methods.h (with +filter / +seq)
   DistanceMetric metric = DistanceMetric::kEuclidean;
   MethodOptions method_options;
   // Carry the belief from query to query: the prior of query t is
   // (1 - prior_uniform_fraction) * P(X | query t-1) + prior_uniform_fraction / N.
-  // Off reproduces the paper's single-image setting (uniform prior).
+  // Off reproduces the paper's single-image setting (uniform prior). A +filter method uses
+  // the temporal filter instead (method_options.filter).
   bool carry_prior = false;
   double prior_uniform_fraction = 0.1;  // in (0, 1]; keeps every place reachable
 
@@ -50,19 +53,26 @@ class PlaceRecognizer {
   void RemoveReferenceSet(const std::string& name);
   const ReferenceMap& map() const { return map_; }
 
-  // Recognises the place of one descriptor (D floats). With update_state, a carried prior
-  // is updated from the result; without, the recogniser is left exactly as it was (a
-  // what-if query). Throws std::invalid_argument for a descriptor of the wrong dimension,
-  // with NaN/inf, or when no set is loaded.
-  Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state);
+  // Recognises the place of one descriptor (D floats). With update_state, the state carried
+  // between queries (prior, filter, sequence) is updated; without, the recogniser is left
+  // exactly as it was (a what-if query). `step_places` is the progress since the previous
+  // query from odometry, for +filter methods (nullopt: the filter's step distribution).
+  // Throws std::invalid_argument for a descriptor of the wrong dimension, with NaN/inf, or
+  // when no set is loaded.
+  Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state,
+                        std::optional<double> step_places = std::nullopt);
 
-  void ResetPrior() { carried_log_prior_.resize(0); }
+  // Forgets everything carried between queries.
+  void ResetPrior();
 
  private:
+  MethodRunner& Runner();  // built on demand against the current sets
+
   RecognizerOptions options_;
   Method method_;
   ReferenceMap map_;
-  Eigen::VectorXd carried_log_prior_;  // empty: uniform
+  std::unique_ptr<MethodRunner> runner_;  // null: to be rebuilt
+  Eigen::VectorXd carried_log_prior_;     // empty: uniform
 };
 
 }  // namespace bsf_vpr

@@ -1,0 +1,41 @@
+// Runs one method query after query, carrying what its +filter and +seq suffixes need from
+// one query to the next (the previous posterior, the last L cost vectors). The offline
+// evaluator and the online recogniser both use it, so a replay gives the offline results.
+//
+// Not thread-safe: callers serialise access.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "bsf_vpr/core/methods.h"
+
+namespace bsf_vpr {
+
+class MethodRunner {
+ public:
+  MethodRunner(Method method, MethodOptions options);
+
+  // Recognises one query from its distances to every set (see RunMethod). `log_prior`, if
+  // given, is the prior for a method without +filter (null: uniform). `step_places`, if
+  // given, replaces the filter's mean step for this query (odometry). With update_state the
+  // query is appended to the history; without, the runner is left as it was.
+  // With +seq, match, confidence (minus the sequence cost), top_places and cost describe
+  // the best sequence ending at each place, and accepted is true (h applies to posteriors).
+  PlaceBelief Step(const std::vector<SetDistances>& sets, int num_places,
+                   const Eigen::VectorXd* log_prior, std::optional<double> step_places,
+                   bool update_state);
+
+  // Forgets the history (call when the map or the traversal changes).
+  void Reset();
+  const Method& method() const { return method_; }
+
+ private:
+  Method method_;
+  MethodOptions options_;
+  SequenceMatcher sequence_;
+  Eigen::VectorXd last_log_posterior_;  // for +filter; empty before the first query
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,33 @@
+// A forward (Bayes) filter over places, supplying the prior P(X) of Eq. bayes for the next
+// query from the current posterior: the robot moves forward along the route by a step of
+// s places with probability w(s) (a discretised Gaussian of mean step_mean_places and
+// standard deviation step_std_places), and re-localises anywhere with a small probability,
+// so that a wrong belief is recovered from:
+//
+//   prior_{t+1}(j) = (1 - r) * sum_s w(s) P_t(j - s) / Z  +  r / N
+//
+// Z renormalises the mass that moved past the end of the route. Without odometry the step
+// distribution is a parameter; with odometry the caller passes the step travelled (the
+// distance travelled divided by the place spacing) as step_mean for that query.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+
+namespace bsf_vpr {
+
+struct TemporalFilterOptions {
+  double step_mean_places = 1.0;             // expected progress per query, places
+  double step_std_places = 1.0;              // its standard deviation, places (>= 0)
+  double relocalization_probability = 0.01;  // r, in (0, 1]
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// The log prior for the next query from `log_posterior` (N entries, normalised). step_mean,
+// if given, replaces options.step_mean_places (odometry). Returns N finite entries.
+Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
+                                const TemporalFilterOptions& options,
+                                std::optional<double> step_mean = std::nullopt);
+
+}  // namespace bsf_vpr

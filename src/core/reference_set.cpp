@@ -1,6 +1,7 @@
 #include "bsf_vpr/core/reference_set.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 
@@ -106,6 +107,23 @@ std::optional<PlacePose> ReferenceMap::PoseOf(int place) const {
     if (it != s.place_ids.end()) return s.poses[static_cast<size_t>(it - s.place_ids.begin())];
   }
   return std::nullopt;
+}
+
+std::optional<double> ReferenceMap::MedianPlaceSpacing() const {
+  std::vector<double> gaps;
+  std::optional<PlacePose> prev = PoseOf(0);
+  for (int i = 1; i < num_places_; ++i) {
+    const std::optional<PlacePose> cur = PoseOf(i);
+    if (prev && cur) {
+      gaps.push_back(std::sqrt((cur->x_m - prev->x_m) * (cur->x_m - prev->x_m) +
+                               (cur->y_m - prev->y_m) * (cur->y_m - prev->y_m) +
+                               (cur->z_m - prev->z_m) * (cur->z_m - prev->z_m)));
+    }
+    prev = cur;
+  }
+  if (gaps.empty()) return std::nullopt;
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<long>(gaps.size() / 2), gaps.end());
+  return gaps[gaps.size() / 2];
 }
 
 }  // namespace bsf_vpr

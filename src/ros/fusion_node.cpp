@@ -69,6 +69,12 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
+  if (params_.odometry_source == "topic") {
+    odometry_sub_ = nh_.subscribe(params_.odometry_topic, 50, &FusionNode::OnOdometry, this);
+  } else if (params_.odometry_source == "tf") {
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+  }
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -102,7 +108,7 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   }
   Recognition r;
   try {
-    r = recognizer_.Recognize(d, true);
+    r = recognizer_.Recognize(d, true, OdometryStep(msg->header.stamp));
   } catch (const std::exception& e) {
     RejectMessage(e.what());
     return;
@@ -115,6 +121,47 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   processing_s_max_ = std::max(processing_s_max_, seconds);
   for (int u : r.belief.selection.selected) ++selected_count_[recognizer_.map().set(u).name];
   Publish(*msg, r);
+}
+
+void FusionNode::OnOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto& p = msg->pose.pose.position;
+  latest_odometry_ = Eigen::Vector3d(p.x, p.y, p.z);
+}
+
+std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
+  if (params_.odometry_source == "none") return std::nullopt;
+  std::optional<Eigen::Vector3d> now = latest_odometry_;
+  if (params_.odometry_source == "tf") {
+    now.reset();
+    for (const ros::Time& t : {stamp, ros::Time(0)}) {  // at the image's time, else the latest
+      try {
+        const auto tr = tf_buffer_->lookupTransform(params_.odom_frame, params_.base_frame, t);
+        now = Eigen::Vector3d(tr.transform.translation.x, tr.transform.translation.y,
+                              tr.transform.translation.z);
+        break;
+      } catch (const tf2::TransformException&) {
+      }
+    }
+  }
+  if (!now) {
+    ROS_WARN_THROTTLE(5.0, "bsf_vpr: no odometry yet (%s); the filter uses its step distribution",
+                      params_.odometry_source.c_str());
+    return std::nullopt;
+  }
+  const double spacing = params_.place_spacing_m > 0
+                             ? params_.place_spacing_m
+                             : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
+  std::optional<double> step;
+  if (spacing <= 0) {
+    ROS_WARN_THROTTLE(5.0,
+                      "bsf_vpr: odometry without place spacing: set place_spacing_m or "
+                      "load reference sets with poses");
+  } else if (position_at_last_query_) {
+    step = (*now - *position_at_last_query_).norm() / spacing;
+  }
+  position_at_last_query_ = now;
+  return step;
 }
 
 void FusionNode::Publish(const Descriptor& msg, const Recognition& r) {

@@ -18,9 +18,13 @@
 #include <bsf_vpr/UnloadReferenceSet.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
+#include <Eigen/Core>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -43,6 +47,10 @@ class FusionNode {
 
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
+  void OnOdometry(const nav_msgs::Odometry::ConstPtr& msg);
+  // The progress since the previous query in places, from odometry (nullopt without
+  // odometry or place spacing). Caller holds mutex_; moves the reference position on.
+  std::optional<double> OdometryStep(const ros::Time& stamp);
   void Publish(const Descriptor& msg, const Recognition& r);
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -67,6 +75,11 @@ class FusionNode {
   ros::Publisher belief_pub_, match_pub_, marker_pub_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  ros::Subscriber odometry_sub_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::optional<Eigen::Vector3d> latest_odometry_;  // from the odometry topic
+  std::optional<Eigen::Vector3d> position_at_last_query_;
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;

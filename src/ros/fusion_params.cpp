@@ -74,7 +74,19 @@ const std::vector<std::string>& FusionParamNames() {
                                                   "publish_tf",
                                                   "queue_size",
                                                   "marker_spacing_m",
-                                                  "diagnostic_period"};
+                                                  "diagnostic_period",
+                                                  "sequence_length",
+                                                  "sequence_min_velocity",
+                                                  "sequence_max_velocity",
+                                                  "sequence_velocity_step",
+                                                  "filter_step_mean_places",
+                                                  "filter_step_std_places",
+                                                  "relocalization_probability",
+                                                  "odometry_source",
+                                                  "odometry_topic",
+                                                  "odom_frame",
+                                                  "base_frame",
+                                                  "place_spacing_m"};
   return kNames;
 }
 
@@ -135,7 +147,27 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   r.carry_prior = GetParam<bool>(pnh, "carry_prior", r.carry_prior);
   r.prior_uniform_fraction =
       GetParam<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
+  SequenceOptions& seq = r.method_options.sequence;
+  seq.length = GetParam<int>(pnh, "sequence_length", seq.length);
+  seq.min_velocity = GetParam<double>(pnh, "sequence_min_velocity", seq.min_velocity);
+  seq.max_velocity = GetParam<double>(pnh, "sequence_max_velocity", seq.max_velocity);
+  seq.velocity_step = GetParam<double>(pnh, "sequence_velocity_step", seq.velocity_step);
+  TemporalFilterOptions& f = r.method_options.filter;
+  f.step_mean_places = GetParam<double>(pnh, "filter_step_mean_places", f.step_mean_places);
+  f.step_std_places = GetParam<double>(pnh, "filter_step_std_places", f.step_std_places);
+  f.relocalization_probability =
+      GetParam<double>(pnh, "relocalization_probability", f.relocalization_probability);
   r.Validate();
+  p.odometry_source = GetParam<std::string>(pnh, "odometry_source", p.odometry_source);
+  if (p.odometry_source != "none" && p.odometry_source != "topic" && p.odometry_source != "tf") {
+    throw std::invalid_argument("odometry_source must be none, topic or tf, got '" +
+                                p.odometry_source + "'");
+  }
+  p.odometry_topic = GetParam<std::string>(pnh, "odometry_topic", p.odometry_topic);
+  p.odom_frame = GetParam<std::string>(pnh, "odom_frame", p.odom_frame);
+  p.base_frame = GetParam<std::string>(pnh, "base_frame", p.base_frame);
+  p.place_spacing_m = GetParam<double>(pnh, "place_spacing_m", p.place_spacing_m);
+  if (!(p.place_spacing_m >= 0)) throw std::invalid_argument("place_spacing_m must be >= 0");
   p.belief_top_k = GetParam<int>(pnh, "belief_top_k", p.belief_top_k);
   p.map_frame = GetParam<std::string>(pnh, "map_frame", p.map_frame);
   p.place_frame = GetParam<std::string>(pnh, "place_frame", p.place_frame);

@@ -27,6 +27,15 @@ struct FusionParams {
   int belief_top_k = 0;           // 0: the belief message carries every place
   int queue_size = 100;           // descriptors buffered before the oldest are dropped
   double marker_spacing_m = 1.0;  // route layout for places without poses
+  // Odometry for +filter methods: "none", "topic" (nav_msgs/Odometry on odometry_topic) or
+  // "tf" (odom_frame -> base_frame). The distance travelled between two queries divided by
+  // the place spacing (place_spacing_m, or the median spacing of the place poses when 0) is
+  // the filter's step for that query.
+  std::string odometry_source = "none";
+  std::string odometry_topic = "odom";
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double place_spacing_m = 0;
   // (diagnostic_period, seconds, is read by diagnostic_updater itself.)
 };
 

@@ -60,6 +60,9 @@ class ReferenceMap {
   std::vector<std::string> SetNames() const;
   // The pose of a place from the first set that has one for it.
   std::optional<PlacePose> PoseOf(int place) const;
+  // Median distance (metres) between consecutive places that both have poses; nullopt if
+  // no two consecutive places do.
+  std::optional<double> MedianPlaceSpacing() const;
 
  private:
   std::vector<ReferenceSet> sets_;

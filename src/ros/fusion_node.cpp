@@ -56,6 +56,8 @@ void FusionNode::Start() {
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
   services_.push_back(
       nh_.advertiseService(names::kStopRecordingService, &FusionNode::OnStopRecording, this));
+  services_.push_back(
+      nh_.advertiseService(names::kSelectionStatisticsService, &FusionNode::OnStatistics, this));
 
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<FusionConfig>>(pnh_);
   reconfigure_->setCallback(
@@ -119,7 +121,10 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   ++total_processed_;
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
-  for (int u : r.belief.selection.selected) ++selected_count_[recognizer_.map().set(u).name];
+  const ReferenceMap& map = recognizer_.map();
+  for (int u : r.belief.selection.selected) ++selected_count_[map.set(u).name];
+  if (r.belief.selection.best >= 0) ++best_count_[map.set(r.belief.selection.best).name];
+  if (r.closest_set >= 0) ++supplied_count_[map.set(r.closest_set).name];
   Publish(*msg, r);
 }
 

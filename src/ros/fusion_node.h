@@ -10,6 +10,7 @@
 
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/FusionConfig.h>
+#include <bsf_vpr/GetSelectionStatistics.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/QueryPlace.h>
@@ -62,6 +63,7 @@ class FusionNode {
   bool OnQuery(QueryPlace::Request& req, QueryPlace::Response& res);
   bool OnStartRecording(StartRecording::Request& req, StartRecording::Response& res);
   bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res);
+  bool OnStatistics(GetSelectionStatistics::Request& req, GetSelectionStatistics::Response& res);
 
   ReferenceSet LoadEntry(const ReferenceSetEntry& entry, const std::string& base_dir) const;
 
@@ -88,7 +90,8 @@ class FusionNode {
   int processed_ = 0, rejected_ = 0;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string last_rejection_;
-  std::map<std::string, long> selected_count_;  // per set name, since start
+  // Per set name, since start or the last statistics reset.
+  std::map<std::string, long> selected_count_, best_count_, supplied_count_;
   long total_processed_ = 0;
   ros::WallTime last_diagnostics_;
 };

@@ -15,8 +15,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from dynamic_reconfigure.client import Client
 
 from bsf_vpr.msg import Belief, Descriptor, Match
-from bsf_vpr.srv import (ListReferenceSets, LoadReferenceSet, QueryPlace, StartRecording,
-                         StopRecording, UnloadReferenceSet)
+from bsf_vpr.srv import (GetSelectionStatistics, ListReferenceSets, LoadReferenceSet,
+                         QueryPlace, StartRecording, StopRecording, UnloadReferenceSet)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rostest_util import wait_for, write_reference_set  # noqa: E402
@@ -44,7 +44,8 @@ class FusionServices(unittest.TestCase):
         cls.raw = rospy.Publisher(NS + "descriptor", Descriptor, queue_size=100)  # into fusion
         cls.external = rospy.Publisher("/vpr/descriptor", Descriptor, queue_size=100)  # into ingest
         for srv in ["list_reference_sets", "load_reference_set", "unload_reference_set",
-                    "query_place", "start_recording", "stop_recording"]:
+                    "query_place", "start_recording", "stop_recording",
+                    "get_selection_statistics"]:
             rospy.wait_for_service(NS + srv, timeout=60)
         cls.list = rospy.ServiceProxy(NS + "list_reference_sets", ListReferenceSets)
         cls.load = rospy.ServiceProxy(NS + "load_reference_set", LoadReferenceSet)
@@ -52,6 +53,7 @@ class FusionServices(unittest.TestCase):
         cls.query = rospy.ServiceProxy(NS + "query_place", QueryPlace)
         cls.start = rospy.ServiceProxy(NS + "start_recording", StartRecording)
         cls.stop = rospy.ServiceProxy(NS + "stop_recording", StopRecording)
+        cls.stats = rospy.ServiceProxy(NS + "get_selection_statistics", GetSelectionStatistics)
         wait_for(lambda: cls.raw.get_num_connections() > 0, 30, "fusion to subscribe")
         wait_for(lambda: cls.external.get_num_connections() > 0, 30, "ingest to subscribe")
         cls.stamp = 0
@@ -214,6 +216,21 @@ class FusionServices(unittest.TestCase):
         self.assertEqual(self.names(), ["day"])
         last = self.belief_for(self.send(self.night[5]))
         self.assertLessEqual(abs(last.match - 5), 8)
+
+    def test_selection_statistics_count_queries_per_set(self):
+        self.ensure_day_loaded()
+        self.stats(reset=True)
+        stamps = [self.send(self.night[i]) for i in range(20)]
+        self.belief_for(stamps[-1])
+        r = self.stats(reset=False)
+        self.assertEqual(r.queries, 20)
+        day = [s for s in r.sets if s.name == "day"][0]
+        self.assertEqual(day.selected, 20)  # the only set: always selected and closest
+        self.assertEqual(day.best, 20)
+        self.assertEqual(day.supplied_match, 20)
+        self.assertAlmostEqual(day.selected_fraction, 1.0)
+        self.stats(reset=True)
+        self.assertEqual(self.stats(reset=False).queries, 0)
 
     def test_recording_a_new_reference_set(self):
         self.ensure_day_loaded()

@@ -85,6 +85,13 @@ class ReplayNordland(unittest.TestCase):
         self.assertEqual(s_rep["auc"], s_off["auc"])
         self.assertEqual(s_rep["r_at_1"], s_off["r_at_1"])
         self.assertGreater(float(s_rep["auc"]), 0.1)  # measured 0.111 on this data
+        # The same results bag feeds reference curation.
+        r = subprocess.run(["rosrun", "bsf_vpr", "bsf_curate", "--results-bag", results_path],
+                           capture_output=True, text=True, check=False)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("winter", r.stdout)
+        self.assertIn("1500 queries", r.stdout)
+        self.assertIn("100.0%", r.stdout)  # the only set: selected for every query
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ constexpr char kUnloadReferenceSetService[] = "unload_reference_set";
 constexpr char kQueryPlaceService[] = "query_place";
 constexpr char kStartRecordingService[] = "start_recording";
 constexpr char kStopRecordingService[] = "stop_recording";
+constexpr char kSelectionStatisticsService[] = "get_selection_statistics";
 
 }  // namespace names
 }  // namespace bsf_vpr

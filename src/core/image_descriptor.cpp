@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+
+#include "bsf_vpr/core/image_describer.h"
 
 namespace bsf_vpr {
 
@@ -105,17 +106,9 @@ std::vector<std::string> ListImageFiles(const std::string& folder) {
 }
 
 RowMatrixXf DescribeImageFolder(const std::string& folder, const PatchNormOptions& options) {
-  options.Validate();
-  const std::vector<std::string> files = ListImageFiles(folder);
-  RowMatrixXf out(static_cast<Eigen::Index>(files.size()), options.dimension());
-  for (size_t i = 0; i < files.size(); ++i) {
-    const cv::Mat img = cv::imread(files[i], cv::IMREAD_UNCHANGED);
-    if (img.empty()) throw std::runtime_error("cannot decode image '" + files[i] + "'");
-    cv::Mat img8 = img;
-    if (img.depth() == CV_16U) img.convertTo(img8, CV_8U, 1.0 / 257.0);
-    out.row(static_cast<Eigen::Index>(i)) = DescribePatchNormalized(img8, options).transpose();
-  }
-  return out;
+  ImageDescriberOptions o;
+  o.patch_norm = options;
+  return DescribeImageFolder(folder, *MakeImageDescriber(o));
 }
 
 }  // namespace bsf_vpr

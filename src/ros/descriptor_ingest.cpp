@@ -11,9 +11,30 @@
 
 namespace bsf_vpr {
 IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
-  RefuseUnknownParams(pnh, {"input", "expected_dimension", "l2_normalize", "descriptor_type",
-                            "patch_width_px", "patch_height_px", "patch_size_px", "queue_size",
-                            "diagnostic_period", "image_transport"});
+  RefuseUnknownParams(pnh, {"input",
+                            "expected_dimension",
+                            "l2_normalize",
+                            "descriptor_type",
+                            "image_descriptor",
+                            "patch_width_px",
+                            "patch_height_px",
+                            "patch_size_px",
+                            "hog_width_px",
+                            "hog_height_px",
+                            "hog_cell_px",
+                            "hog_bins",
+                            "onnx_model",
+                            "onnx_input_width_px",
+                            "onnx_input_height_px",
+                            "onnx_mean",
+                            "onnx_std",
+                            "onnx_rgb",
+                            "onnx_output_layer",
+                            "onnx_pca_path",
+                            "onnx_l2_normalize",
+                            "queue_size",
+                            "diagnostic_period",
+                            "image_transport"});
   IngestParams p;
   p.input = GetParam<std::string>(pnh, "input", p.input);
   if (p.input != "image" && p.input != "descriptor") {
@@ -22,20 +43,36 @@ IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
   p.expected_dimension = GetParam<int>(pnh, "expected_dimension", p.expected_dimension);
   if (p.expected_dimension < 0) throw std::invalid_argument("expected_dimension must be >= 0");
   p.l2_normalize = GetParam<bool>(pnh, "l2_normalize", p.l2_normalize);
-  p.patch_norm.width_px = GetParam<int>(pnh, "patch_width_px", p.patch_norm.width_px);
-  p.patch_norm.height_px = GetParam<int>(pnh, "patch_height_px", p.patch_norm.height_px);
-  p.patch_norm.patch_size_px = GetParam<int>(pnh, "patch_size_px", p.patch_norm.patch_size_px);
-  p.patch_norm.Validate();
-  p.descriptor_type = GetParam<std::string>(
-      pnh, "descriptor_type", p.input == "image" ? p.patch_norm.DescriptorType() : "");
+  p.describer.patch_norm.width_px =
+      GetParam<int>(pnh, "patch_width_px", p.describer.patch_norm.width_px);
+  p.describer.patch_norm.height_px =
+      GetParam<int>(pnh, "patch_height_px", p.describer.patch_norm.height_px);
+  p.describer.patch_norm.patch_size_px =
+      GetParam<int>(pnh, "patch_size_px", p.describer.patch_norm.patch_size_px);
+  ImageDescriberOptions& d = p.describer;
+  d.kind = GetParam<std::string>(pnh, "image_descriptor", d.kind);
+  d.hog.width_px = GetParam<int>(pnh, "hog_width_px", d.hog.width_px);
+  d.hog.height_px = GetParam<int>(pnh, "hog_height_px", d.hog.height_px);
+  d.hog.cell_px = GetParam<int>(pnh, "hog_cell_px", d.hog.cell_px);
+  d.hog.bins = GetParam<int>(pnh, "hog_bins", d.hog.bins);
+  d.onnx.model_path = GetParam<std::string>(pnh, "onnx_model", d.onnx.model_path);
+  d.onnx.input_width_px = GetParam<int>(pnh, "onnx_input_width_px", d.onnx.input_width_px);
+  d.onnx.input_height_px = GetParam<int>(pnh, "onnx_input_height_px", d.onnx.input_height_px);
+  const auto as_floats = [](const std::vector<double>& v) {
+    return std::vector<float>(v.begin(), v.end());
+  };
+  d.onnx.mean = as_floats(
+      GetParam<std::vector<double>>(pnh, "onnx_mean", {d.onnx.mean.begin(), d.onnx.mean.end()}));
+  d.onnx.std = as_floats(
+      GetParam<std::vector<double>>(pnh, "onnx_std", {d.onnx.std.begin(), d.onnx.std.end()}));
+  d.onnx.rgb = GetParam<bool>(pnh, "onnx_rgb", d.onnx.rgb);
+  d.onnx.output_layer = GetParam<std::string>(pnh, "onnx_output_layer", d.onnx.output_layer);
+  d.onnx.pca_path = GetParam<std::string>(pnh, "onnx_pca_path", d.onnx.pca_path);
+  d.onnx.l2_normalize = GetParam<bool>(pnh, "onnx_l2_normalize", d.onnx.l2_normalize);
+  d.patch_norm.Validate();
+  p.descriptor_type = GetParam<std::string>(pnh, "descriptor_type", "");
   p.queue_size = GetParam<int>(pnh, "queue_size", p.queue_size);
   if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
-  if (p.input == "image" && p.expected_dimension != 0 &&
-      p.expected_dimension != p.patch_norm.dimension()) {
-    throw std::invalid_argument("expected_dimension " + std::to_string(p.expected_dimension) +
-                                " differs from the image descriptor's " +
-                                std::to_string(p.patch_norm.dimension()));
-  }
   return p;
 }
 
@@ -44,6 +81,15 @@ DescriptorIngest::DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 void DescriptorIngest::Start() {
   params_ = LoadIngestParams(pnh_);
+  if (params_.input == "image") {
+    describer_ = MakeImageDescriber(params_.describer);  // a bad ONNX model fails here
+    if (params_.expected_dimension != 0 && params_.expected_dimension != describer_->dimension()) {
+      throw std::invalid_argument(
+          "expected_dimension " + std::to_string(params_.expected_dimension) +
+          " differs from the image descriptor's " + std::to_string(describer_->dimension()));
+    }
+    if (params_.descriptor_type.empty()) params_.descriptor_type = describer_->descriptor_type();
+  }
   auto on_connect = [this](const ros::SingleSubscriberPublisher&) { UpdateSubscription(); };
   pub_ = nh_.advertise<Descriptor>(
       names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size), on_connect, on_connect);
@@ -83,10 +129,10 @@ void DescriptorIngest::Reject(const std::string& why) {
 void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   auto out = boost::make_shared<Descriptor>();
   try {
-    // toCvShare converts only when the encoding differs (e.g. rgb8 -> mono8).
+    // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
-        cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::MONO8);
-    const Eigen::VectorXf d = DescribePatchNormalized(cv->image, params_.patch_norm);
+        cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
+    const Eigen::VectorXf d = describer_->Describe(cv->image);
     out->data.assign(d.data(), d.data() + d.size());
   } catch (const std::exception& e) {
     Reject(std::string("cannot describe image: ") + e.what());

@@ -14,7 +14,7 @@
 #include <mutex>
 #include <string>
 
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/image_describer.h"
 
 namespace bsf_vpr {
 
@@ -22,8 +22,8 @@ struct IngestParams {
   std::string input = "image";  // "image" (sensor_msgs/Image) or "descriptor"
   int expected_dimension = 0;   // 0: any non-empty dimension
   bool l2_normalize = false;
-  std::string descriptor_type;  // stamped on the output; default: the image descriptor's name
-  PatchNormOptions patch_norm;
+  std::string descriptor_type;      // stamped on the output; default: the image descriptor's name
+  ImageDescriberOptions describer;  // for images: patchnorm | hog | onnx
   int queue_size = 10;
 };
 
@@ -46,6 +46,7 @@ class DescriptorIngest {
 
   ros::NodeHandle nh_, pnh_;
   IngestParams params_;
+  std::unique_ptr<ImageDescriber> describer_;  // built at start (an ONNX model is loaded then)
   std::mutex mutex_;
   image_transport::ImageTransport it_;
   image_transport::Subscriber image_sub_;

@@ -1,6 +1,7 @@
 #include "evaluate_args.h"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "cli_util.h"
@@ -52,8 +53,19 @@ Methods and parameters:
   --filter-step S, --filter-std S   +filter: mean and standard deviation of the progress
                           per query, in places (default 1 1)
   --relocalization R      +filter: probability of re-localising anywhere (default 0.01)
+  --descriptor NAME       image descriptor for image folders: patchnorm (default), hog, onnx
   --patch-width W, --patch-height H, --patch-size P
-                          image descriptor size for image folders (default 64 32 8)
+                          patchnorm: resize and patch size (default 64 32 8)
+  --hog-width W, --hog-height H, --hog-cell C, --hog-bins B
+                          hog: resize, cell size and orientation bins (default 64 32 8 9)
+  --onnx-model PATH       onnx: the network (e.g. NetVLAD exported to ONNX)
+  --onnx-input WxH        onnx: input size (default 224x224)
+  --onnx-mean R,G,B, --onnx-std R,G,B   onnx: per-channel normalisation of [0, 1] pixels
+                          (default ImageNet 0.485,0.456,0.406 and 0.229,0.224,0.225)
+  --onnx-output NAME      onnx: output layer (default: the network's output)
+  --onnx-pca PATH         onnx: K x D projection .npy applied to the output
+  --onnx-bgr              onnx: feed B, G, R instead of R, G, B
+  --onnx-no-l2            onnx: do not L2-normalise the output
 
 Output:
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
@@ -85,6 +97,10 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     }
     if (flag == "--no-progress") {
       a.progress = false;
+      continue;
+    }
+    if (flag == "--onnx-bgr" || flag == "--onnx-no-l2") {
+      (flag == "--onnx-bgr" ? a.describer.onnx.rgb : a.describer.onnx.l2_normalize) = false;
       continue;
     }
     if (flag.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + flag + "'");
@@ -138,12 +154,40 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.options.filter.step_std_places = ParseNumber(flag, value);
     } else if (flag == "--relocalization") {
       a.options.filter.relocalization_probability = ParseNumber(flag, value);
+    } else if (flag == "--descriptor") {
+      a.describer.kind = value;
+    } else if (flag == "--hog-width") {
+      a.describer.hog.width_px = ParseInteger(flag, value);
+    } else if (flag == "--hog-height") {
+      a.describer.hog.height_px = ParseInteger(flag, value);
+    } else if (flag == "--hog-cell") {
+      a.describer.hog.cell_px = ParseInteger(flag, value);
+    } else if (flag == "--hog-bins") {
+      a.describer.hog.bins = ParseInteger(flag, value);
+    } else if (flag == "--onnx-model") {
+      a.describer.onnx.model_path = value;
+    } else if (flag == "--onnx-input") {
+      const size_t x = value.find('x');
+      if (x == std::string::npos)
+        throw std::invalid_argument("--onnx-input expects WxH, got '" + value + "'");
+      a.describer.onnx.input_width_px = ParseInteger(flag, value.substr(0, x));
+      a.describer.onnx.input_height_px = ParseInteger(flag, value.substr(x + 1));
+    } else if (flag == "--onnx-mean" || flag == "--onnx-std") {
+      std::vector<float> v;
+      std::stringstream ss(value);
+      for (std::string item; std::getline(ss, item, ',');)
+        v.push_back(static_cast<float>(ParseNumber(flag, item)));
+      (flag == "--onnx-mean" ? a.describer.onnx.mean : a.describer.onnx.std) = v;
+    } else if (flag == "--onnx-output") {
+      a.describer.onnx.output_layer = value;
+    } else if (flag == "--onnx-pca") {
+      a.describer.onnx.pca_path = value;
     } else if (flag == "--patch-width") {
-      a.patch_norm.width_px = ParseInteger(flag, value);
+      a.describer.patch_norm.width_px = ParseInteger(flag, value);
     } else if (flag == "--patch-height") {
-      a.patch_norm.height_px = ParseInteger(flag, value);
+      a.describer.patch_norm.height_px = ParseInteger(flag, value);
     } else if (flag == "--patch-size") {
-      a.patch_norm.patch_size_px = ParseInteger(flag, value);
+      a.describer.patch_norm.patch_size_px = ParseInteger(flag, value);
     } else if (flag == "--out") {
       a.out_dir = value;
     } else {
@@ -189,7 +233,13 @@ void CheckCombination(const EvaluateArgs& a) {
     throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
   }
   a.options.Validate();
-  a.patch_norm.Validate();
+  if (a.describer.kind != "patchnorm" && a.describer.kind != "hog" && a.describer.kind != "onnx") {
+    throw std::invalid_argument("unknown --descriptor '" + a.describer.kind +
+                                "' (expected patchnorm, hog or onnx)");
+  }
+  a.describer.patch_norm.Validate();
+  if (a.describer.kind == "hog") a.describer.hog.Validate();
+  if (a.describer.kind == "onnx") a.describer.onnx.Validate();
 }
 
 }  // namespace tools

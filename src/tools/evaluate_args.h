@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
 
 namespace bsf_vpr {
@@ -31,7 +31,7 @@ struct EvaluateArgs {
   std::string ground_truth;   // --ground-truth CSV
   std::string methods = "all";
   MethodOptions options;
-  PatchNormOptions patch_norm;
+  ImageDescriberOptions describer;  // for image folders
   std::string out_dir;
   bool progress = true;
   bool help = false;

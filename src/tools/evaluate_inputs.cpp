@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/ground_truth_io.h"
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
 
@@ -18,19 +18,24 @@ bool IsFolder(const std::string& path) {
   return std::filesystem::is_directory(path, ec);
 }
 
+// Image folders are described with `describer`, built on first use (an ONNX model is then
+// loaded once for all folders).
 ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
-                        const PatchNormOptions& patch_norm) {
+                        const ImageDescriberOptions& options,
+                        std::unique_ptr<ImageDescriber>* describer) {
   if (IsFolder(path)) {
-    ReferenceSet set = MakeReferenceSet(name, DescribeImageFolder(path, patch_norm));
-    set.descriptor_type = patch_norm.DescriptorType();
+    if (!*describer) *describer = MakeImageDescriber(options);
+    ReferenceSet set = MakeReferenceSet(name, DescribeImageFolder(path, **describer));
+    set.descriptor_type = (*describer)->descriptor_type();
     return set;
   }
   return LoadReferenceSetFile(path, name);
 }
 
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
+  std::unique_ptr<ImageDescriber> describer;
   for (const NamedPath& r : args.references) {
-    ReferenceSet set = LoadAnySet(r.path, r.name, args.patch_norm);
+    ReferenceSet set = LoadAnySet(r.path, r.name, args.describer, &describer);
     if (!set.distance.empty() && set.distance != ToString(args.metric)) {
       throw std::invalid_argument("reference set '" + r.name + "' (" + r.path + ") is meant for " +
                                   set.distance + " distance but --distance is " +
@@ -38,7 +43,7 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
     }
     data->map.Add(std::move(set));
   }
-  ReferenceSet query = LoadAnySet(args.query, "query", args.patch_norm);
+  ReferenceSet query = LoadAnySet(args.query, "query", args.describer, &describer);
   if (query.dimension() != data->map.dimension()) {
     throw std::invalid_argument("query '" + args.query + "' has dimension " +
                                 std::to_string(query.dimension()) + ", the reference sets have " +

@@ -62,6 +62,25 @@ class ConfigFiles(unittest.TestCase):
                     verbose=False)
         return config
 
+    def test_ingest_describes_images_with_hog_and_onnx(self):
+        import numpy as np
+        from sensor_msgs.msg import Image
+        from bsf_vpr.msg import Descriptor
+        for ns, dimension, kind in (("/cfg_ingest_hog", 756, "hog_64x32_c8_b9"),
+                                    ("/cfg_ingest_onnx", 48, "onnx_model_48"),
+                                    ("/cfg_ingest", 2048, "patchnorm_64x32_p8")):
+            got = []
+            sub = rospy.Subscriber(ns + "/descriptor", Descriptor, got.append)
+            pub = rospy.Publisher(ns + "/image", Image, queue_size=1)
+            wait_for(lambda: pub.get_num_connections() > 0, 30, ns + " to subscribe (lazily)")
+            img = Image(height=32, width=64, encoding="rgb8", step=64 * 3)
+            img.data = np.random.RandomState(1).randint(0, 255, 32 * 64 * 3, np.uint8).tobytes()
+            wait_for(lambda: (pub.publish(img), len(got) > 0)[1], 30, ns + " to describe an image")
+            self.assertEqual(len(got[0].data), dimension, ns)
+            self.assertEqual(got[0].descriptor_type, kind, ns)
+            sub.unregister()
+            pub.unregister()
+
     def test_every_launch_file_parses(self):
         launches = sorted(glob.glob(os.path.join(self.pkg, "launch", "*.launch")))
         self.assertGreaterEqual(len(launches), 2)
@@ -98,6 +117,12 @@ class ConfigFiles(unittest.TestCase):
                                capture_output=True, text=True, timeout=60, check=False)
             self.assertEqual(r.returncode, 1, params)
             self.assertIn(fragment, r.stdout + r.stderr, params)
+        r = subprocess.run(["rosrun", "bsf_vpr", "descriptor_ingest_node", "__name:=bad_ingest",
+                            "__ns:=/bad", "_image_descriptor:=onnx",
+                            "_onnx_model:=/nonexistent/netvlad.onnx"],
+                           capture_output=True, text=True, timeout=60, check=False)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("/nonexistent/netvlad.onnx", r.stdout + r.stderr)
         rospy.delete_param("/bad")  # the private parameters set for these nodes
 
 

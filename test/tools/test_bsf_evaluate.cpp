@@ -280,6 +280,31 @@ TEST_F(EvaluateTool, MakeReferenceAndMakeBagWriteFilesOrFailCleanly) {
   EXPECT_FALSE(fs::exists(dir_ + "/b.bag.tmp"));
 }
 
+TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
+  const std::string root = kSource + "/data/nordland_64x32/";
+  const std::string in = "--reference winter=" + root + "winter --query " + root +
+                         "summer --distance cosine --tolerance 2 --methods bsf,nn:winter "
+                         "--no-progress --out ";
+  const Result hog = Evaluate(in + dir_ + "/hog --descriptor hog");
+  ASSERT_EQ(hog.exit_code, 0) << hog.output;
+  EXPECT_NE(hog.output.find("dimension 756"), std::string::npos) << hog.output;
+  EXPECT_GT(Summary(dir_ + "/hog").at("bsf").at("r_at_1"), 0.05);  // chance: 5/1500
+  const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
+  const Result onnx = Evaluate(in + dir_ + "/onnx --descriptor onnx --onnx-model " + model +
+                               " --onnx-input 7x7");
+  ASSERT_EQ(onnx.exit_code, 0) << onnx.output;
+  EXPECT_NE(onnx.output.find("dimension 48"), std::string::npos) << onnx.output;
+  const Result missing = Evaluate(in + dir_ + "/x --descriptor onnx --onnx-model /nonexistent.onnx");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.output.find("/nonexistent.onnx"), std::string::npos) << missing.output;
+  const Result no_model = Evaluate(in + dir_ + "/x --descriptor onnx");
+  EXPECT_EQ(no_model.exit_code, 2);
+  EXPECT_NE(no_model.output.find("model_path"), std::string::npos) << no_model.output;
+  const Result bad = Evaluate(in + dir_ + "/x --descriptor sift");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
+}
+
 TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {
   // Real shipped data: 1500 summer queries against the winter reference (images).
   const std::string root = kSource + "/data/nordland_64x32/";

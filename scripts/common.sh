@@ -3,7 +3,8 @@
 
 # A pyenv (or other) python3 earlier on PATH breaks catkin: Debian's ROS lives in /usr.
 export PATH="/usr/bin:/bin:/usr/sbin:/sbin:${PATH}"
-BSF_REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# Resolve links: the scripts may be reached through the workspace's link to this folder.
+BSF_REPO="$(cd "$(dirname "$(readlink -f "${BASH_SOURCE[0]}")")/.." && pwd)"
 BSF_WS="${BSF_REPO}/build/ws"
 export BSF_REPO BSF_WS
 

@@ -47,25 +47,36 @@ int Run(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
     const std::string v = argv[++i];
-    if (f == "--out") out = v;
-    else if (f == "--places") o.num_places = tools::ParseInteger(f, v);
-    else if (f == "--dimension") o.dimension = tools::ParseInteger(f, v);
-    else if (f == "--set-noise") o.set_noise = List(f, v);
-    else if (f == "--condition-strength") o.condition_strength = tools::ParseNumber(f, v);
-    else if (f == "--query-noise") o.query_noise = tools::ParseNumber(f, v);
-    else if (f == "--query-weights") o.query_condition_weights = List(f, v);
-    else if (f == "--seed") o.seed = static_cast<uint64_t>(tools::ParseInteger(f, v));
-    else throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+    if (f == "--out")
+      out = v;
+    else if (f == "--places")
+      o.num_places = tools::ParseInteger(f, v);
+    else if (f == "--dimension")
+      o.dimension = tools::ParseInteger(f, v);
+    else if (f == "--set-noise")
+      o.set_noise = List(f, v);
+    else if (f == "--condition-strength")
+      o.condition_strength = tools::ParseNumber(f, v);
+    else if (f == "--query-noise")
+      o.query_noise = tools::ParseNumber(f, v);
+    else if (f == "--query-weights")
+      o.query_condition_weights = List(f, v);
+    else if (f == "--seed")
+      o.seed = static_cast<uint64_t>(tools::ParseInteger(f, v));
+    else
+      throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
   if (out.empty()) throw std::invalid_argument("no --out DIR given");
   const SyntheticData d = GenerateMultiConditionData(o);
   std::filesystem::create_directories(out);
-  for (const ReferenceSet& s : d.map.sets()) WriteNpyMatrix(out + "/" + s.name + ".npy", s.descriptors);
+  for (const ReferenceSet& s : d.map.sets())
+    WriteNpyMatrix(out + "/" + s.name + ".npy", s.descriptors);
   WriteNpyMatrix(out + "/queries.npy", d.queries);
   WriteGroundTruthCsv(out + "/ground_truth.csv", d.truth);
   std::ostringstream conditions;
   conditions << "query,condition\n";
-  for (size_t q = 0; q < d.query_condition.size(); ++q) conditions << q << ",c" << d.query_condition[q] << '\n';
+  for (size_t q = 0; q < d.query_condition.size(); ++q)
+    conditions << q << ",c" << d.query_condition[q] << '\n';
   WriteFileAtomically(out + "/query_conditions.csv", conditions.str());
   std::cout << "bsf_make_synthetic: wrote " << d.map.num_sets() << " reference sets and "
             << d.queries.rows() << " queries to " << out << "\n";

@@ -290,11 +290,12 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   EXPECT_NE(hog.output.find("dimension 756"), std::string::npos) << hog.output;
   EXPECT_GT(Summary(dir_ + "/hog").at("bsf").at("r_at_1"), 0.05);  // chance: 5/1500
   const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
-  const Result onnx = Evaluate(in + dir_ + "/onnx --descriptor onnx --onnx-model " + model +
-                               " --onnx-input 7x7");
+  const Result onnx =
+      Evaluate(in + dir_ + "/onnx --descriptor onnx --onnx-model " + model + " --onnx-input 7x7");
   ASSERT_EQ(onnx.exit_code, 0) << onnx.output;
   EXPECT_NE(onnx.output.find("dimension 48"), std::string::npos) << onnx.output;
-  const Result missing = Evaluate(in + dir_ + "/x --descriptor onnx --onnx-model /nonexistent.onnx");
+  const Result missing =
+      Evaluate(in + dir_ + "/x --descriptor onnx --onnx-model /nonexistent.onnx");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("/nonexistent.onnx"), std::string::npos) << missing.output;
   const Result no_model = Evaluate(in + dir_ + "/x --descriptor onnx");
@@ -303,6 +304,25 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   const Result bad = Evaluate(in + dir_ + "/x --descriptor sift");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
+}
+
+TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {
+  const Result r =
+      RunCommand("BSF_NO_SETUP=1 BSF_STUDIES_OUT=" + dir_ + " " + kSource + "/scripts/studies 4");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = Summary(dir_ + "/study4/synthetic_random2");
+  // Measured: bsf 0.610 against 0.380 for the best single reference.
+  EXPECT_GT(s.at("bsf").at("auc"), s.at("bayes:c0").at("auc") + 0.1);
+  EXPECT_GT(s.at("bsf").at("auc"), s.at("bayes:c1").at("auc") + 0.1);
+  EXPECT_TRUE(fs::exists(dir_ + "/study4/synthetic_random2/pr_curves.png"));
+  const Result bad =
+      RunCommand("BSF_NO_SETUP=1 BSF_STUDIES_OUT=" + dir_ + " " + kSource + "/scripts/studies 9");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("unknown study '9'"), std::string::npos) << bad.output;
+  const Result syn =
+      RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --out " + dir_ + "/s --set-noise 0.1,x");
+  EXPECT_EQ(syn.exit_code, 2);
+  EXPECT_NE(syn.output.find("--set-noise expects a number"), std::string::npos) << syn.output;
 }
 
 TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {

@@ -31,14 +31,8 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   std::string bag_path, topic = "/bsf_vpr/belief";
   CurationOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
-    const std::string v = argv[++i];
+  tools::FlagReader flags(argc, argv);
+  for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--results-bag") {
       bag_path = v;
     } else if (f == "--belief-topic") {
@@ -54,6 +48,10 @@ int Run(int argc, char** argv) {
     } else {
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
     }
+  }
+  if (flags.help()) {
+    std::cout << kUsage;
+    return 0;
   }
   if (bag_path.empty()) throw std::invalid_argument("no --results-bag PATH given");
   options.Validate();

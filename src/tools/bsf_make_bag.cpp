@@ -56,14 +56,8 @@ struct Args {
 
 Args Parse(int argc, char** argv, bool* help) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      *help = true;
-      return a;
-    }
-    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
-    const std::string v = argv[++i];
+  bsf_vpr::tools::FlagReader flags(argc, argv);
+  for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--images")
       a.images = v;
     else if (f == "--descriptors")
@@ -88,6 +82,10 @@ Args Parse(int argc, char** argv, bool* help) {
       a.limit = bsf_vpr::tools::ParseInteger(f, v);
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+  }
+  if (flags.help()) {
+    *help = true;
+    return a;
   }
   if (a.images.empty() == a.descriptors.empty()) {
     throw std::invalid_argument("give exactly one of --images DIR and --descriptors PATH.npy");

@@ -30,14 +30,8 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   std::string images, descriptors, name, out, condition, distance;
   PatchNormOptions patch;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
-    const std::string v = argv[++i];
+  tools::FlagReader flags(argc, argv);
+  for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--images")
       images = v;
     else if (f == "--descriptors")
@@ -58,6 +52,10 @@ int Run(int argc, char** argv) {
       patch.patch_size_px = tools::ParseInteger(f, v);
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+  }
+  if (flags.help()) {
+    std::cout << kUsage;
+    return 0;
   }
   if (images.empty() == descriptors.empty()) {
     throw std::invalid_argument("give exactly one of --images DIR and --descriptors PATH.npy");

@@ -39,14 +39,8 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   SyntheticOptions o;
   std::string out;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
-    const std::string v = argv[++i];
+  tools::FlagReader flags(argc, argv);
+  for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--out")
       out = v;
     else if (f == "--places")
@@ -65,6 +59,10 @@ int Run(int argc, char** argv) {
       o.seed = static_cast<uint64_t>(tools::ParseInteger(f, v));
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+  }
+  if (flags.help()) {
+    std::cout << kUsage;
+    return 0;
   }
   if (out.empty()) throw std::invalid_argument("no --out DIR given");
   const SyntheticData d = GenerateMultiConditionData(o);

@@ -29,6 +29,19 @@ int ParseInteger(const std::string& flag, const std::string& value) {
   return static_cast<int>(v);
 }
 
+bool FlagReader::Next(std::string* flag, std::string* value) {
+  if (i_ >= argc_) return false;
+  *flag = argv_[i_];
+  if (*flag == "-h" || *flag == "--help") {
+    help_ = true;
+    return false;
+  }
+  if (i_ + 1 >= argc_) throw std::invalid_argument(*flag + " needs a value");
+  *value = argv_[i_ + 1];
+  i_ += 2;
+  return true;
+}
+
 int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv) {
   try {
     return run(argc, argv);

@@ -13,6 +13,21 @@ constexpr int kExitBadInput = 2;
 double ParseNumber(const std::string& flag, const std::string& value);
 int ParseInteger(const std::string& flag, const std::string& value);
 
+// Reads the "--flag value" pairs of argv in order. Next() returns false at the end or at
+// -h/--help (then help() is true); it throws std::invalid_argument for a flag without value.
+class FlagReader {
+ public:
+  FlagReader(int argc, char** argv) : argc_(argc), argv_(argv) {}
+  bool Next(std::string* flag, std::string* value);
+  bool help() const { return help_; }
+
+ private:
+  int argc_;
+  char** argv_;
+  int i_ = 1;
+  bool help_ = false;
+};
+
 // Runs `run(argc, argv)`; an exception becomes "<tool>: error: <what>" and kExitBadInput.
 int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv);
 

@@ -2,6 +2,7 @@
 
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/synthetic.h"
+#include "test_util.h"
 
 namespace bsf_vpr {
 namespace {
@@ -41,15 +42,8 @@ TEST(Synthetic, BsfBeatsBaselineFusionAndTheWorstSingleReference) {
   // Queries drawn from three conditions at random (paper, Sec. V-D): each single reference
   // is informative for a third of them.
   for (uint64_t seed : {1u, 2u, 3u}) {
-    SyntheticOptions opt;
-    opt.num_places = 400;
-    opt.dimension = 16;
-    opt.set_noise = {0.5, 0.7, 0.9};
-    opt.query_noise = 0.5;
-    opt.condition_strength = 1.5;
-    opt.query_condition_weights = {1, 1, 1};
-    opt.seed = seed;
-    const std::vector<MethodResults> r = Evaluate(GenerateMultiConditionData(opt));
+    const std::vector<MethodResults> r =
+        Evaluate(GenerateMultiConditionData(testing::RandomConditionRoute(16, seed)));
     const double bsf = Find(r, "bsf").auc;
     double worst_single = 1;
     for (const char* s : {"c0", "c1", "c2"}) {

@@ -124,18 +124,8 @@ TEST(Methods, SuffixesParseAndNeedWhatTheyUse) {
   EXPECT_THROW(ParseMethod("bsf+smooth", sets), std::invalid_argument);
 }
 
-// A route driven once more under changing conditions (paper, Sec. V-D): each query is taken
-// under one of three conditions at random; query q is at place q.
 SyntheticData Route(uint64_t seed) {
-  SyntheticOptions opt;
-  opt.num_places = 400;
-  opt.dimension = 8;
-  opt.set_noise = {0.5, 0.7, 0.9};
-  opt.query_noise = 0.5;
-  opt.condition_strength = 1.5;
-  opt.query_condition_weights = {1, 1, 1};
-  opt.seed = seed;
-  return GenerateMultiConditionData(opt);
+  return GenerateMultiConditionData(testing::RandomConditionRoute(8, seed));
 }
 
 std::vector<MethodResults> EvaluateInOrder(const SyntheticData& d, const std::vector<int>& order,

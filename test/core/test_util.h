@@ -6,6 +6,7 @@
 #include <random>
 #include <vector>
 
+#include "bsf_vpr/core/synthetic.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -46,6 +47,20 @@ inline double LogLikelihoodOracle(const std::vector<float>& d, size_t i, bool on
   if (one_sided && e > 0) e = 0;
   const double log_gauss = var > 0 ? -0.5 * std::log(2 * M_PI * var) - e * e / (2 * var) : 0.0;
   return std::log(static_cast<double>(RankCountOracle(d, i))) - log_gauss;
+}
+
+// A route of 400 places driven again under three conditions (image noise 0.5, 0.7, 0.9),
+// each query under one of them at random (paper, Sec. V-D); query q is at place q.
+inline SyntheticOptions RandomConditionRoute(int dimension, uint64_t seed) {
+  SyntheticOptions opt;
+  opt.num_places = 400;
+  opt.dimension = dimension;
+  opt.set_noise = {0.5, 0.7, 0.9};
+  opt.query_noise = 0.5;
+  opt.condition_strength = 1.5;
+  opt.query_condition_weights = {1, 1, 1};
+  opt.seed = seed;
+  return opt;
 }
 
 }  // namespace testing

@@ -76,6 +76,7 @@ const std::vector<std::string>& FusionParamNames() {
                                                   "marker_spacing_m",
                                                   "diagnostic_period",
                                                   "sequence_length",
+                                                  "sequence_use_partial",
                                                   "sequence_min_velocity",
                                                   "sequence_max_velocity",
                                                   "sequence_velocity_step",
@@ -149,6 +150,8 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
       GetParam<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
   SequenceOptions& seq = r.method_options.sequence;
   seq.length = GetParam<int>(pnh, "sequence_length", seq.length);
+  seq.use_partial_sequences =
+      GetParam<bool>(pnh, "sequence_use_partial", seq.use_partial_sequences);
   seq.min_velocity = GetParam<double>(pnh, "sequence_min_velocity", seq.min_velocity);
   seq.max_velocity = GetParam<double>(pnh, "sequence_max_velocity", seq.max_velocity);
   seq.velocity_step = GetParam<double>(pnh, "sequence_velocity_step", seq.velocity_step);

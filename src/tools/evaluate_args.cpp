@@ -48,6 +48,8 @@ Methods and parameters:
   --threshold H           acceptance threshold h: p:0.9 / 0.9 (posterior probability) or
                           logodds:5 (default p:0.5); only affects the accepted flag
   --seq-length L          queries per sequence for +seq (default 5)
+  --seq-warmup partial|single   before L queries have arrived: match the shorter sequence
+                          so far (partial, default) or the single query
   --seq-min-velocity V, --seq-max-velocity V, --seq-velocity-step V
                           places per query searched by +seq (default 0.8 1.25 0.05)
   --filter-step S, --filter-std S   +filter: mean and standard deviation of the progress
@@ -142,6 +144,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.options.threshold = Threshold::Parse(value);
     } else if (flag == "--seq-length") {
       a.options.sequence.length = ParseInteger(flag, value);
+    } else if (flag == "--seq-warmup") {
+      if (value != "partial" && value != "single") {
+        throw std::invalid_argument("--seq-warmup expects partial or single, got '" + value + "'");
+      }
+      a.options.sequence.use_partial_sequences = value == "partial";
     } else if (flag == "--seq-min-velocity") {
       a.options.sequence.min_velocity = ParseNumber(flag, value);
     } else if (flag == "--seq-max-velocity") {

@@ -157,6 +157,12 @@ class FusionServices(unittest.TestCase):
             self.assertEqual(len(b.posterior), 0)  # a distance method has no posterior
             config = client.update_configuration({"method": "nn:unknown"})
             self.assertEqual(config["method"], "nn:day")  # refused, previous kept
+            client.update_configuration({"method": "bsf+filter+seq"})  # methods over time
+            stamps = [self.send(self.night[i]) for i in range(70, 80)]
+            b = self.belief_for(stamps[-1])
+            self.assertEqual(b.method, "bsf+filter+seq")
+            self.assertLessEqual(abs(b.match - 79), 8)
+            self.assertEqual(len(b.posterior), 200)
         finally:
             client.update_configuration({"method": "bsf", "gamma_fraction": 0.04})
         b = self.belief_for(self.send(self.night[60]))

@@ -1,0 +1,245 @@
+// bsf_benchmark: speed and memory of bsf_vpr against baselines measured in the same run
+// (see --help and docs/performance.md). Every figure is the median of --repeats runs.
+#include <faiss/IndexFlat.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <random>
+#include <sstream>
+
+#include "bsf_vpr/core/evaluation_runner.h"
+#include "bsf_vpr/core/place_recognizer.h"
+#include "cli_util.h"
+#include "naive_bsf.h"
+
+namespace {
+
+using namespace bsf_vpr;
+
+const char kUsage[] = R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--quick]
+
+Measures, on random data of the stated shapes (float32), medians of R runs (default 7):
+  fusion   selection + likelihoods + posterior for M=3, N=3000 given the distances:
+           bsf_vpr vs the paper's formulas written straightforwardly (O(N^2))
+  query    one query end to end (distances + fusion), M=3, N=3000, D=4096: vs the time to
+           stream the same reference bytes once (the memory limit for one query), and the
+           distance part vs FAISS IndexFlatL2 search
+  batch    a whole offline evaluation of Q=500 queries against M=3, N=3000, D=4096 vs a
+           matrix-product (Eigen GEMM) of the same shape
+  scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
+           D in {256,1024,4096} (combinations over 6 GB of descriptors are skipped)
+--sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
+and the scaling grid by 100x (a smoke test; its figures are not the documented ones).
+)";
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// Median wall time of `fn` in milliseconds over `repeats` runs (after one warm-up run).
+double TimeMs(int repeats, const std::function<void()>& fn) {
+  fn();
+  std::vector<double> ms;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    fn();
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return Median(ms);
+}
+
+RowMatrixXf Random(Eigen::Index rows, Eigen::Index cols, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  RowMatrixXf m(rows, cols);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = normal(rng);
+  return m;
+}
+
+// Resident memory of this process, bytes (VmRSS).
+size_t ResidentBytes() {
+  std::ifstream in("/proc/self/status");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stoul(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+volatile float g_sink;  // keeps the probes from being optimised away
+
+struct Shape {
+  int m, n, d;
+};
+
+PlaceRecognizer MakeRecognizer(const Shape& s, uint64_t seed) {
+  PlaceRecognizer r;
+  for (int u = 0; u < s.m; ++u) {
+    r.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), Random(s.n, s.d, seed + u)));
+  }
+  r.SetOptions({});
+  return r;
+}
+
+void Fusion(int repeats, int scale) {
+  const int n = 3000 / scale, m = 3;
+  std::vector<std::vector<float>> d(m);
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<float> uni(0.5f, 2.0f);
+  for (auto& v : d) {
+    v.resize(static_cast<size_t>(n));
+    for (float& x : v) x = uni(rng);
+  }
+  std::vector<SetDistances> views;
+  for (const auto& v : d) views.push_back({v.data(), nullptr, n});
+  MethodOptions o;
+  o.likelihood.variant = LikelihoodVariant::kTwoSided;  // exactly the paper, as the baseline
+  const Method bsf = ParseMethod("bsf", {"a", "b", "c"});
+  int ours_match = -1, naive_match = -2;
+  std::vector<double> post;
+  const double ours = TimeMs(repeats, [&] { ours_match = RunMethod(bsf, views, n, o).match; });
+  const double naive = TimeMs(repeats, [&] { naive_match = tools::NaiveBsf(d, 0.04, &post); });
+  std::printf(
+      "fusion  M=%d N=%d: bsf_vpr %.3f ms, straightforward O(N^2) %.1f ms: %.0fx faster%s\n", m, n,
+      ours, naive, naive / ours, ours_match == naive_match ? "" : " (MATCHES DIFFER)");
+}
+
+void Query(int repeats, int scale) {
+  const Shape s{3, 3000 / scale, 4096};
+  PlaceRecognizer r = MakeRecognizer(s, 10);
+  const Eigen::VectorXf q = Random(1, s.d, 99).row(0).transpose();
+  const double ours =
+      TimeMs(repeats, [&] { g_sink = static_cast<float>(r.Recognize(q, false).belief.match); });
+  const RowMatrixXf q_row = q.transpose();
+  const double ours_distances = TimeMs(repeats, [&] {
+    g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, r.map())[0](0, 0);
+  });
+  // Memory limit: read every reference float once.
+  const double stream = TimeMs(repeats, [&] {
+    float acc = 0;
+    for (const ReferenceSet& set : r.map().sets()) acc += set.descriptors.sum();
+    g_sink = acc;
+  });
+  std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
+  for (const ReferenceSet& set : r.map().sets()) {
+    faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
+    faiss_sets.back()->add(set.size(), set.descriptors.data());
+  }
+  std::vector<float> dist(static_cast<size_t>(s.n));
+  std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
+  const double faiss_ms = TimeMs(repeats, [&] {
+    for (auto& index : faiss_sets) index->search(1, q.data(), s.n, dist.data(), label.data());
+  });
+  const double mb = 3.0 * s.n * s.d * 4 / 1e6;
+  std::printf(
+      "query   M=%d N=%d D=%d (%.0f MB float32): end to end %.2f ms; streaming the "
+      "references once %.2f ms (%.1f GB/s): %.2fx the memory limit\n",
+      s.m, s.n, s.d, mb, ours, stream, mb / stream, ours / stream);
+  std::printf(
+      "query   distances alone %.2f ms vs FAISS IndexFlatL2 (all N, k=N) %.2f ms: %.2fx "
+      "FAISS's time\n",
+      ours_distances, faiss_ms, ours_distances / faiss_ms);
+}
+
+void Batch(int repeats, int scale) {
+  const Shape s{3, 3000 / scale, 4096};
+  const int nq = 500 / scale;
+  PlaceRecognizer r = MakeRecognizer(s, 20);
+  const RowMatrixXf queries = Random(nq, s.d, 77);
+  EvaluationInput in;
+  in.num_queries = nq;
+  in.num_places = s.n;
+  in.set_names = r.map().SetNames();
+  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
+    *block = ComputeDistances(DistanceMetric::kEuclidean, queries.middleRows(b, e - b), r.map());
+  };
+  const GroundTruth truth = GroundTruth::FromFrameTolerance(nq, s.n, 2);
+  const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
+  const double ours = TimeMs(repeats, [&] { EvaluateMethods(in, bsf, {}, truth); });
+  RowMatrixXf product;
+  const double gemm = TimeMs(repeats, [&] {
+    for (const ReferenceSet& set : r.map().sets())
+      product.noalias() = queries * set.descriptors.transpose();
+    g_sink = product(0, 0);
+  });
+  std::printf(
+      "batch   Q=%d M=%d N=%d D=%d: evaluation %.0f ms (%.2f ms/query); Eigen GEMM of the "
+      "same shape %.0f ms: %.0f%% of the GEMM throughput\n",
+      nq, s.m, s.n, s.d, ours, ours / nq, gemm, 100.0 * gemm / ours);
+}
+
+void Scaling(int repeats, int scale) {
+  std::printf("scaling        N     M      D   ms/query   descriptor MB   resident MB   ratio\n");
+  for (int n : {1000, 10000, 100000}) {
+    for (int m : {1, 3, 10}) {
+      for (int d : {256, 1024, 4096}) {
+        const Shape s{m, n / (scale == 1 ? 1 : 100), d};
+        const double bytes = 4.0 * s.m * s.n * s.d;
+        if (bytes > 6e9) {
+          std::printf("scaling  %7d  %4d  %5d   skipped (%.1f GB of descriptors)\n", s.n, m, d,
+                      bytes / 1e9);
+          continue;
+        }
+        const size_t before = ResidentBytes();
+        PlaceRecognizer r = MakeRecognizer(s, 30);
+        const Eigen::VectorXf q = Random(1, d, 5).row(0).transpose();
+        const double ms = TimeMs(std::max(1, repeats / 2), [&] {
+          g_sink = static_cast<float>(r.Recognize(q, false).belief.match);
+        });
+        const double resident = static_cast<double>(ResidentBytes() - before);
+        std::printf("scaling  %7d  %4d  %5d  %9.2f  %14.1f  %12.1f   %.2f\n", s.n, m, d, ms,
+                    bytes / 1e6, resident / 1e6, resident / bytes);
+      }
+    }
+  }
+}
+
+int Run(int argc, char** argv) {
+  std::string sections = "fusion,query,batch,scaling";
+  int repeats = 7, scale = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string f = argv[i];
+    if (f == "-h" || f == "--help") {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (f == "--quick") {
+      scale = 10;
+      continue;
+    }
+    if (i + 1 >= argc) throw std::invalid_argument(f + " needs a value");
+    const std::string v = argv[++i];
+    if (f == "--sections")
+      sections = v;
+    else if (f == "--repeats")
+      repeats = tools::ParseInteger(f, v);
+    else
+      throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+  }
+  if (repeats < 1) throw std::invalid_argument("--repeats must be >= 1");
+  std::stringstream ss(sections);
+  for (std::string s; std::getline(ss, s, ',');) {
+    if (s == "fusion")
+      Fusion(repeats, scale);
+    else if (s == "query")
+      Query(repeats, scale);
+    else if (s == "batch")
+      Batch(repeats, scale);
+    else if (s == "scaling")
+      Scaling(repeats, scale);
+    else
+      throw std::invalid_argument("unknown section '" + s + "' (fusion, query, batch, scaling)");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return bsf_vpr::tools::RunTool("bsf_benchmark", Run, argc, argv);
+}

@@ -1,8 +1,11 @@
 #include "bsf_vpr/core/distances.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
+#include <thread>
 
 namespace bsf_vpr {
 
@@ -55,40 +58,71 @@ float FixedOrderDot(const float* a, const float* b, int n) {
 
 }  // namespace
 
+namespace {
+
+std::atomic<int> g_threads{0};  // 0: hardware concurrency
+
+// Computes out(q, r) for every query and the reference rows [r0, r1).
+void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const RowMatrixXf& refs,
+                  const Eigen::VectorXf& qn, Eigen::Index r0, Eigen::Index r1, RowMatrixXf* out) {
+  const int d = static_cast<int>(refs.cols());
+  const Eigen::Index nq = queries.rows();
+  // Blocks of queries share each reference row while it is in cache.
+  constexpr Eigen::Index kBlock = 16;
+  for (Eigen::Index q0 = 0; q0 < nq; q0 += kBlock) {
+    const Eigen::Index q1 = std::min(nq, q0 + kBlock);
+    for (Eigen::Index r = r0; r < r1; ++r) {
+      const float* ref = refs.row(r).data();
+      const float rn = FixedOrderDot(ref, ref, d);
+      for (Eigen::Index q = q0; q < q1; ++q) {
+        const float dot = FixedOrderDot(queries.row(q).data(), ref, d);
+        float& o = (*out)(q, r);
+        if (metric == DistanceMetric::kEuclidean) {
+          o = std::sqrt(std::max(qn(q) + rn - 2.0f * dot, 0.0f));
+        } else {
+          const float denom = std::sqrt(qn(q)) * std::sqrt(rn);
+          o = denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void SetDistanceThreads(int n) { g_threads = std::max(0, n); }
+
+int DistanceThreads() {
+  const int n = g_threads.load();
+  return n > 0 ? n : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set) {
   CheckQueries(queries, set);
   const RowMatrixXf& refs = set.descriptors;
   const int d = static_cast<int>(refs.cols());
   const Eigen::Index nq = queries.rows(), nr = refs.rows();
-  Eigen::VectorXf qn(nq), rn(nr);  // squared norms
-  for (Eigen::Index q = 0; q < nq; ++q)
-    qn(q) = FixedOrderDot(queries.row(q).data(), queries.row(q).data(), d);
-  for (Eigen::Index r = 0; r < nr; ++r)
-    rn(r) = FixedOrderDot(refs.row(r).data(), refs.row(r).data(), d);
-  RowMatrixXf out(nq, nr);
-  // Blocks of queries share each reference row while it is in cache.
-  constexpr Eigen::Index kBlock = 16;
-  for (Eigen::Index q0 = 0; q0 < nq; q0 += kBlock) {
-    const Eigen::Index q1 = std::min(nq, q0 + kBlock);
-    for (Eigen::Index r = 0; r < nr; ++r) {
-      const float* ref = refs.row(r).data();
-      for (Eigen::Index q = q0; q < q1; ++q) {
-        out(q, r) = FixedOrderDot(queries.row(q).data(), ref, d);
-      }
-    }
-  }
+  Eigen::VectorXf qn(nq);  // squared norms
   for (Eigen::Index q = 0; q < nq; ++q) {
-    for (Eigen::Index r = 0; r < nr; ++r) {
-      const float dot = out(q, r);
-      if (metric == DistanceMetric::kEuclidean) {
-        out(q, r) = std::sqrt(std::max(qn(q) + rn(r) - 2.0f * dot, 0.0f));
-      } else {
-        const float denom = std::sqrt(qn(q)) * std::sqrt(rn(r));
-        out(q, r) = denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
-      }
-    }
+    qn(q) = FixedOrderDot(queries.row(q).data(), queries.row(q).data(), d);
   }
+  RowMatrixXf out(nq, nr);
+  // Threads only pay off beyond about a million multiply-adds.
+  const double work = static_cast<double>(nq) * static_cast<double>(nr) * d;
+  const int threads =
+      work < 1e6 ? 1 : static_cast<int>(std::min<Eigen::Index>(DistanceThreads(), nr));
+  if (threads <= 1) {
+    DistanceRows(metric, queries, refs, qn, 0, nr, &out);
+    return out;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    const Eigen::Index r0 = nr * t / threads, r1 = nr * (t + 1) / threads;
+    pool.emplace_back(DistanceRows, metric, std::cref(queries), std::cref(refs), std::cref(qn), r0,
+                      r1, &out);
+  }
+  for (std::thread& th : pool) th.join();
   return out;
 }
 

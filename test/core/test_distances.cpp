@@ -34,6 +34,23 @@ TEST(Distances, AQueryAloneGetsBitwiseTheSameDistancesAsInABatch) {
   }
 }
 
+TEST(Distances, AnyThreadCountGivesBitwiseTheSameDistances) {
+  const RowMatrixXf q = testing::RandomMatrix(9, 777, 21);
+  const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(1001, 777, 22));
+  for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+    SetDistanceThreads(1);
+    const RowMatrixXf one = ComputeDistances(m, q, set);
+    for (int threads : {2, 3, 8}) {
+      SetDistanceThreads(threads);
+      EXPECT_EQ(DistanceThreads(), threads);
+      const RowMatrixXf many = ComputeDistances(m, q, set);
+      ASSERT_TRUE((many.array() == one.array()).all()) << threads << " threads";
+    }
+  }
+  SetDistanceThreads(0);
+  EXPECT_GE(DistanceThreads(), 1);
+}
+
 TEST(Distances, EuclideanOfIdenticalVectorsIsZeroNotNaN) {
   const RowMatrixXf r = testing::RandomMatrix(5, 16, 3, 100.0f);
   const RowMatrixXf d = ComputeDistances(DistanceMetric::kEuclidean, r, MakeReferenceSet("a", r));

@@ -30,6 +30,13 @@ struct SetDistances {
   int PlaceAt(int k) const { return place_ids ? place_ids[k] : k; }
 };
 
+// Threads used by ComputeDistances when the work is large enough (default: the machine's
+// cores). Results are bitwise the same for any count: threads split the reference rows and
+// every distance is computed by the same fixed-order inner product. Process-wide; n < 1
+// restores the default.
+void SetDistanceThreads(int n);
+int DistanceThreads();
+
 // Distances from each of the Q queries (rows of `queries`, Q x D) to each of the N_u
 // descriptors of `set`; returns Q x N_u. Batched through a matrix product for Euclidean
 // (||q||^2 + ||r||^2 - 2 q.r, clamped at 0 before the square root) and cosine.

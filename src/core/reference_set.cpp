@@ -71,7 +71,16 @@ void ReferenceMap::Add(ReferenceSet set) {
   const int max_id = *std::max_element(set.place_ids.begin(), set.place_ids.end());
   dimension_ = set.dimension();
   num_places_ = std::max(num_places_, max_id + 1);
+  place_poses_.resize(static_cast<size_t>(num_places_));
+  IndexPoses(set);
   sets_.push_back(std::move(set));
+}
+
+void ReferenceMap::IndexPoses(const ReferenceSet& set) {
+  for (size_t k = 0; k < set.poses.size(); ++k) {
+    std::optional<PlacePose>& slot = place_poses_[static_cast<size_t>(set.place_ids[k])];
+    if (!slot) slot = set.poses[k];  // the first set with a pose for the place wins
+  }
 }
 
 bool ReferenceMap::Remove(const std::string& name) {
@@ -83,6 +92,8 @@ bool ReferenceMap::Remove(const std::string& name) {
     num_places_ =
         std::max(num_places_, 1 + *std::max_element(s.place_ids.begin(), s.place_ids.end()));
   }
+  place_poses_.assign(static_cast<size_t>(num_places_), std::nullopt);
+  for (const ReferenceSet& s : sets_) IndexPoses(s);
   if (sets_.empty()) dimension_ = 0;
   return true;
 }
@@ -101,12 +112,8 @@ std::vector<std::string> ReferenceMap::SetNames() const {
 }
 
 std::optional<PlacePose> ReferenceMap::PoseOf(int place) const {
-  for (const ReferenceSet& s : sets_) {
-    if (s.poses.empty()) continue;
-    const auto it = std::find(s.place_ids.begin(), s.place_ids.end(), place);
-    if (it != s.place_ids.end()) return s.poses[static_cast<size_t>(it - s.place_ids.begin())];
-  }
-  return std::nullopt;
+  if (place < 0 || place >= num_places_) return std::nullopt;
+  return place_poses_[static_cast<size_t>(place)];
 }
 
 std::optional<double> ReferenceMap::MedianPlaceSpacing() const {

@@ -24,9 +24,24 @@ TEST(ReferenceMap, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
   EXPECT_DOUBLE_EQ(map.PoseOf(14)->x_m, 2);
   EXPECT_FALSE(map.PoseOf(0).has_value());
   EXPECT_GT(map.set(0).MemoryBytes(), 10u * 6u * 4u - 1u);
+  EXPECT_FALSE(map.PoseOf(-1).has_value());
+  EXPECT_FALSE(map.PoseOf(99).has_value());
+  // The first set with a pose for a place wins; removing it exposes the next one's.
+  ReferenceSet day;
+  day.name = "day";
+  day.descriptors = testing::RandomMatrix(2, 6, 3);
+  day.place_ids = {14, 0};
+  day.poses = {{7, 0, 0, 0}, {8, 0, 0, 0}};
+  map.Add(day);
+  EXPECT_DOUBLE_EQ(map.PoseOf(14)->x_m, 2);
+  EXPECT_DOUBLE_EQ(map.PoseOf(0)->x_m, 8);
   EXPECT_TRUE(map.Remove("night"));
+  EXPECT_DOUBLE_EQ(map.PoseOf(14)->x_m, 7);
+  EXPECT_FALSE(map.PoseOf(3).has_value());
+  EXPECT_TRUE(map.Remove("day"));
   EXPECT_FALSE(map.Remove("night"));
   EXPECT_EQ(map.num_places(), 10);
+  EXPECT_FALSE(map.PoseOf(0).has_value());
 }
 
 TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {

@@ -58,14 +58,18 @@ class ReferenceMap {
   // Index of the named set, or -1.
   int IndexOf(const std::string& name) const;
   std::vector<std::string> SetNames() const;
-  // The pose of a place from the first set that has one for it.
+  // The pose of a place from the first set that has one for it (O(1): an index kept by
+  // Add and Remove).
   std::optional<PlacePose> PoseOf(int place) const;
   // Median distance (metres) between consecutive places that both have poses; nullopt if
   // no two consecutive places do.
   std::optional<double> MedianPlaceSpacing() const;
 
  private:
+  void IndexPoses(const ReferenceSet& set);
+
   std::vector<ReferenceSet> sets_;
+  std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries
   int num_places_ = 0;
   int dimension_ = 0;
 };

@@ -113,7 +113,13 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
   for (int u : use) {
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     ll.resize(static_cast<size_t>(d.count));
-    PlaceMatchLogLikelihood(d, likelihood, ll.data());
+    // RunMethod has already computed every set's statistics for selection.
+    if (out->selection.set_stats.size() == sets.size()) {
+      PlaceMatchLogLikelihood(d, out->selection.set_stats[static_cast<size_t>(u)], likelihood,
+                              ll.data());
+    } else {
+      PlaceMatchLogLikelihood(d, likelihood, ll.data());
+    }
     for (int k = 0; k < d.count; ++k) {
       out->log_posterior(CheckedPlace(d, k, num_places)) += ll[static_cast<size_t>(k)];
     }

@@ -31,7 +31,11 @@ void RankCounts(const float* values, int count, int* counts) {
 
 void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& options,
                              double* log_likelihood) {
-  const DistanceStats st = ComputeDistanceStats(d);
+  PlaceMatchLogLikelihood(d, ComputeDistanceStats(d), options, log_likelihood);
+}
+
+void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
+                             const LikelihoodOptions& options, double* log_likelihood) {
   std::vector<int> counts(static_cast<size_t>(d.count));
   RankCounts(d.values, d.count, counts.data());
   const double var = st.stddev * st.stddev;

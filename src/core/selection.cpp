@@ -53,7 +53,7 @@ Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
   std::vector<double> score(m);  // lower is better for both rules
   for (size_t u = 0; u < m; ++u) {
     const DistanceStats st = ComputeDistanceStats(sets[u]);
-    out.set_min_distances.push_back(st.min);
+    out.set_stats.push_back(st);
     if (options.rule == SelectionRule::kRelative) {
       score[u] = st.min;
     } else {

@@ -34,7 +34,7 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   out->set_min_distances.clear();
   for (int u = 0; u < map.num_sets(); ++u) {
     out->set_names.push_back(map.set(u).name);
-    out->set_min_distances.push_back(b.selection.set_min_distances.at(static_cast<size_t>(u)));
+    out->set_min_distances.push_back(b.selection.set_stats.at(static_cast<size_t>(u)).min);
   }
   out->selected_sets.clear();
   for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name);

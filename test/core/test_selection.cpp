@@ -34,7 +34,7 @@ TEST(Selection, ContainsTheBestSetAndRespectsGammaAsInThePaper) {
       const bool expected = (mins[u] - mins[best]) / mins[best] <= opt.gamma_fraction;
       const bool got = std::count(s.selected.begin(), s.selected.end(), u) > 0;
       EXPECT_EQ(got, expected) << "trial " << trial << " set " << u;
-      EXPECT_FLOAT_EQ(s.set_min_distances[u], mins[u]);
+      EXPECT_FLOAT_EQ(s.set_stats[u].min, mins[u]);
     }
   }
 }

@@ -60,7 +60,8 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places);
 
 // Bayesian fusion of the sets `use` (indices into `sets`): unnormalised log posterior
 // sum_{u in use} log P(D^u | X = i) + log P(X = i). `log_prior` null means uniform.
-// Fills match, confidence, accepted, top_places and log_posterior of `out`.
+// Fills match, confidence, accepted, top_places and log_posterior of `out`. Reuses
+// out->selection.set_stats when it holds one entry per set (RunMethod fills it).
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
                const Threshold& threshold, int top_k, PlaceBelief* out);

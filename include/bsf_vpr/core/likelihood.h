@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/selection.h"
 
 namespace bsf_vpr {
 
@@ -42,5 +43,8 @@ void RankCounts(const float* values, int count, int* counts);
 // against the places it covers). Zero variance makes the Gaussian term 0 (no NaN).
 void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& options,
                              double* log_likelihood);
+// The same with the set's statistics already computed (ComputeDistanceStats(d)).
+void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& stats,
+                             const LikelihoodOptions& options, double* log_likelihood);
 
 }  // namespace bsf_vpr

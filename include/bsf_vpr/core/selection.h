@@ -43,7 +43,7 @@ DistanceStats ComputeDistanceStats(const SetDistances& d);
 struct Selection {
   int best = -1;                         // u*, an index into the sets passed in
   std::vector<int> selected;             // S, ascending set indices; always contains `best`
-  std::vector<float> set_min_distances;  // min D^u for every set passed in
+  std::vector<DistanceStats> set_stats;  // min D^u, mean, std of every set passed in
 };
 
 // Selects among `sets` (each with count > 0). Throws std::invalid_argument if `sets` is

@@ -73,6 +73,7 @@ void ReferenceMap::Add(ReferenceSet set) {
   num_places_ = std::max(num_places_, max_id + 1);
   place_poses_.resize(static_cast<size_t>(num_places_));
   IndexPoses(set);
+  UpdateMedianSpacing();
   sets_.push_back(std::move(set));
 }
 
@@ -94,6 +95,7 @@ bool ReferenceMap::Remove(const std::string& name) {
   }
   place_poses_.assign(static_cast<size_t>(num_places_), std::nullopt);
   for (const ReferenceSet& s : sets_) IndexPoses(s);
+  UpdateMedianSpacing();
   if (sets_.empty()) dimension_ = 0;
   return true;
 }
@@ -116,7 +118,8 @@ std::optional<PlacePose> ReferenceMap::PoseOf(int place) const {
   return place_poses_[static_cast<size_t>(place)];
 }
 
-std::optional<double> ReferenceMap::MedianPlaceSpacing() const {
+void ReferenceMap::UpdateMedianSpacing() {
+  median_spacing_.reset();
   std::vector<double> gaps;
   std::optional<PlacePose> prev = PoseOf(0);
   for (int i = 1; i < num_places_; ++i) {
@@ -128,9 +131,9 @@ std::optional<double> ReferenceMap::MedianPlaceSpacing() const {
     }
     prev = cur;
   }
-  if (gaps.empty()) return std::nullopt;
+  if (gaps.empty()) return;
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<long>(gaps.size() / 2), gaps.end());
-  return gaps[gaps.size() / 2];
+  median_spacing_ = gaps[gaps.size() / 2];
 }
 
 }  // namespace bsf_vpr

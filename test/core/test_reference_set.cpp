@@ -75,3 +75,21 @@ TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
 
 }  // namespace
 }  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+TEST(ReferenceMap, MedianPlaceSpacingFollowsTheLoadedPoses) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("no_poses", testing::RandomMatrix(5, 3, 1)));
+  EXPECT_FALSE(map.MedianPlaceSpacing().has_value());
+  ReferenceSet route = MakeReferenceSet("route", testing::RandomMatrix(5, 3, 2));
+  route.poses = {{0, 0, 0, 0}, {2, 0, 0, 0}, {4, 0, 0, 0}, {9, 0, 0, 0}, {11, 0, 0, 0}};
+  map.Add(route);
+  EXPECT_DOUBLE_EQ(*map.MedianPlaceSpacing(), 2.0);  // gaps 2, 2, 5, 2
+  EXPECT_TRUE(map.Remove("route"));
+  EXPECT_FALSE(map.MedianPlaceSpacing().has_value());
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -62,14 +62,16 @@ class ReferenceMap {
   // Add and Remove).
   std::optional<PlacePose> PoseOf(int place) const;
   // Median distance (metres) between consecutive places that both have poses; nullopt if
-  // no two consecutive places do.
-  std::optional<double> MedianPlaceSpacing() const;
+  // no two consecutive places do. O(1): kept up to date by Add and Remove.
+  std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }
 
  private:
   void IndexPoses(const ReferenceSet& set);
+  void UpdateMedianSpacing();
 
   std::vector<ReferenceSet> sets_;
   std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries
+  std::optional<double> median_spacing_;
   int num_places_ = 0;
   int dimension_ = 0;
 };

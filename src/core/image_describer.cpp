@@ -41,36 +41,6 @@ void OnnxOptions::Validate() const {
 
 namespace {
 
-cv::Mat ToGray(const cv::Mat& image) {
-  if (image.empty()) throw std::invalid_argument("cannot describe an empty image");
-  if (image.depth() != CV_8U) throw std::invalid_argument("expected an 8-bit image");
-  cv::Mat gray;
-  if (image.channels() == 1) return image;
-  if (image.channels() == 3)
-    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  else if (image.channels() == 4)
-    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  else
-    throw std::invalid_argument("expected 1, 3 or 4 channels, got " +
-                                std::to_string(image.channels()));
-  return gray;
-}
-
-cv::Mat ToBgr(const cv::Mat& image) {
-  if (image.empty()) throw std::invalid_argument("cannot describe an empty image");
-  if (image.depth() != CV_8U) throw std::invalid_argument("expected an 8-bit image");
-  cv::Mat bgr;
-  if (image.channels() == 3) return image;
-  if (image.channels() == 1)
-    cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-  else if (image.channels() == 4)
-    cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-  else
-    throw std::invalid_argument("expected 1, 3 or 4 channels, got " +
-                                std::to_string(image.channels()));
-  return bgr;
-}
-
 class PatchNormDescriber : public ImageDescriber {
  public:
   explicit PatchNormDescriber(const PatchNormOptions& o) : o_(o) { o_.Validate(); }
@@ -94,7 +64,8 @@ class HogDescriber : public ImageDescriber {
   }
   Eigen::VectorXf Describe(const cv::Mat& image) const override {
     cv::Mat small;
-    cv::resize(ToGray(image), small, cv::Size(o_.width_px, o_.height_px), 0, 0, cv::INTER_AREA);
+    cv::resize(ToGrayscale8(image), small, cv::Size(o_.width_px, o_.height_px), 0, 0,
+               cv::INTER_AREA);
     std::vector<float> d;
     hog_.compute(small, d);
     return Eigen::Map<const Eigen::VectorXf>(d.data(), static_cast<Eigen::Index>(d.size()));
@@ -149,7 +120,7 @@ class OnnxDescriber : public ImageDescriber {
  private:
   Eigen::VectorXf Forward(const cv::Mat& image) const {
     cv::Mat resized, f;
-    cv::resize(ToBgr(image), resized, cv::Size(o_.input_width_px, o_.input_height_px), 0, 0,
+    cv::resize(ToBgr8(image), resized, cv::Size(o_.input_width_px, o_.input_height_px), 0, 0,
                cv::INTER_AREA);
     if (o_.rgb) cv::cvtColor(resized, resized, cv::COLOR_BGR2RGB);
     resized.convertTo(f, CV_32F, 1.0 / 255.0);

@@ -27,28 +27,45 @@ std::string PatchNormOptions::DescriptorType() const {
          std::to_string(patch_size_px);
 }
 
-Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options) {
-  options.Validate();
+namespace {
+
+// The conversion code from `channels` (1, 3 or 4) to `target` (1 or 3); -1 for none.
+int ConversionCode(const cv::Mat& image, int target) {
   if (image.empty()) throw std::invalid_argument("cannot describe an empty image");
   if (image.depth() != CV_8U) {
     throw std::invalid_argument("expected an 8-bit image, got OpenCV depth " +
                                 std::to_string(image.depth()));
   }
-  cv::Mat gray;
   switch (image.channels()) {
     case 1:
-      gray = image;
-      break;
+      return target == 1 ? -1 : cv::COLOR_GRAY2BGR;
     case 3:
-      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-      break;
+      return target == 3 ? -1 : cv::COLOR_BGR2GRAY;
     case 4:
-      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-      break;
+      return target == 1 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGRA2BGR;
     default:
       throw std::invalid_argument("expected 1, 3 or 4 channels, got " +
                                   std::to_string(image.channels()));
   }
+}
+
+cv::Mat Convert(const cv::Mat& image, int target) {
+  const int code = ConversionCode(image, target);
+  if (code < 0) return image;
+  cv::Mat out;
+  cv::cvtColor(image, out, code);
+  return out;
+}
+
+}  // namespace
+
+cv::Mat ToGrayscale8(const cv::Mat& image) { return Convert(image, 1); }
+
+cv::Mat ToBgr8(const cv::Mat& image) { return Convert(image, 3); }
+
+Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options) {
+  options.Validate();
+  const cv::Mat gray = ToGrayscale8(image);
   cv::Mat small;
   const cv::Size size(options.width_px, options.height_px);
   if (gray.size() == size) {

@@ -23,6 +23,12 @@ struct PatchNormOptions {
   std::string DescriptorType() const;  // e.g. "patchnorm_64x32_p8"
 };
 
+// Converts an 8-bit image of 1, 3 (BGR) or 4 (BGRA) channels to one channel / to BGR
+// (returning the input itself when it already is). Throws std::invalid_argument naming the
+// problem for an empty image, another depth or another channel count.
+cv::Mat ToGrayscale8(const cv::Mat& image);
+cv::Mat ToBgr8(const cv::Mat& image);
+
 // Describes one 8-bit image (1, 3 or 4 channels, BGR order as OpenCV loads it). Throws
 // std::invalid_argument for an empty image or an unsupported type.
 Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options);

@@ -114,26 +114,35 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     ll.resize(static_cast<size_t>(d.count));
     // RunMethod has already computed every set's statistics for selection.
-    if (out->selection.set_stats.size() == sets.size()) {
-      PlaceMatchLogLikelihood(d, out->selection.set_stats[static_cast<size_t>(u)], likelihood,
-                              ll.data());
+    const DistanceStats stats = out->selection.set_stats.size() == sets.size()
+                                    ? out->selection.set_stats[static_cast<size_t>(u)]
+                                    : ComputeDistanceStats(d);
+    if (d.place_ids == nullptr && d.count == num_places) {
+      // Covers every place once: the per-set shift cancels in the normalisation below.
+      UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, ll.data());
+      out->log_posterior += Eigen::Map<const Eigen::VectorXd>(ll.data(), d.count);
     } else {
-      PlaceMatchLogLikelihood(d, likelihood, ll.data());
-    }
-    for (int k = 0; k < d.count; ++k) {
-      out->log_posterior(CheckedPlace(d, k, num_places)) += ll[static_cast<size_t>(k)];
+      PlaceMatchLogLikelihood(d, stats, likelihood, ll.data());
+      for (int k = 0; k < d.count; ++k) {
+        out->log_posterior(CheckedPlace(d, k, num_places)) += ll[static_cast<size_t>(k)];
+      }
     }
   }
   Eigen::Index best = 0;
-  out->log_posterior.maxCoeff(&best);
+  const double max_l = out->log_posterior.maxCoeff(&best);
   out->match = static_cast<int>(best);
-  out->confidence = LogOddsOfBest(out->log_posterior, out->match);
+  // One pass of exp for both the confidence and the normalisation: with the best place
+  // left out, rest = sum_{i != best} exp(l_i - l_best).
+  double& l_best = out->log_posterior(best);
+  l_best = -INFINITY;
+  const double rest = (out->log_posterior.array() - max_l).exp().sum();
+  l_best = max_l;
+  // Where the other places lie so far below that the sum underflows, LogOddsOfBest rescales.
+  out->confidence = rest > 1e-300 ? -std::log(rest) : LogOddsOfBest(out->log_posterior, out->match);
   out->accepted = out->confidence > threshold.LogOdds();
   out->top_places = TopK(out->log_posterior, top_k);
-  // Normalise: log P(X = i | D^S) = l_i - logsumexp(l).
-  const double max_l = out->log_posterior(best);
-  const double lse = max_l + std::log((out->log_posterior.array() - max_l).exp().sum());
-  out->log_posterior.array() -= lse;
+  // Normalise: log P(X = i | D^S) = l_i - logsumexp(l), logsumexp(l) = l_best + log(1 + rest).
+  out->log_posterior.array() -= max_l + std::log1p(rest);
   out->cost = -out->log_posterior;
 }
 

@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
+
+#include <Eigen/Core>
 
 #include "bsf_vpr/core/selection.h"
 
@@ -19,13 +23,62 @@ std::string ToString(LikelihoodVariant variant) {
   return variant == LikelihoodVariant::kOneSided ? "one_sided" : "two_sided";
 }
 
+namespace {
+
+// An unsigned key that orders like the float (for every non-NaN value; -0 and +0 share one).
+uint32_t OrderKey(float v) {
+  v += 0.0f;  // -0 becomes +0
+  uint32_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  return (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
+}
+
+// log(c) for c = 0..n, computed once per thread and grown on demand (c_k is an integer in
+// 1..N, so the likelihood needs no log call per place).
+const double* LogTable(int n) {
+  thread_local std::vector<double> table{-INFINITY};
+  for (size_t c = table.size(); c <= static_cast<size_t>(n); ++c) {
+    table.push_back(std::log(static_cast<double>(c)));
+  }
+  return table.data();
+}
+
+}  // namespace
+
 void RankCounts(const float* values, int count, int* counts) {
-  std::vector<float> sorted(values, values + count);
-  std::sort(sorted.begin(), sorted.end());
-  for (int k = 0; k < count; ++k) {
-    // Elements >= values[k] are those from the first one not below it to the end.
-    const auto first = std::lower_bound(sorted.begin(), sorted.end(), values[k]);
-    counts[k] = count - static_cast<int>(first - sorted.begin());
+  // Least-significant-digit radix sort of (key, index) pairs, 8 bits a pass: O(N).
+  const size_t n = static_cast<size_t>(std::max(count, 0));
+  std::vector<uint32_t> key(n), key_tmp(n);
+  std::vector<int> index(n), index_tmp(n);
+  uint32_t histogram[4][256] = {};
+  for (size_t k = 0; k < n; ++k) {
+    key[k] = OrderKey(values[k]);
+    index[k] = static_cast<int>(k);
+    for (int pass = 0; pass < 4; ++pass) ++histogram[pass][(key[k] >> (8 * pass)) & 0xffu];
+  }
+  for (int pass = 0; pass < 4; ++pass) {
+    uint32_t* h = histogram[pass];
+    if (n == 0 || h[(key[0] >> (8 * pass)) & 0xffu] == n) continue;  // one bucket: in order
+    uint32_t offset = 0;
+    for (int b = 0; b < 256; ++b) {
+      const uint32_t c = h[b];
+      h[b] = offset;
+      offset += c;
+    }
+    for (size_t k = 0; k < n; ++k) {
+      const uint32_t slot = h[(key[k] >> (8 * pass)) & 0xffu]++;
+      key_tmp[slot] = key[k];
+      index_tmp[slot] = index[k];
+    }
+    key.swap(key_tmp);
+    index.swap(index_tmp);
+  }
+  // In ascending order, the elements >= the one at position p start at the first position of
+  // its group of equal values.
+  size_t group = 0;
+  for (size_t p = 0; p < n; ++p) {
+    if (p > 0 && key[p] != key[p - 1]) group = p;
+    counts[index[p]] = count - static_cast<int>(group);
   }
 }
 
@@ -34,24 +87,29 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& opt
   PlaceMatchLogLikelihood(d, ComputeDistanceStats(d), options, log_likelihood);
 }
 
-void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
-                             const LikelihoodOptions& options, double* log_likelihood) {
+void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
+                                         const LikelihoodOptions& options,
+                                         double* log_likelihood) {
   std::vector<int> counts(static_cast<size_t>(d.count));
   RankCounts(d.values, d.count, counts.data());
+  const double* log_of = LogTable(d.count);
   const double var = st.stddev * st.stddev;
   const double half_inv_var = var > 0 ? 0.5 / var : 0.0;
   const bool one_sided = options.variant == LikelihoodVariant::kOneSided;
-  double max_ll = -INFINITY;
   for (int k = 0; k < d.count; ++k) {
     double e = d.values[k] - st.mean;
     if (one_sided) e = std::min(e, 0.0);
-    log_likelihood[k] = std::log(static_cast<double>(counts[k])) + e * e * half_inv_var;
-    max_ll = std::max(max_ll, log_likelihood[k]);
+    log_likelihood[k] = log_of[counts[static_cast<size_t>(k)]] + e * e * half_inv_var;
   }
-  double sum = 0;
-  for (int k = 0; k < d.count; ++k) sum += std::exp(log_likelihood[k] - max_ll);
-  const double log_mean = max_ll + std::log(sum / d.count);
-  for (int k = 0; k < d.count; ++k) log_likelihood[k] -= log_mean;
+}
+
+void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
+                             const LikelihoodOptions& options, double* log_likelihood) {
+  UnnormalisedPlaceMatchLogLikelihood(d, st, options, log_likelihood);
+  Eigen::Map<Eigen::ArrayXd> ll(log_likelihood, d.count);
+  const double max_ll = ll.maxCoeff();
+  const double log_mean = max_ll + std::log((ll - max_ll).exp().sum() / d.count);
+  ll -= log_mean;
 }
 
 }  // namespace bsf_vpr

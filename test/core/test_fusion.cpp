@@ -99,6 +99,34 @@ TEST(Fusion, PlacesASetDoesNotCoverGetANeutralLikelihood) {
   EXPECT_NEAR(fused.log_posterior(11) - fused.log_posterior(10), 0.0, 1e-12);
 }
 
+// A set covering every place once takes the fast path (no per-set shift); the same set with
+// explicit place ids takes the normalised one. Both must give the same belief, and the
+// confidence must be the log-odds of the best place.
+TEST(Fusion, FastPathForDenseSetsAgreesWithTheGeneralPath) {
+  Fixture f(3, 500, 11);
+  std::vector<int> ids(500);
+  std::iota(ids.begin(), ids.end(), 0);
+  std::vector<SetDistances> with_ids = f.views;
+  for (SetDistances& v : with_ids) v.place_ids = ids.data();
+  const PlaceBelief fast = Fuse(f.views, 500), general = Fuse(with_ids, 500);
+  EXPECT_EQ(fast.match, general.match);
+  EXPECT_EQ(fast.top_places, general.top_places);
+  EXPECT_NEAR(fast.confidence, general.confidence, 1e-9);
+  for (int i = 0; i < 500; ++i) ASSERT_NEAR(fast.log_posterior(i), general.log_posterior(i), 1e-9);
+  EXPECT_NEAR(fast.confidence, LogOddsOfBest(fast.log_posterior, fast.match), 1e-9);
+  // Far apart places: the sum over the others underflows and the rescaled path answers.
+  std::vector<float> sharp(500, 2.0f);
+  sharp[42] = 0.0f;
+  const std::vector<SetDistances> one = {{sharp.data(), nullptr, 500}};
+  Eigen::VectorXd prior = Eigen::VectorXd::Constant(500, -2000.0);
+  prior(42) = 0;
+  const PlaceBelief b = Fuse(one, 500, &prior);
+  EXPECT_EQ(b.match, 42);
+  EXPECT_TRUE(std::isfinite(b.confidence));
+  EXPECT_NEAR(b.confidence, LogOddsOfBest(b.log_posterior, 42), 1e-6);
+  EXPECT_GT(b.confidence, 1000);
+}
+
 TEST(Fusion, ThresholdAcceptsAboveH) {
   Fixture f(2, 200, 7);
   PlaceBelief b;

@@ -33,7 +33,7 @@ struct LikelihoodOptions {
   LikelihoodVariant variant = LikelihoodVariant::kOneSided;
 };
 
-// c_k = #{ j : values[j] >= values[k] } for each k, in O(N log N). `counts` has `count` slots.
+// c_k = #{ j : values[j] >= values[k] } for each k, in O(N) (a radix sort; NaN not allowed). `counts` has `count` slots.
 void RankCounts(const float* values, int count, int* counts);
 
 // log P(D^u | X = place_ids[k]) for the k = 0..count-1 places the set covers, written to
@@ -46,5 +46,10 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& opt
 // The same with the set's statistics already computed (ComputeDistanceStats(d)).
 void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& stats,
                              const LikelihoodOptions& options, double* log_likelihood);
+// log c_k + (e_k)^2 / (2 sigma^2) without the shift: PlaceMatchLogLikelihood minus one
+// constant per set. Enough where the constant cancels (a set that covers every place once).
+void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& stats,
+                                         const LikelihoodOptions& options,
+                                         double* log_likelihood);
 
 }  // namespace bsf_vpr

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "distance_kernels.h"
+
 namespace bsf_vpr {
 
 DistanceMetric ParseDistanceMetric(const std::string& name) {
@@ -41,50 +43,25 @@ void CheckQueries(const RowMatrixXf& queries, const ReferenceSet& set) {
 
 namespace {
 
-// Inner product with a fixed summation order: eight interleaved partial sums (which the
-// compiler maps onto vector lanes), combined in a fixed tree. A query's distances are thus
-// bitwise the same whether it is computed alone (online) or in a batch (offline), which a
-// matrix-product library does not promise (GEMV and GEMM sum in different orders).
-float FixedOrderDot(const float* a, const float* b, int n) {
-  float acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  int i = 0;
-  for (; i + 8 <= n; i += 8) {
-    for (int k = 0; k < 8; ++k) acc[k] += a[i + k] * b[i + k];
-  }
-  float tail = 0;
-  for (; i < n; ++i) tail += a[i] * b[i];
-  return (((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]))) + tail;
-}
-
-}  // namespace
-
-namespace {
-
 std::atomic<int> g_threads{0};  // 0: hardware concurrency
 
-// Computes out(q, r) for every query and the reference rows [r0, r1).
-void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const RowMatrixXf& refs,
-                  const Eigen::VectorXf& qn, Eigen::Index r0, Eigen::Index r1, RowMatrixXf* out) {
-  const int d = static_cast<int>(refs.cols());
-  const Eigen::Index nq = queries.rows();
-  // Blocks of queries share each reference row while it is in cache.
-  constexpr Eigen::Index kBlock = 16;
-  for (Eigen::Index q0 = 0; q0 < nq; q0 += kBlock) {
-    const Eigen::Index q1 = std::min(nq, q0 + kBlock);
-    for (Eigen::Index r = r0; r < r1; ++r) {
-      const float* ref = refs.row(r).data();
-      const float rn = FixedOrderDot(ref, ref, d);
-      for (Eigen::Index q = q0; q < q1; ++q) {
-        const float dot = FixedOrderDot(queries.row(q).data(), ref, d);
-        float& o = (*out)(q, r);
-        if (metric == DistanceMetric::kEuclidean) {
-          o = std::sqrt(std::max(qn(q) + rn - 2.0f * dot, 0.0f));
-        } else {
-          const float denom = std::sqrt(qn(q)) * std::sqrt(rn);
-          o = denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
-        }
-      }
-    }
+inline float DistanceFromDot(DistanceMetric metric, float qn, float rn, float dot) {
+  if (metric == DistanceMetric::kEuclidean) return std::sqrt(std::max(qn + rn - 2.0f * dot, 0.0f));
+  const float denom = std::sqrt(qn) * std::sqrt(rn);
+  return denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
+}
+
+// Fills out(q, r) for every query and the reference rows [r0, r1): inner products by the
+// fixed-order kernel, then the metric from them and the squared norms.
+void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const kernels::RefRows& refs,
+                  const float* ref_norms, const Eigen::VectorXf& qn, int r0, int r1,
+                  RowMatrixXf* out) {
+  const int nr = static_cast<int>(out->cols());
+  kernels::Dots(refs, r0, r1, queries.data(), static_cast<int>(queries.rows()),
+                static_cast<int>(queries.cols()), out->data() + r0, nr);
+  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+    float* row = out->row(q).data();
+    for (int r = r0; r < r1; ++r) row[r] = DistanceFromDot(metric, qn(q), ref_norms[r], row[r]);
   }
 }
 
@@ -97,30 +74,42 @@ int DistanceThreads() {
   return n > 0 ? n : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
+std::string DistanceKernel() { return kernels::Active(); }
+void SetDistanceKernel(const std::string& name) { kernels::Force(name); }
+
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set) {
   CheckQueries(queries, set);
-  const RowMatrixXf& refs = set.descriptors;
-  const int d = static_cast<int>(refs.cols());
-  const Eigen::Index nq = queries.rows(), nr = refs.rows();
+  // A set outside a map has no store yet: read its float32 rows and compute their norms.
+  DescriptorStore local;
+  if (!set.store.built()) local = MakeDescriptorStore(set.descriptors, StoragePrecision::kFloat32);
+  const DescriptorStore& store = set.store.built() ? set.store : local;
+  kernels::RefRows refs;
+  refs.precision = store.precision;
+  refs.cols = store.cols;
+  refs.scale = store.scale;
+  refs.data = store.precision == StoragePrecision::kFloat16 ? static_cast<const void*>(store.half.data())
+              : store.precision == StoragePrecision::kInt8  ? static_cast<const void*>(store.int8.data())
+                                                            : static_cast<const void*>(set.descriptors.data());
+  const int d = store.cols, nr = store.rows;
+  const Eigen::Index nq = queries.rows();
   Eigen::VectorXf qn(nq);  // squared norms
-  for (Eigen::Index q = 0; q < nq; ++q) {
-    qn(q) = FixedOrderDot(queries.row(q).data(), queries.row(q).data(), d);
-  }
+  for (Eigen::Index q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), d);
   RowMatrixXf out(nq, nr);
   // Threads only pay off beyond about a million multiply-adds.
   const double work = static_cast<double>(nq) * static_cast<double>(nr) * d;
-  const int threads =
-      work < 1e6 ? 1 : static_cast<int>(std::min<Eigen::Index>(DistanceThreads(), nr));
+  const int threads = work < 1e6 ? 1 : std::min(DistanceThreads(), nr);
+  const float* norms = store.squared_norms.data();
   if (threads <= 1) {
-    DistanceRows(metric, queries, refs, qn, 0, nr, &out);
+    DistanceRows(metric, queries, refs, norms, qn, 0, nr, &out);
     return out;
   }
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
-    const Eigen::Index r0 = nr * t / threads, r1 = nr * (t + 1) / threads;
-    pool.emplace_back(DistanceRows, metric, std::cref(queries), std::cref(refs), std::cref(qn), r0,
-                      r1, &out);
+    const int r0 = static_cast<int>(static_cast<int64_t>(nr) * t / threads);
+    const int r1 = static_cast<int>(static_cast<int64_t>(nr) * (t + 1) / threads);
+    pool.emplace_back(DistanceRows, metric, std::cref(queries), std::cref(refs), norms,
+                      std::cref(qn), r0, r1, &out);
   }
   for (std::thread& th : pool) th.join();
   return out;

@@ -8,8 +8,8 @@
 namespace bsf_vpr {
 
 size_t ReferenceSet::MemoryBytes() const {
-  return static_cast<size_t>(descriptors.size()) * sizeof(float) + place_ids.size() * sizeof(int) +
-         poses.size() * sizeof(PlacePose);
+  return static_cast<size_t>(descriptors.size()) * sizeof(float) + store.MemoryBytes() +
+         place_ids.size() * sizeof(int) + poses.size() * sizeof(PlacePose);
 }
 
 void ReferenceSet::Validate() const {
@@ -68,6 +68,8 @@ void ReferenceMap::Add(ReferenceSet set) {
                                 std::to_string(set.dimension()) + ", the map holds dimension " +
                                 std::to_string(dimension_));
   }
+  set.store = MakeDescriptorStore(set.descriptors, storage_);  // throws before any change
+  if (storage_ != StoragePrecision::kFloat32) set.descriptors.resize(0, set.descriptors.cols());
   const int max_id = *std::max_element(set.place_ids.begin(), set.place_ids.end());
   dimension_ = set.dimension();
   num_places_ = std::max(num_places_, max_id + 1);

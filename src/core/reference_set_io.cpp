@@ -103,6 +103,11 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
     stem.resize(stem.size() - 5);
   else if (EndsWith(stem, ".yml"))
     stem.resize(stem.size() - 4);
+  if (set.descriptors.rows() != set.size()) {
+    throw std::invalid_argument("reference set '" + set.name + "' is held at " +
+                                ToString(set.store.precision) +
+                                " precision only; save it from its float32 source");
+  }
   const std::string npy_path = stem + ".npy";
   YAML::Emitter out;
   out << YAML::BeginMap;

@@ -71,6 +71,7 @@ ReferenceSetInfo ToInfoMsg(const ReferenceSet& set) {
   info.num_places = set.size();
   info.dimension = set.dimension();
   info.memory_bytes = set.MemoryBytes();
+  info.storage = ToString(set.store.precision);
   return info;
 }
 

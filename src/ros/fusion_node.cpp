@@ -33,11 +33,12 @@ void FusionNode::Start() {
   params_ = LoadFusionParams(pnh_);
   // Config paths are relative to the data directory when one is set.
   const std::string base = params_.data_directory.empty() ? "." : params_.data_directory;
+  recognizer_.SetStoragePrecision(params_.storage);
   for (const ReferenceSetEntry& e : params_.reference_sets) {
     recognizer_.AddReferenceSet(LoadEntry(e, base));
     const ReferenceSet& s = recognizer_.map().sets().back();
-    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d)", s.name.c_str(),
-             s.size(), s.dimension());
+    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name.c_str(),
+             s.size(), s.dimension(), ToString(s.store.precision).c_str());
   }
   recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
 

@@ -59,6 +59,7 @@ const std::vector<std::string>& FusionParamNames() {
   static const std::vector<std::string> kNames = {"reference_sets",
                                                   "data_directory",
                                                   "distance",
+                                                  "storage",
                                                   "method",
                                                   "gamma_fraction",
                                                   "selection",
@@ -134,6 +135,7 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   p.reference_sets = LoadReferenceSetEntries(pnh);
   p.data_directory = GetParam<std::string>(pnh, "data_directory", "");
   r.metric = ParseDistanceMetric(GetParam<std::string>(pnh, "distance", "euclidean"));
+  p.storage = ParseStoragePrecision(GetParam<std::string>(pnh, "storage", "float32"));
   r.method = GetParam<std::string>(pnh, "method", r.method);
   r.method_options.selection.gamma_fraction =
       GetParam<double>(pnh, "gamma_fraction", r.method_options.selection.gamma_fraction);

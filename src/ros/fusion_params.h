@@ -21,6 +21,7 @@ struct FusionParams {
   RecognizerOptions recognizer;
   std::vector<ReferenceSetEntry> reference_sets;
   std::string data_directory;  // services read and write files only below it
+  StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
   bool publish_tf = true;

@@ -1,5 +1,6 @@
 // bsf_benchmark: speed and memory of bsf_vpr against baselines measured in the same run
 // (see --help and docs/performance.md). Every figure is the median of --repeats runs.
+#include <cblas.h>
 #include <faiss/IndexFlat.h>
 
 #include <algorithm>
@@ -25,16 +26,16 @@ using namespace bsf_vpr;
 const char kUsage[] = R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
-and the GEMM probe (Eigen with OpenMP).
+and the GEMM probe (OpenBLAS sgemm).
 
 Measures, on random data of the stated shapes (float32), medians of R runs (default 7):
   fusion   selection + likelihoods + posterior for M=3, N=3000 given the distances:
            bsf_vpr vs the paper's formulas written straightforwardly (O(N^2))
-  query    one query end to end (distances + fusion), M=3, N=3000, D=4096: vs the time to
-           stream the same reference bytes once (the memory limit for one query), and the
-           distance part vs FAISS IndexFlatL2 search
+  query    one query end to end (distances + fusion), M=3, N=3000, D=4096, with float32,
+           float16 and int8 storage: vs the time to stream the same stored bytes once (the
+           memory limit for one query), and the distance part vs FAISS IndexFlatL2 search
   batch    a whole offline evaluation of Q=500 queries against M=3, N=3000, D=4096 vs a
-           matrix-product (Eigen GEMM) of the same shape
+           matrix product (OpenBLAS sgemm) of the same shape
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations over 6 GB of descriptors are skipped)
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
@@ -82,13 +83,58 @@ struct Shape {
   int m, n, d;
 };
 
-PlaceRecognizer MakeRecognizer(const Shape& s, uint64_t seed) {
+PlaceRecognizer MakeRecognizer(const Shape& s, uint64_t seed,
+                               StoragePrecision storage = StoragePrecision::kFloat32) {
   PlaceRecognizer r;
+  r.SetStoragePrecision(storage);
   for (int u = 0; u < s.m; ++u) {
     r.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), Random(s.n, s.d, seed + u)));
   }
   r.SetOptions({});
   return r;
+}
+
+// The bytes the distance kernel streams for one set.
+std::pair<const void*, size_t> StoredBytes(const ReferenceSet& set) {
+  const DescriptorStore& st = set.store;
+  switch (st.precision) {
+    case StoragePrecision::kFloat16:
+      return {st.half.data(), st.half.size() * sizeof(uint16_t)};
+    case StoragePrecision::kInt8:
+      return {st.int8.data(), st.int8.size()};
+    default:
+      return {set.descriptors.data(), static_cast<size_t>(set.descriptors.size()) * sizeof(float)};
+  }
+}
+
+// Memory-bandwidth probe: reads every stored byte of the map once, split over `threads` as the
+// distances are, XOR-folding 64-bit words into independent accumulators (vectorised by the
+// compiler; far more work per byte than memory delivers, so memory is the limit).
+uint64_t StreamOnce(const ReferenceMap& map, int threads) {
+  std::vector<uint64_t> partial(static_cast<size_t>(threads), 0);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    pool.emplace_back([&, t] {
+      uint64_t acc[8] = {};
+      for (const ReferenceSet& set : map.sets()) {
+        const auto [data, bytes] = StoredBytes(set);
+        const size_t words = bytes / 8, w0 = words * t / threads, w1 = words * (t + 1) / threads;
+        const uint64_t* p = static_cast<const uint64_t*>(data);
+        size_t w = w0;
+        for (; w + 8 <= w1; w += 8) {
+          for (int k = 0; k < 8; ++k) acc[k] ^= p[w + k];
+        }
+        for (; w < w1; ++w) acc[0] ^= p[w];
+      }
+      uint64_t x = 0;
+      for (uint64_t a : acc) x ^= a;
+      partial[static_cast<size_t>(t)] = x;
+    });
+  }
+  for (std::thread& th : pool) th.join();
+  uint64_t x = 0;
+  for (uint64_t p : partial) x ^= p;
+  return x;
 }
 
 void Fusion(int repeats, int scale) {
@@ -116,49 +162,51 @@ void Fusion(int repeats, int scale) {
 
 void Query(int repeats, int scale) {
   const Shape s{3, 3000 / scale, 4096};
-  PlaceRecognizer r = MakeRecognizer(s, 10);
   const Eigen::VectorXf q = Random(1, s.d, 99).row(0).transpose();
-  const double ours =
-      TimeMs(repeats, [&] { g_sink = static_cast<float>(r.Recognize(q, false).belief.match); });
-  const RowMatrixXf q_row = q.transpose();
-  const double ours_distances = TimeMs(repeats, [&] {
-    g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, r.map())[0](0, 0);
-  });
-  // Memory limit: read every reference float once, on as many threads as the distances use.
   const int threads = DistanceThreads();
-  const double stream = TimeMs(repeats, [&] {
-    std::vector<float> partial(static_cast<size_t>(threads), 0.0f);
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (const ReferenceSet& set : r.map().sets()) {
-          const Eigen::Index r0 = set.size() * t / threads, r1 = set.size() * (t + 1) / threads;
-          partial[static_cast<size_t>(t)] += set.descriptors.middleRows(r0, r1 - r0).sum();
-        }
-      });
+  double float32_ms = 0, float32_stream = 0;
+  for (StoragePrecision p :
+       {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    PlaceRecognizer r = MakeRecognizer(s, 10, p);
+    const double ours =
+        TimeMs(repeats, [&] { g_sink = static_cast<float>(r.Recognize(q, false).belief.match); });
+    const double stream = TimeMs(repeats, [&] { g_sink = static_cast<float>(StreamOnce(r.map(), threads)); });
+    const double mb = static_cast<double>(s.m) * s.n * s.d * BytesPerElement(p) / 1e6;
+    if (p == StoragePrecision::kFloat32) {
+      float32_ms = ours;
+      float32_stream = stream;
     }
-    for (std::thread& th : pool) th.join();
-    g_sink = std::accumulate(partial.begin(), partial.end(), 0.0f);
-  });
-  std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
-  for (const ReferenceSet& set : r.map().sets()) {
-    faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
-    faiss_sets.back()->add(set.size(), set.descriptors.data());
+    std::printf(
+        "query   M=%d N=%d D=%d %-7s (%.0f MB), %d threads, %s kernel: end to end %.2f ms; "
+        "streaming these bytes once %.2f ms (%.1f GB/s): %.2fx the memory limit",
+        s.m, s.n, s.d, ToString(p).c_str(), mb, threads, DistanceKernel().c_str(), ours, stream,
+        mb / stream, ours / stream);
+    if (p == StoragePrecision::kFloat32) {
+      std::printf("\n");
+    } else {
+      std::printf("; %.2fx float32's time (float32 memory limit: %.2fx)\n", ours / float32_ms,
+                  ours / float32_stream);
+    }
+    if (p != StoragePrecision::kFloat32) continue;
+    const RowMatrixXf q_row = q.transpose();
+    const double ours_distances = TimeMs(repeats, [&] {
+      g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, r.map())[0](0, 0);
+    });
+    std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
+    for (const ReferenceSet& set : r.map().sets()) {
+      faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
+      faiss_sets.back()->add(set.size(), set.descriptors.data());
+    }
+    std::vector<float> dist(static_cast<size_t>(s.n));
+    std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
+    const double faiss_ms = TimeMs(repeats, [&] {
+      for (auto& index : faiss_sets) index->search(1, q.data(), s.n, dist.data(), label.data());
+    });
+    std::printf(
+        "query   distances alone %.2f ms vs FAISS IndexFlatL2 (all N, k=N) %.2f ms: %.2fx "
+        "FAISS's time\n",
+        ours_distances, faiss_ms, ours_distances / faiss_ms);
   }
-  std::vector<float> dist(static_cast<size_t>(s.n));
-  std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
-  const double faiss_ms = TimeMs(repeats, [&] {
-    for (auto& index : faiss_sets) index->search(1, q.data(), s.n, dist.data(), label.data());
-  });
-  const double mb = 3.0 * s.n * s.d * 4 / 1e6;
-  std::printf(
-      "query   M=%d N=%d D=%d (%.0f MB float32), %d threads: end to end %.2f ms; streaming the "
-      "references once %.2f ms (%.1f GB/s): %.2fx the memory limit\n",
-      s.m, s.n, s.d, mb, threads, ours, stream, mb / stream, ours / stream);
-  std::printf(
-      "query   distances alone %.2f ms vs FAISS IndexFlatL2 (all N, k=N) %.2f ms: %.2fx "
-      "FAISS's time\n",
-      ours_distances, faiss_ms, ours_distances / faiss_ms);
 }
 
 void Batch(int repeats, int scale) {
@@ -176,16 +224,25 @@ void Batch(int repeats, int scale) {
   const GroundTruth truth = GroundTruth::FromFrameTolerance(nq, s.n, 2);
   const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
   const double ours = TimeMs(repeats, [&] { EvaluateMethods(in, bsf, {}, truth); });
-  RowMatrixXf product;
+  const double distances = TimeMs(repeats, [&] {
+    g_sink = ComputeDistances(DistanceMetric::kEuclidean, queries, r.map())[0](0, 0);
+  });
+  const int threads = DistanceThreads();
+  openblas_set_num_threads(threads);
+  RowMatrixXf product(nq, s.n);
   const double gemm = TimeMs(repeats, [&] {
-    for (const ReferenceSet& set : r.map().sets())
-      product.noalias() = queries * set.descriptors.transpose();
+    for (const ReferenceSet& set : r.map().sets()) {
+      cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, nq, s.n, s.d, 1.0f, queries.data(),
+                  s.d, set.descriptors.data(), s.d, 0.0f, product.data(), s.n);
+    }
     g_sink = product(0, 0);
   });
   std::printf(
-      "batch   Q=%d M=%d N=%d D=%d: evaluation %.0f ms (%.2f ms/query); Eigen GEMM of the "
-      "same shape on %d threads %.0f ms: %.0f%% of the GEMM throughput\n",
-      nq, s.m, s.n, s.d, ours, ours / nq, Eigen::nbThreads(), gemm, 100.0 * gemm / ours);
+      "batch   Q=%d M=%d N=%d D=%d: evaluation %.0f ms (%.2f ms/query; distances alone %.0f ms); "
+      "OpenBLAS sgemm (%s) of the same shape on %d threads %.0f ms: %.0f%% of the GEMM "
+      "throughput\n",
+      nq, s.m, s.n, s.d, ours, ours / nq, distances, openblas_get_corename(), threads, gemm,
+      100.0 * gemm / ours);
 }
 
 void Scaling(int repeats, int scale) {

@@ -23,6 +23,8 @@ Inputs (either descriptors, or precomputed per-source matrices):
   --similarities NAME=PATH  the same with similarities (higher is better); they become
                           distances c - s with c = max(1, largest similarity of all sources)
   --distance euclidean|cosine   distance between descriptors (default euclidean)
+  --storage float32|float16|int8  precision the reference descriptors are held at
+                          (default float32; float16 halves and int8 quarters their bytes)
   --results-bag PATH      instead: the beliefs a node published during a replay (recorded by
                           launch/replay.launch), scored exactly as offline for the method the
                           node ran; ground truth from --tolerance/--ground-truth or, if
@@ -124,6 +126,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.truth_topic = value;
     } else if (flag == "--distance") {
       a.metric = ParseDistanceMetric(value);
+    } else if (flag == "--storage") {
+      a.storage = ParseStoragePrecision(value);
     } else if (flag == "--tolerance") {
       a.tolerance_frames = ParseInteger(flag, value);
       if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");

@@ -26,6 +26,7 @@ struct EvaluateArgs {
   std::string belief_topic = "/bsf_vpr/belief";
   std::string truth_topic = "/vpr/ground_truth";
   DistanceMetric metric = DistanceMetric::kEuclidean;
+  StoragePrecision storage = StoragePrecision::kFloat32;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
   std::string ground_truth;   // --ground-truth CSV

@@ -34,6 +34,7 @@ ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
 
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   std::unique_ptr<ImageDescriber> describer;
+  data->map.SetStoragePrecision(args.storage);
   for (const NamedPath& r : args.references) {
     ReferenceSet set = LoadAnySet(r.path, r.name, args.describer, &describer);
     if (!set.distance.empty() && set.distance != ToString(args.metric)) {
@@ -65,7 +66,8 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   data->description = std::to_string(data->map.num_sets()) + " reference set(s), " +
                       std::to_string(data->map.num_places()) + " places, " +
                       std::to_string(data->input.num_queries) + " queries, dimension " +
-                      std::to_string(data->map.dimension()) + ", " + ToString(args.metric) +
+                      std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
+                      " storage, " + ToString(args.metric) +
                       " distance";
 }
 

@@ -85,6 +85,7 @@ class FusionServices(unittest.TestCase):
         self.assertEqual(info.num_places, 200)
         self.assertEqual(info.dimension, 4096)
         self.assertGreaterEqual(info.memory_bytes, 200 * 4096 * 4)
+        self.assertEqual(info.storage, "float32")
         d = Descriptor()
         d.data = list(map(float, self.night[17]))
         r = self.query(descriptor=d)

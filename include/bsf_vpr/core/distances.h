@@ -37,9 +37,18 @@ struct SetDistances {
 void SetDistanceThreads(int n);
 int DistanceThreads();
 
+// The inner-product kernel in use: "avx2" (AVX2 + FMA + F16C, chosen when the CPU has them)
+// or "portable". SetDistanceKernel("portable" | "avx2" | "auto") overrides the choice for
+// the process (tests, benchmarks); throws std::invalid_argument if the CPU cannot run it.
+// Results are bitwise reproducible within one kernel; the two differ in the last bits.
+std::string DistanceKernel();
+void SetDistanceKernel(const std::string& name);
+
 // Distances from each of the Q queries (rows of `queries`, Q x D) to each of the N_u
-// descriptors of `set`; returns Q x N_u. Batched through a matrix product for Euclidean
-// (||q||^2 + ||r||^2 - 2 q.r, clamped at 0 before the square root) and cosine.
+// descriptors of `set`; returns Q x N_u. Euclidean is sqrt(max(||q||^2 + ||r||^2 - 2 q.r,
+// 0)) and cosine 1 - q.r / (||q|| ||r||), from inner products summed in one fixed order
+// (blocked over queries and rows, threads over rows) against the set's store: float32,
+// float16 or int8 as its map holds it.
 // Throws std::invalid_argument if the dimensions differ or a query holds NaN/infinity.
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set);

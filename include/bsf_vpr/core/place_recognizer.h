@@ -46,6 +46,9 @@ class PlaceRecognizer {
   const RecognizerOptions& options() const { return options_; }
   const Method& method() const { return method_; }
 
+  // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
+  void SetStoragePrecision(StoragePrecision precision) { map_.SetStoragePrecision(precision); }
+
   // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried prior.
   void AddReferenceSet(ReferenceSet set);
   // Removes a set. Throws std::invalid_argument if it is not loaded or the current method

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/descriptor_store.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -22,11 +23,14 @@ struct ReferenceSet {
   std::string condition;         // optional label, e.g. "snow", "night"
   std::string descriptor_type;   // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
   std::string distance;          // optional, the distance the descriptors are meant for
-  RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
+  RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]; 0 x D once a
+                                 // map stores the set at reduced precision (see `store`)
   std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
   std::vector<PlacePose> poses;  // empty, or N_u poses (poses[k] is the pose of row k)
 
-  int size() const { return static_cast<int>(descriptors.rows()); }
+  DescriptorStore store;         // built by ReferenceMap::Add: row norms, reduced copies
+
+  int size() const { return store.built() ? store.rows : static_cast<int>(descriptors.rows()); }
   int dimension() const { return static_cast<int>(descriptors.cols()); }
   size_t MemoryBytes() const;
 
@@ -43,7 +47,12 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
 // run-time values; N grows to cover the largest place id of any set.
 class ReferenceMap {
  public:
-  // Adds a set after validating it. Throws std::invalid_argument if it is invalid, if its
+  // Precision at which sets added from now on are held (default float32). A reduced
+  // precision keeps only the reduced copy: the set's float32 matrix is released.
+  void SetStoragePrecision(StoragePrecision precision) { storage_ = precision; }
+  StoragePrecision storage_precision() const { return storage_; }
+
+  // Adds a set after validating it and building its store. Throws std::invalid_argument if it is invalid, if its
   // name is taken, or if its dimension differs from the sets already held; the map is
   // unchanged when it throws.
   void Add(ReferenceSet set);
@@ -74,6 +83,7 @@ class ReferenceMap {
   std::optional<double> median_spacing_;
   int num_places_ = 0;
   int dimension_ = 0;
+  StoragePrecision storage_ = StoragePrecision::kFloat32;
 };
 
 }  // namespace bsf_vpr

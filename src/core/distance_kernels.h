@@ -1,0 +1,41 @@
+// Inner products of queries with stored reference rows: the kernels behind ComputeDistances.
+//
+// Every pair (query, reference row) is summed in one fixed order whatever the kernel, the
+// tile it falls in, the thread or the batch: eight lanes, lane k accumulating the elements
+// i = k (mod 8) in increasing i (the last block zero-padded), then the lanes added in the
+// tree ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)). One query's distances are thus
+// bitwise the same online and in an offline batch. The AVX2 kernel multiply-adds with FMA
+// (one rounding), the portable one multiplies then adds; a process uses one of them.
+#pragma once
+
+#include <string>
+
+#include "bsf_vpr/core/descriptor_store.h"
+
+namespace bsf_vpr {
+namespace kernels {
+
+// Reference rows as the kernel reads them.
+struct RefRows {
+  StoragePrecision precision = StoragePrecision::kFloat32;
+  const void* data = nullptr;  // rows of `cols` elements (float, uint16_t half or int8_t)
+  int cols = 0;
+  float scale = 1.0f;  // int8: each inner product is multiplied by it
+};
+
+// out[q * out_stride + (r - r0)] = <query q, reference row r> for q < num_queries and
+// r0 <= r < r1; query q starts at queries + q * query_stride.
+void Dots(const RefRows& refs, int r0, int r1, const float* queries, int num_queries,
+          int query_stride, float* out, int out_stride);
+
+// <x, x> in the same order (squared norm of a float32 row).
+float SelfDot(const float* x, int n);
+
+// "avx2" or "portable": the kernel this process uses (AVX2 when the CPU has AVX2, FMA and
+// F16C). Force() picks one ("auto" restores the choice by CPU); throws std::invalid_argument
+// for an unknown name or for "avx2" on a CPU without it.
+std::string Active();
+void Force(const std::string& name);
+
+}  // namespace kernels
+}  // namespace bsf_vpr

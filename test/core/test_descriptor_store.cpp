@@ -1,0 +1,128 @@
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "bsf_vpr/core/distances.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+float FromBits(uint32_t bits) {
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
+TEST(DescriptorStore, HalfConversionRoundTripsEveryHalfAndRoundsToNearestEven) {
+  for (uint32_t h = 0; h < 0x10000u; ++h) {
+    const uint16_t half = static_cast<uint16_t>(h);
+    if ((half & 0x7c00u) == 0x7c00u && (half & 0x3ffu)) continue;  // NaN payloads
+    ASSERT_EQ(FloatToHalf(HalfToFloat(half)), half) << std::hex << h;
+  }
+  EXPECT_EQ(HalfToFloat(0x3c00u), 1.0f);
+  EXPECT_EQ(HalfToFloat(0xc000u), -2.0f);
+  EXPECT_EQ(HalfToFloat(0x7bffu), 65504.0f);
+  EXPECT_EQ(HalfToFloat(0x0001u), std::ldexp(1.0f, -24));  // smallest subnormal
+  // 1 + 2^-11 lies halfway between 1 and 1 + 2^-10: ties go to the even mantissa (1).
+  EXPECT_EQ(FloatToHalf(1.0f + std::ldexp(1.0f, -11)), 0x3c00u);
+  EXPECT_EQ(FloatToHalf(1.0f + 3 * std::ldexp(1.0f, -11)), 0x3c02u);  // tie -> even, upwards
+  EXPECT_EQ(FloatToHalf(FromBits(0x3f800001u)), 0x3c00u);            // just above 1
+  EXPECT_EQ(FloatToHalf(65519.0f), 0x7bffu);                         // still rounds to 65504
+  EXPECT_EQ(FloatToHalf(std::ldexp(1.0f, -25)), 0x0000u);            // tie between 0 and 2^-24
+  EXPECT_EQ(FloatToHalf(std::ldexp(1.5f, -25)), 0x0001u);
+  EXPECT_THROW(FloatToHalf(65520.0f), std::invalid_argument);
+  EXPECT_THROW(FloatToHalf(-1e6f), std::invalid_argument);
+}
+
+TEST(DescriptorStore, ReducedPrecisionCutsTheBytesAndReleasesTheFloat32Matrix) {
+  const RowMatrixXf d = testing::RandomMatrix(100, 64, 1);
+  for (StoragePrecision p :
+       {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    ReferenceMap map;
+    map.SetStoragePrecision(p);
+    map.Add(MakeReferenceSet("a", d));
+    const ReferenceSet& set = map.set(0);
+    EXPECT_EQ(set.size(), 100);
+    EXPECT_EQ(set.dimension(), 64);
+    EXPECT_EQ(set.store.precision, p);
+    const size_t descriptor_bytes = 100u * 64u * static_cast<size_t>(BytesPerElement(p));
+    const size_t overhead = 100u * (sizeof(float) + sizeof(int));  // norms + place ids
+    EXPECT_EQ(set.MemoryBytes(), descriptor_bytes + overhead) << ToString(p);
+    EXPECT_EQ(set.descriptors.rows(), p == StoragePrecision::kFloat32 ? 100 : 0);
+  }
+  EXPECT_EQ(ParseStoragePrecision("int8"), StoragePrecision::kInt8);
+  EXPECT_THROW(ParseStoragePrecision("int4"), std::invalid_argument);
+  // A value float16 cannot hold is refused by name and leaves the map unchanged.
+  ReferenceMap map;
+  map.SetStoragePrecision(StoragePrecision::kFloat16);
+  RowMatrixXf big = d;
+  big(3, 5) = 1e6f;
+  EXPECT_THROW(map.Add(MakeReferenceSet("big", big)), std::invalid_argument);
+  EXPECT_EQ(map.num_sets(), 0);
+}
+
+TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
+  const RowMatrixXf q = testing::RandomMatrix(5, 300, 2);
+  const RowMatrixXf r = testing::RandomMatrix(40, 300, 3);
+  for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+    const RowMatrixXf exact = ComputeDistances(m, q, MakeReferenceSet("a", r));
+    for (auto [p, tolerance] : {std::pair{StoragePrecision::kFloat16, 1e-3f},
+                                std::pair{StoragePrecision::kInt8, 2e-2f}}) {
+      ReferenceMap map;
+      map.SetStoragePrecision(p);
+      map.Add(MakeReferenceSet("a", r));
+      const RowMatrixXf reduced = ComputeDistances(m, q, map.set(0));
+      const float scale = exact.cwiseAbs().maxCoeff();
+      EXPECT_LT((reduced - exact).cwiseAbs().maxCoeff(), tolerance * scale)
+          << ToString(p) << " " << ToString(m);
+      EXPECT_GT((reduced - exact).cwiseAbs().maxCoeff(), 0.0f) << "not actually reduced";
+    }
+  }
+}
+
+// Every kernel (AVX2 where the CPU has it, and the portable one), every storage and every
+// tile shape: a query alone gets bitwise what it gets in a batch, for any thread count.
+TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
+  std::vector<std::string> kernels = {"portable"};
+  if (DistanceKernel() == "avx2") kernels.push_back("avx2");
+  const RowMatrixXf q = testing::RandomMatrix(11, 203, 4);  // 11 = 2 tiles of 4 + 3 left over
+  const RowMatrixXf r = testing::RandomMatrix(67, 203, 5);  // 203: a zero-padded last block
+  for (const std::string& kernel : kernels) {
+    SetDistanceKernel(kernel);
+    EXPECT_EQ(DistanceKernel(), kernel);
+    for (StoragePrecision p :
+         {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+      ReferenceMap map;
+      map.SetStoragePrecision(p);
+      map.Add(MakeReferenceSet("a", r));
+      SetDistanceThreads(1);
+      const RowMatrixXf batch = ComputeDistances(DistanceMetric::kEuclidean, q, map.set(0));
+      SetDistanceThreads(3);
+      for (int i = 0; i < q.rows(); ++i) {
+        const RowMatrixXf one =
+            ComputeDistances(DistanceMetric::kEuclidean, RowMatrixXf(q.row(i)), map.set(0));
+        ASSERT_TRUE((one.row(0).array() == batch.row(i).array()).all())
+            << kernel << " " << ToString(p) << " query " << i;
+      }
+      SetDistanceThreads(0);
+    }
+  }
+  SetDistanceKernel("auto");
+  EXPECT_THROW(SetDistanceKernel("sse9"), std::invalid_argument);
+}
+
+TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {
+  if (DistanceKernel() != "avx2") GTEST_SKIP() << "this CPU has no AVX2";
+  const RowMatrixXf q = testing::RandomMatrix(6, 517, 6);
+  const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7));
+  SetDistanceKernel("portable");
+  const RowMatrixXf portable = ComputeDistances(DistanceMetric::kEuclidean, q, set);
+  SetDistanceKernel("avx2");
+  const RowMatrixXf avx2 = ComputeDistances(DistanceMetric::kEuclidean, q, set);
+  SetDistanceKernel("auto");
+  EXPECT_LT((portable - avx2).cwiseAbs().maxCoeff(), 1e-4f * portable.cwiseAbs().maxCoeff());
+}
+
+}  // namespace
+}  // namespace bsf_vpr

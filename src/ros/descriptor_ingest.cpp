@@ -144,29 +144,50 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
 }
 
 void DescriptorIngest::OnDescriptor(const Descriptor::ConstPtr& msg) {
-  // One copy: the output must be mutable for normalisation; the input is shared.
+  const bool retype =
+      !params_.descriptor_type.empty() && msg->descriptor_type != params_.descriptor_type;
+  if (!params_.l2_normalize && !retype) {
+    // Nothing to change: the validated input itself goes on (no copy of the descriptor).
+    double squared_norm = 0;
+    const std::string problem = Problem(*msg, &squared_norm);
+    if (!problem.empty()) return Reject(problem);
+    return Published(msg);
+  }
+  // The output differs from the input: one copy, which then travels on without another.
   auto out = boost::make_shared<Descriptor>(*msg);
-  if (!params_.descriptor_type.empty()) out->descriptor_type = params_.descriptor_type;
+  if (retype) out->descriptor_type = params_.descriptor_type;
   ValidateAndPublish(out);
 }
 
-void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
-  const size_t n = out->data.size();
-  if (n == 0) return Reject("empty descriptor");
+std::string DescriptorIngest::Problem(const Descriptor& d, double* squared_norm) const {
+  const size_t n = d.data.size();
+  if (n == 0) return "empty descriptor";
   if (params_.expected_dimension != 0 && n != static_cast<size_t>(params_.expected_dimension)) {
-    return Reject("descriptor has dimension " + std::to_string(n) + ", expected " +
-                  std::to_string(params_.expected_dimension));
+    return "descriptor has dimension " + std::to_string(n) + ", expected " +
+           std::to_string(params_.expected_dimension);
   }
   double sq = 0;
-  for (float v : out->data) {
-    if (!std::isfinite(v)) return Reject("descriptor holds NaN or infinity");
+  for (float v : d.data) {
+    if (!std::isfinite(v)) return "descriptor holds NaN or infinity";
     sq += static_cast<double>(v) * v;
   }
+  *squared_norm = sq;
+  return "";
+}
+
+void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
+  double sq = 0;
+  const std::string problem = Problem(*out, &sq);
+  if (!problem.empty()) return Reject(problem);
   if (params_.l2_normalize) {
     if (sq <= 0) return Reject("cannot L2-normalise a zero descriptor");
     const float inv = static_cast<float>(1.0 / std::sqrt(sq));
     for (float& v : out->data) v *= inv;
   }
+  Published(out);
+}
+
+void DescriptorIngest::Published(const Descriptor::ConstPtr& out) {
   pub_.publish(out);  // shared pointer: no copy to nodelets in the same manager
   std::lock_guard<std::mutex> lock(mutex_);
   ++published_;

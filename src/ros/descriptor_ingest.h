@@ -41,6 +41,9 @@ class DescriptorIngest {
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
   void ValidateAndPublish(const Descriptor::Ptr& out);
+  // Why `d` cannot pass ("" if it can); `squared_norm` receives its squared L2 norm.
+  std::string Problem(const Descriptor& d, double* squared_norm) const;
+  void Published(const Descriptor::ConstPtr& out);
   void Reject(const std::string& why);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 

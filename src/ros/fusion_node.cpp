@@ -126,7 +126,7 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   for (int u : r.belief.selection.selected) ++selected_count_[map.set(u).name];
   if (r.belief.selection.best >= 0) ++best_count_[map.set(r.belief.selection.best).name];
   if (r.closest_set >= 0) ++supplied_count_[map.set(r.closest_set).name];
-  Publish(*msg, r);
+  Publish(*msg, r, seconds);
 }
 
 void FusionNode::OnOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
@@ -170,10 +170,11 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
   return step;
 }
 
-void FusionNode::Publish(const Descriptor& msg, const Recognition& r) {
+void FusionNode::Publish(const Descriptor& msg, const Recognition& r, double seconds) {
   auto belief = boost::make_shared<Belief>();
   belief->header = msg.header;
   ToBeliefMsg(r, recognizer_, params_.belief_top_k, belief.get());
+  belief->processing_time = seconds;
   belief_pub_.publish(belief);
   if (r.belief.accepted) {
     auto match = boost::make_shared<Match>();

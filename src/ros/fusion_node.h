@@ -52,7 +52,7 @@ class FusionNode {
   // The progress since the previous query in places, from odometry (nullopt without
   // odometry or place spacing). Caller holds mutex_; moves the reference position on.
   std::optional<double> OdometryStep(const ros::Time& stamp);
-  void Publish(const Descriptor& msg, const Recognition& r);
+  void Publish(const Descriptor& msg, const Recognition& r, double seconds);
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void RejectMessage(const std::string& why);

@@ -1,5 +1,6 @@
 // Service handlers of the fusion node. Each answers success=false with a message on any
 // error and leaves the loaded reference sets as they were; none can take the node down.
+#include <chrono>
 #include <filesystem>
 
 #include "bsf_vpr/core/file_util.h"
@@ -59,9 +60,13 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
 bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
+    const auto start = std::chrono::steady_clock::now();
     const Recognition r = recognizer_.Recognize(DescriptorView(req.descriptor), false);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     res.belief.header = req.descriptor.header;
     ToBeliefMsg(r, recognizer_, params_.belief_top_k, &res.belief);
+    res.belief.processing_time = seconds;
     res.success = true;
   } catch (const std::exception& e) {
     res.success = false;

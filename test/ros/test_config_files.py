@@ -86,6 +86,8 @@ class ConfigFiles(unittest.TestCase):
         self.assertGreaterEqual(len(launches), 2)
         for path in launches:
             args = {"bag": "/tmp/none.bag"} if path.endswith("replay.launch") else {}
+            if path.endswith("benchmark_pipeline.launch"):
+                args = {"data_directory": "/tmp"}
             config = self.load_launch(path, args)
             names = {n.name for n in config.nodes}
             self.assertIn("fusion", names, path)

@@ -92,6 +92,8 @@ class FusionServices(unittest.TestCase):
         self.assertTrue(r.success, r.message)
         self.assertLessEqual(abs(r.belief.match - 17), 8)
         self.assertAlmostEqual(sum(r.belief.posterior), 1.0, places=3)
+        self.assertGreater(r.belief.processing_time, 0.0)
+        self.assertLess(r.belief.processing_time, 60.0)  # seconds, not milli- or microseconds
         r = self.load(path="day.npy", name="day_again", condition="test")
         self.assertTrue(r.success, r.message)
         self.assertIn("day_again", self.names())

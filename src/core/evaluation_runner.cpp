@@ -1,8 +1,11 @@
 #include "bsf_vpr/core/evaluation_runner.h"
 
 #include <algorithm>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
+#include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/method_runner.h"
 
 namespace bsf_vpr {
@@ -39,15 +42,39 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         throw std::logic_error("distance block has the wrong number of rows");
       }
     }
-    for (int q = begin; q < end; ++q) {
-      const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids);
-      for (size_t k = 0; k < methods.size(); ++k) {
-        const PlaceBelief b = runners[k].Step(views, input.num_places, nullptr, std::nullopt, true);
+    for (size_t k = 0; k < methods.size(); ++k) {
+      const auto run = [&](MethodRunner& runner, int q) {
+        const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids);
+        const PlaceBelief b = runner.Step(views, input.num_places, nullptr, std::nullopt, true);
         QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
         o.match = b.match;
         o.confidence = b.confidence;
         o.accepted = b.accepted;
         o.top_places = b.top_places;
+      };
+      if (methods[k].temporal_filter || methods[k].sequence) {
+        for (int q = begin; q < end; ++q) run(runners[k], q);  // carries state: in order
+        continue;
+      }
+      // Without state every query stands alone: split them over the cores, one runner each.
+      const int threads = std::min(DistanceThreads(), end - begin);
+      std::vector<std::thread> pool;
+      std::vector<std::exception_ptr> failed(static_cast<size_t>(threads));
+      for (int t = 0; t < threads; ++t) {
+        pool.emplace_back([&, t] {
+          try {
+            MethodRunner runner(methods[k], options);
+            const int q0 = begin + (end - begin) * t / threads;
+            const int q1 = begin + (end - begin) * (t + 1) / threads;
+            for (int q = q0; q < q1; ++q) run(runner, q);
+          } catch (...) {
+            failed[static_cast<size_t>(t)] = std::current_exception();
+          }
+        });
+      }
+      for (std::thread& th : pool) th.join();
+      for (const std::exception_ptr& e : failed) {
+        if (e) std::rethrow_exception(e);
       }
     }
     if (progress) progress(end, input.num_queries);

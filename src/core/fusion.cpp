@@ -18,6 +18,15 @@ int CheckedPlace(const SetDistances& d, int k, int num_places) {
   return place;
 }
 
+// Whether value k is the distance to place k for every place (no ids, or ids 0, 1, ...).
+bool CoversEachPlaceInOrder(const SetDistances& d) {
+  if (d.place_ids == nullptr) return true;
+  for (int k = 0; k < d.count; ++k) {
+    if (d.place_ids[k] != k) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 double Threshold::LogOdds() const {
@@ -117,7 +126,7 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
     const DistanceStats stats = out->selection.set_stats.size() == sets.size()
                                     ? out->selection.set_stats[static_cast<size_t>(u)]
                                     : ComputeDistanceStats(d);
-    if (d.place_ids == nullptr && d.count == num_places) {
+    if (d.count == num_places && CoversEachPlaceInOrder(d)) {
       // Covers every place once: the per-set shift cancels in the normalisation below.
       UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, ll.data());
       out->log_posterior += Eigen::Map<const Eigen::VectorXd>(ll.data(), d.count);

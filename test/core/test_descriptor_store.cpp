@@ -86,8 +86,8 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
 TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
   std::vector<std::string> kernels = {"portable"};
   if (DistanceKernel() == "avx2") kernels.push_back("avx2");
-  const RowMatrixXf q = testing::RandomMatrix(11, 203, 4);  // 11 = 2 tiles of 4 + 3 left over
-  const RowMatrixXf r = testing::RandomMatrix(67, 203, 5);  // 203: a zero-padded last block
+  const RowMatrixXf q = testing::RandomMatrix(11, 517, 4);  // 11 = 2 tiles of 4 + 3 left over
+  const RowMatrixXf r = testing::RandomMatrix(100, 517, 5);  // 517: passes of 256 + padded tail
   for (const std::string& kernel : kernels) {
     SetDistanceKernel(kernel);
     EXPECT_EQ(DistanceKernel(), kernel);

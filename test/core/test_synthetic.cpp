@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <numeric>
+
 #include "bsf_vpr/core/evaluation_runner.h"
+#include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/core/synthetic.h"
 #include "test_util.h"
 
@@ -24,6 +27,42 @@ const Metrics& Find(const std::vector<MethodResults>& r, const std::string& name
     if (x.method.Name() == name) return x.metrics;
   }
   throw std::runtime_error("no method " + name);
+}
+
+// Stateless methods run their queries on several threads: the outcomes must be exactly the
+// sequential ones, and an error in a worker must reach the caller.
+TEST(Synthetic, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErrorsOn) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  EvaluationInput in;
+  in.num_queries = static_cast<int>(data.queries.rows());
+  in.num_places = data.map.num_places();
+  in.set_names = data.map.SetNames();
+  const std::vector<RowMatrixXf> all =
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
+  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
+  };
+  const Method bsf = ParseMethod("bsf", in.set_names);
+  SetDistanceThreads(3);
+  const std::vector<MethodResults> r = EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50);
+  SetDistanceThreads(0);
+  MethodRunner sequential(bsf, {});
+  for (int q = 0; q < in.num_queries; ++q) {
+    const PlaceBelief b =
+        sequential.Step(QueryRowViews(all, q, {}), in.num_places, nullptr, std::nullopt, true);
+    const QueryOutcome& o = r[0].outcomes[static_cast<size_t>(q)];
+    ASSERT_EQ(o.match, b.match) << q;
+    ASSERT_EQ(o.confidence, b.confidence) << q;
+    ASSERT_EQ(o.top_places, b.top_places) << q;
+  }
+  std::vector<int> outside(static_cast<size_t>(in.num_places));
+  std::iota(outside.begin(), outside.end(), 0);
+  outside.back() = in.num_places + 5;  // a place id the map does not have
+  in.place_ids = {outside, outside, outside};
+  EXPECT_THROW(EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50), std::invalid_argument);
 }
 
 TEST(Synthetic, IsDeterministicForASeed) {

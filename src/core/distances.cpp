@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "distance_kernels.h"
+#include "worker_pool.h"
 
 namespace bsf_vpr {
 
@@ -77,50 +78,75 @@ int DistanceThreads() {
 std::string DistanceKernel() { return kernels::Active(); }
 void SetDistanceKernel(const std::string& name) { kernels::Force(name); }
 
+namespace {
+
+// One set's part of a distance computation: its store, its output, its row ranges.
+struct SetJob {
+  DescriptorStore local;  // for a set outside a map (no store yet): float32 norms
+  kernels::RefRows refs;
+  const float* norms = nullptr;
+  RowMatrixXf out;
+  int parts = 1;  // row ranges, one task each
+};
+
+void PrepareJob(const RowMatrixXf& queries, const ReferenceSet& set, int threads, SetJob* job) {
+  CheckQueries(queries, set);
+  if (!set.store.built()) job->local = MakeDescriptorStore(set.descriptors, StoragePrecision::kFloat32);
+  const DescriptorStore& store = set.store.built() ? set.store : job->local;
+  job->refs.precision = store.precision;
+  job->refs.cols = store.cols;
+  job->refs.scale = store.scale;
+  job->refs.data = store.precision == StoragePrecision::kFloat16 ? static_cast<const void*>(store.half.data())
+                   : store.precision == StoragePrecision::kInt8 ? static_cast<const void*>(store.int8.data())
+                                                                : static_cast<const void*>(set.descriptors.data());
+  job->norms = store.squared_norms.data();
+  job->out.resize(queries.rows(), store.rows);
+  // Threads only pay off beyond about a million multiply-adds.
+  const double work = static_cast<double>(queries.rows()) * store.rows * store.cols;
+  job->parts = work < 1e6 ? 1 : std::max(1, std::min(threads, store.rows));
+}
+
+// Distances from `queries` to every set: all sets' row ranges as tasks of one parallel run
+// on the worker pool.
+std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& queries,
+                                    const std::vector<const ReferenceSet*>& sets) {
+  const int threads = DistanceThreads();
+  std::vector<SetJob> jobs(sets.size());
+  std::vector<std::pair<size_t, int>> tasks;  // (set, part)
+  for (size_t u = 0; u < sets.size(); ++u) {
+    PrepareJob(queries, *sets[u], threads, &jobs[u]);
+    for (int t = 0; t < jobs[u].parts; ++t) tasks.emplace_back(u, t);
+  }
+  Eigen::VectorXf qn(queries.rows());  // squared norms
+  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+    qn(q) = kernels::SelfDot(queries.row(q).data(), static_cast<int>(queries.cols()));
+  }
+  RunParallel(static_cast<int>(tasks.size()), threads, [&](int i) {
+    SetJob& job = jobs[tasks[static_cast<size_t>(i)].first];
+    const int t = tasks[static_cast<size_t>(i)].second;
+    const int nr = static_cast<int>(job.out.cols());
+    const int r0 = static_cast<int>(static_cast<int64_t>(nr) * t / job.parts);
+    const int r1 = static_cast<int>(static_cast<int64_t>(nr) * (t + 1) / job.parts);
+    DistanceRows(metric, queries, job.refs, job.norms, qn, r0, r1, &job.out);
+  });
+  std::vector<RowMatrixXf> out;
+  out.reserve(jobs.size());
+  for (SetJob& job : jobs) out.push_back(std::move(job.out));
+  return out;
+}
+
+}  // namespace
+
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set) {
-  CheckQueries(queries, set);
-  // A set outside a map has no store yet: read its float32 rows and compute their norms.
-  DescriptorStore local;
-  if (!set.store.built()) local = MakeDescriptorStore(set.descriptors, StoragePrecision::kFloat32);
-  const DescriptorStore& store = set.store.built() ? set.store : local;
-  kernels::RefRows refs;
-  refs.precision = store.precision;
-  refs.cols = store.cols;
-  refs.scale = store.scale;
-  refs.data = store.precision == StoragePrecision::kFloat16 ? static_cast<const void*>(store.half.data())
-              : store.precision == StoragePrecision::kInt8  ? static_cast<const void*>(store.int8.data())
-                                                            : static_cast<const void*>(set.descriptors.data());
-  const int d = store.cols, nr = store.rows;
-  const Eigen::Index nq = queries.rows();
-  Eigen::VectorXf qn(nq);  // squared norms
-  for (Eigen::Index q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), d);
-  RowMatrixXf out(nq, nr);
-  // Threads only pay off beyond about a million multiply-adds.
-  const double work = static_cast<double>(nq) * static_cast<double>(nr) * d;
-  const int threads = work < 1e6 ? 1 : std::min(DistanceThreads(), nr);
-  const float* norms = store.squared_norms.data();
-  if (threads <= 1) {
-    DistanceRows(metric, queries, refs, norms, qn, 0, nr, &out);
-    return out;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    const int r0 = static_cast<int>(static_cast<int64_t>(nr) * t / threads);
-    const int r1 = static_cast<int>(static_cast<int64_t>(nr) * (t + 1) / threads);
-    pool.emplace_back(DistanceRows, metric, std::cref(queries), std::cref(refs), norms,
-                      std::cref(qn), r0, r1, &out);
-  }
-  for (std::thread& th : pool) th.join();
-  return out;
+  return std::move(ComputeAll(metric, queries, {&set}).front());
 }
 
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                                           const ReferenceMap& map) {
-  std::vector<RowMatrixXf> out;
-  out.reserve(static_cast<size_t>(map.num_sets()));
-  for (const ReferenceSet& set : map.sets()) out.push_back(ComputeDistances(metric, queries, set));
-  return out;
+  std::vector<const ReferenceSet*> sets;
+  for (const ReferenceSet& set : map.sets()) sets.push_back(&set);
+  return ComputeAll(metric, queries, sets);
 }
 
 std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,

@@ -1,12 +1,11 @@
 #include "bsf_vpr/core/evaluation_runner.h"
 
 #include <algorithm>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/method_runner.h"
+#include "worker_pool.h"
 
 namespace bsf_vpr {
 
@@ -58,24 +57,12 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
       }
       // Without state every query stands alone: split them over the cores, one runner each.
       const int threads = std::min(DistanceThreads(), end - begin);
-      std::vector<std::thread> pool;
-      std::vector<std::exception_ptr> failed(static_cast<size_t>(threads));
-      for (int t = 0; t < threads; ++t) {
-        pool.emplace_back([&, t] {
-          try {
-            MethodRunner runner(methods[k], options);
-            const int q0 = begin + (end - begin) * t / threads;
-            const int q1 = begin + (end - begin) * (t + 1) / threads;
-            for (int q = q0; q < q1; ++q) run(runner, q);
-          } catch (...) {
-            failed[static_cast<size_t>(t)] = std::current_exception();
-          }
-        });
-      }
-      for (std::thread& th : pool) th.join();
-      for (const std::exception_ptr& e : failed) {
-        if (e) std::rethrow_exception(e);
-      }
+      RunParallel(threads, threads, [&](int t) {
+        MethodRunner runner(methods[k], options);
+        const int q0 = begin + (end - begin) * t / threads;
+        const int q1 = begin + (end - begin) * (t + 1) / threads;
+        for (int q = q0; q < q1; ++q) run(runner, q);
+      });
     }
     if (progress) progress(end, input.num_queries);
   }

@@ -6,7 +6,9 @@
 #include <atomic>
 #include <cstdint>
 #include <cstring>
+#include <cmath>
 #include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -44,16 +46,50 @@ inline void PadTail(const T* row, int from, int n, float* lanes) {
 // they are stored back to `lanes`. Splitting a row into such passes keeps every lane's
 // additions in the same order, so chunked and whole-row tiles give the same bits.
 struct TileArgs {
-  const float* q;
-  int q_stride;
-  int i0, i1, d;
-  bool first;
-  float* lanes;
-  int lanes_stride;
-  float scale;
-  float* out;
-  int out_stride;
+  const float* q = nullptr;
+  int q_stride = 0;
+  int i0 = 0, i1 = 0, d = 0;
+  bool first = true;
+  float* lanes = nullptr;
+  int lanes_stride = 0;
+  float scale = 1.0f;
+  float* out = nullptr;
+  int out_stride = 0;
+  // int8 rows only: the queries rounded to int16 (query j at q16 + j * q_stride) and the
+  // scale of each (q_scales[j]); `scale` is the rows' scale.
+  const int16_t* q16 = nullptr;
+  const float* q_scales = nullptr;
 };
+
+// ---- int8 rows: integer inner products -----------------------------------------------
+// The query is rounded to int16 with its own scale and each pair's products are summed
+// exactly in integers (int32 lanes that cannot overflow, see QueryLevels), so the value
+// does not depend on any order: both kernels and every tile give the same bits.
+
+inline float Int8Result(int64_t sum, float row_scale, float query_scale) {
+  return static_cast<float>(static_cast<double>(sum) *
+                            (static_cast<double>(row_scale) * static_cast<double>(query_scale)));
+}
+
+// Largest |int16 level| of a query such that an int32 lane (d / 8 products of at most
+// 127 x level) cannot overflow.
+int QueryLevels(int d) {
+  const int64_t bound = (int64_t{2147483647} * 8) / (int64_t{127} * std::max(d, 8));
+  return static_cast<int>(std::min<int64_t>(32767, bound));
+}
+
+template <int NQ, int NR>
+void TileInt8Portable(const TileArgs& a, const int8_t* r, int r_stride) {
+  for (int j = 0; j < NQ; ++j) {
+    const int16_t* q = a.q16 + j * a.q_stride;
+    for (int k = 0; k < NR; ++k) {
+      const int8_t* row = r + k * r_stride;
+      int64_t sum = 0;
+      for (int i = 0; i < a.d; ++i) sum += static_cast<int32_t>(q[i]) * row[i];
+      a.out[j * a.out_stride + k] = Int8Result(sum, a.scale, a.q_scales[j]);
+    }
+  }
+}
 
 template <class T, int NQ, int NR>
 void TilePortable(const TileArgs& a, const T* r, int r_stride) {
@@ -157,6 +193,41 @@ BSF_VPR_AVX2 void TileAvx2(const TileArgs& a, const T* r, int r_stride) {
   }
 }
 
+template <int NQ, int NR>
+BSF_VPR_AVX2 void TileInt8Avx2(const TileArgs& a, const int8_t* r, int r_stride) {
+  __m256i acc[NQ][NR];
+  for (int j = 0; j < NQ; ++j) {
+    for (int k = 0; k < NR; ++k) acc[j][k] = _mm256_setzero_si256();
+  }
+  int i = 0;
+  for (; i + 16 <= a.d; i += 16) {
+    __m256i rv[NR];
+    for (int k = 0; k < NR; ++k) {
+      rv[k] = _mm256_cvtepi8_epi16(
+          _mm_loadu_si128(reinterpret_cast<const __m128i*>(r + k * r_stride + i)));
+    }
+    for (int j = 0; j < NQ; ++j) {
+      const __m256i qv =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a.q16 + j * a.q_stride + i));
+      for (int k = 0; k < NR; ++k) {
+        acc[j][k] = _mm256_add_epi32(acc[j][k], _mm256_madd_epi16(qv, rv[k]));
+      }
+    }
+  }
+  alignas(32) int32_t lanes[8];
+  for (int j = 0; j < NQ; ++j) {
+    const int16_t* q = a.q16 + j * a.q_stride;
+    for (int k = 0; k < NR; ++k) {
+      _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), acc[j][k]);
+      int64_t sum = 0;
+      for (int32_t l : lanes) sum += l;
+      const int8_t* row = r + k * r_stride;
+      for (int t = i; t < a.d; ++t) sum += static_cast<int32_t>(q[t]) * row[t];
+      a.out[j * a.out_stride + k] = Int8Result(sum, a.scale, a.q_scales[j]);
+    }
+  }
+}
+
 bool CpuHasAvx2() {
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
          __builtin_cpu_supports("f16c");
@@ -179,11 +250,18 @@ Isa CurrentIsa() {
 
 template <class T, int NQ, int NR>
 void Tile(Isa isa, const TileArgs& a, const T* r, int r_stride) {
+  if constexpr (std::is_same_v<T, int8_t>) {
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
-  if (isa == Isa::kAvx2) return TileAvx2<T, NQ, NR>(a, r, r_stride);
+    if (isa == Isa::kAvx2) return TileInt8Avx2<NQ, NR>(a, r, r_stride);
 #endif
+    TileInt8Portable<NQ, NR>(a, r, r_stride);
+  } else {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+    if (isa == Isa::kAvx2) return TileAvx2<T, NQ, NR>(a, r, r_stride);
+#endif
+    TilePortable<T, NQ, NR>(a, r, r_stride);
+  }
   (void)isa;
-  TilePortable<T, NQ, NR>(a, r, r_stride);
 }
 
 // One pass of NQ queries (a.q, a.out and a.lanes at their first) over the rows [b0, b1),
@@ -195,7 +273,7 @@ void Sweep(Isa isa, TileArgs a, const T* rows, int b0, int b1) {
   int r = b0;
   const auto at = [&](int row) {
     a.out = out + (row - b0);
-    a.lanes = lanes + (row - b0) * kLanes;
+    a.lanes = lanes ? lanes + (row - b0) * kLanes : nullptr;
     return rows + static_cast<size_t>(row) * a.d;
   };
   for (; r + NR <= b1; r += NR) Tile<T, NQ, NR>(isa, a, at(r), a.d);
@@ -213,8 +291,29 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
   // (Measured on the project's machine: passes of 512-1024 reach about 1.5x the speed of
   // whole rows for 256 queries x 3000 rows x 4096.)
   constexpr int kRowBlock = 96, kQueryBlock = 32;
-  const int chunk = num_queries >= 8 ? 1024 : d;
-  std::vector<float> lanes(static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes);
+  const bool int8_rows = std::is_same_v<T, int8_t>;
+  const int chunk = num_queries >= 8 && !int8_rows ? 1024 : d;
+  // int8 rows: each query rounded to int16 levels with its own scale.
+  std::vector<int16_t> q16;
+  std::vector<float> q_scales;
+  if (int8_rows) {
+    const int levels = QueryLevels(d);
+    q16.resize(static_cast<size_t>(num_queries) * d);
+    q_scales.resize(static_cast<size_t>(num_queries));
+    for (int q = 0; q < num_queries; ++q) {
+      const float* x = queries + static_cast<size_t>(q) * query_stride;
+      float max_abs = 0;
+      for (int i = 0; i < d; ++i) max_abs = std::max(max_abs, std::fabs(x[i]));
+      const float s = max_abs > 0 ? max_abs / static_cast<float>(levels) : 1.0f;
+      q_scales[static_cast<size_t>(q)] = s;
+      for (int i = 0; i < d; ++i) {
+        const float level = std::nearbyint(x[i] / s);
+        q16[static_cast<size_t>(q) * d + i] = static_cast<int16_t>(
+            std::clamp(level, -static_cast<float>(levels), static_cast<float>(levels)));
+      }
+    }
+  }
+  std::vector<float> lanes(chunk < d ? static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes : 0);
   const int lanes_stride = kRowBlock * kLanes;
   for (int b0 = r0; b0 < r1; b0 += kRowBlock) {
     const int b1 = std::min(r1, b0 + kRowBlock);
@@ -230,10 +329,15 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
         a.lanes_stride = lanes_stride;
         a.scale = scale;
         a.out_stride = out_stride;
+        if (int8_rows) a.q_stride = d;  // the int16 copies
         const auto for_query = [&](int q) {
           a.q = queries + static_cast<size_t>(q) * query_stride;
+          if (!q16.empty()) {
+            a.q16 = q16.data() + static_cast<size_t>(q) * d;
+            a.q_scales = q_scales.data() + q;
+          }
           a.out = out + static_cast<size_t>(q) * out_stride + (b0 - r0);
-          a.lanes = lanes.data() + static_cast<size_t>(q - qb0) * lanes_stride;
+          if (!lanes.empty()) a.lanes = lanes.data() + static_cast<size_t>(q - qb0) * lanes_stride;
           return a;
         };
         int q = qb0;
@@ -266,7 +370,12 @@ void Dots(const RefRows& refs, int r0, int r1, const float* queries, int num_que
 
 float SelfDot(const float* x, int n) {
   float out = 0;
-  TileArgs a{x, n, 0, n, n, true, nullptr, 0, 1.0f, &out, 1};
+  TileArgs a;
+  a.q = x;
+  a.q_stride = n;
+  a.i1 = a.d = n;
+  a.out = &out;
+  a.out_stride = 1;
   Tile<float, 1, 1>(CurrentIsa(), a, x, n);
   return out;
 }

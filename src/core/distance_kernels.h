@@ -6,6 +6,8 @@
 // tree ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)). One query's distances are thus
 // bitwise the same online and in an offline batch. The AVX2 kernel multiply-adds with FMA
 // (one rounding), the portable one multiplies then adds; a process uses one of them.
+// int8 rows are the exception that needs no order: the query is rounded to int16 levels
+// (its own scale) and the products are summed exactly in integers, the same in both kernels.
 #pragma once
 
 #include <string>

@@ -122,6 +122,16 @@ TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {
   const RowMatrixXf avx2 = ComputeDistances(DistanceMetric::kEuclidean, q, set);
   SetDistanceKernel("auto");
   EXPECT_LT((portable - avx2).cwiseAbs().maxCoeff(), 1e-4f * portable.cwiseAbs().maxCoeff());
+  // int8 rows are summed exactly in integers: the two kernels agree to the bit.
+  ReferenceMap map;
+  map.SetStoragePrecision(StoragePrecision::kInt8);
+  map.Add(MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7)));
+  SetDistanceKernel("portable");
+  const RowMatrixXf portable8 = ComputeDistances(DistanceMetric::kCosine, q, map.set(0));
+  SetDistanceKernel("avx2");
+  const RowMatrixXf avx8 = ComputeDistances(DistanceMetric::kCosine, q, map.set(0));
+  SetDistanceKernel("auto");
+  EXPECT_TRUE((portable8.array() == avx8.array()).all());
 }
 
 }  // namespace

@@ -23,7 +23,7 @@ namespace {
 
 using namespace bsf_vpr;
 
-const char kUsage[] = R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--quick]
+const char kUsage[] = R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
 and the GEMM probe (OpenBLAS sgemm).
@@ -37,7 +37,8 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
   batch    a whole offline evaluation of Q=500 queries against M=3, N=3000, D=4096 vs a
            matrix product (OpenBLAS sgemm) of the same shape
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
-           D in {256,1024,4096} (combinations over 6 GB of descriptors are skipped)
+           D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
+           references stored at --storage float32|float16|int8 (default float32)
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
 and the scaling grid by 100x (a smoke test; its figures are not the documented ones).
 )";
@@ -279,20 +280,22 @@ void Batch(int repeats, int scale) {
       100.0 * gemm / ours);
 }
 
-void Scaling(int repeats, int scale) {
+void Scaling(int repeats, int scale, StoragePrecision storage) {
+  std::printf("scaling (%s storage)\n", ToString(storage).c_str());
   std::printf("scaling        N     M      D   ms/query   descriptor MB   resident MB   ratio\n");
   for (int n : {1000, 10000, 100000}) {
     for (int m : {1, 3, 10}) {
       for (int d : {256, 1024, 4096}) {
         const Shape s{m, n / (scale == 1 ? 1 : 100), d};
-        const double bytes = 4.0 * s.m * s.n * s.d;
-        if (bytes > 6e9) {
+        const double bytes = static_cast<double>(BytesPerElement(storage)) * s.m * s.n * s.d;
+        const double peak = bytes + 4.0 * s.n * s.d;  // one set is made as float32 first
+        if (peak > 6e9) {
           std::printf("scaling  %7d  %4d  %5d   skipped (%.1f GB of descriptors)\n", s.n, m, d,
                       bytes / 1e9);
           continue;
         }
         const size_t before = ResidentBytes();
-        PlaceRecognizer r = MakeRecognizer(s, 30);
+        PlaceRecognizer r = MakeRecognizer(s, 30, storage);
         const Eigen::VectorXf q = Random(1, d, 5).row(0).transpose();
         const double ms = TimeMs(std::max(1, repeats / 2), [&] {
           g_sink = static_cast<float>(r.Recognize(q, false).belief.match);
@@ -308,6 +311,7 @@ void Scaling(int repeats, int scale) {
 int Run(int argc, char** argv) {
   std::string sections = "fusion,query,batch,scaling";
   int repeats = 7, scale = 1;
+  StoragePrecision storage = StoragePrecision::kFloat32;
   for (int i = 1; i < argc; ++i) {
     const std::string f = argv[i];
     if (f == "-h" || f == "--help") {
@@ -324,6 +328,8 @@ int Run(int argc, char** argv) {
       sections = v;
     else if (f == "--repeats")
       repeats = tools::ParseInteger(f, v);
+    else if (f == "--storage")
+      storage = ParseStoragePrecision(v);
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -337,7 +343,7 @@ int Run(int argc, char** argv) {
     else if (s == "batch")
       Batch(repeats, scale);
     else if (s == "scaling")
-      Scaling(repeats, scale);
+      Scaling(repeats, scale, storage);
     else
       throw std::invalid_argument("unknown section '" + s + "' (fusion, query, batch, scaling)");
   }

@@ -34,8 +34,10 @@ class PipelineBenchmark(unittest.TestCase):
             self.assertEqual(queries, 25)
             self.assertEqual(beliefs, 25, row)
             self.assertGreater(core, 0.0, row)
-            self.assertGreaterEqual(overhead, 0.0, row)  # latency includes the core's time
-            self.assertAlmostEqual(latency, core + overhead, delta=max(0.2 * latency, 0.05))
+            # Each query's latency includes the core's time for it, so the medians keep that
+            # order and the overhead is never negative.
+            self.assertGreaterEqual(overhead, 0.0, row)
+            self.assertGreaterEqual(latency, core, row)
         rospy.wait_for_service("/bsf_vpr/list_reference_sets", timeout=30)
         sets = rospy.ServiceProxy("/bsf_vpr/list_reference_sets", ListReferenceSets)().sets
         self.assertEqual([s.name for s in sets], ["c0", "c1", "c2"])

@@ -339,6 +339,10 @@ TEST_F(EvaluateTool, BenchmarkRunsEverySectionAndReportsRatios) {
   }
   EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;
   EXPECT_EQ(RunCommand(std::string(BSF_BENCHMARK_PATH) + " --sections warp").exit_code, 2);
+  const Result int8 = RunCommand(std::string(BSF_BENCHMARK_PATH) +
+                                 " --quick --repeats 1 --sections scaling --storage int8");
+  ASSERT_EQ(int8.exit_code, 0) << int8.output;
+  EXPECT_NE(int8.output.find("scaling (int8 storage)"), std::string::npos) << int8.output;
 }
 
 TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {

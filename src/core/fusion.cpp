@@ -2,8 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <stdexcept>
+
+#include "bsf_vpr/core/distances.h"
+#include "worker_pool.h"
 
 namespace bsf_vpr {
 namespace {
@@ -118,22 +122,35 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
   } else {
     out->log_posterior = Eigen::VectorXd::Zero(num_places);
   }
-  std::vector<double> ll;
-  for (int u : use) {
+  // Each used set's log-likelihoods, computed in parallel when there is enough work, then
+  // added in set order (so the sum is the same on any number of threads).
+  const bool have_stats = out->selection.set_stats.size() == sets.size();
+  std::vector<std::vector<double>> ll(use.size());
+  const auto likelihood_of = [&](int i) {
+    const int u = use[static_cast<size_t>(i)];
     const SetDistances& d = sets.at(static_cast<size_t>(u));
-    ll.resize(static_cast<size_t>(d.count));
+    std::vector<double>& l = ll[static_cast<size_t>(i)];
+    l.resize(static_cast<size_t>(d.count));
     // RunMethod has already computed every set's statistics for selection.
-    const DistanceStats stats = out->selection.set_stats.size() == sets.size()
-                                    ? out->selection.set_stats[static_cast<size_t>(u)]
-                                    : ComputeDistanceStats(d);
+    const DistanceStats stats =
+        have_stats ? out->selection.set_stats[static_cast<size_t>(u)] : ComputeDistanceStats(d);
     if (d.count == num_places && CoversEachPlaceInOrder(d)) {
       // Covers every place once: the per-set shift cancels in the normalisation below.
-      UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, ll.data());
-      out->log_posterior += Eigen::Map<const Eigen::VectorXd>(ll.data(), d.count);
+      UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, l.data());
     } else {
-      PlaceMatchLogLikelihood(d, stats, likelihood, ll.data());
+      PlaceMatchLogLikelihood(d, stats, likelihood, l.data());
+    }
+  };
+  int64_t work = 0;
+  for (int u : use) work += sets.at(static_cast<size_t>(u)).count;
+  RunParallel(static_cast<int>(use.size()), work >= 50000 ? DistanceThreads() : 1, likelihood_of);
+  for (size_t i = 0; i < use.size(); ++i) {
+    const SetDistances& d = sets.at(static_cast<size_t>(use[i]));
+    if (d.count == num_places && CoversEachPlaceInOrder(d)) {
+      out->log_posterior += Eigen::Map<const Eigen::VectorXd>(ll[i].data(), d.count);
+    } else {
       for (int k = 0; k < d.count; ++k) {
-        out->log_posterior(CheckedPlace(d, k, num_places)) += ll[static_cast<size_t>(k)];
+        out->log_posterior(CheckedPlace(d, k, num_places)) += ll[i][static_cast<size_t>(k)];
       }
     }
   }

@@ -10,6 +10,21 @@
 namespace bsf_vpr {
 namespace {
 
+thread_local bool t_in_task = false;  // this thread is running a task of the pool
+
+// Runs task(i) marked as inside the pool (a nested RunParallel then runs inline).
+void RunTask(const std::function<void(int)>& task, int i) {
+  const bool outer = t_in_task;
+  t_in_task = true;
+  try {
+    task(i);
+  } catch (...) {
+    t_in_task = outer;
+    throw;
+  }
+  t_in_task = outer;
+}
+
 class WorkerPool {
  public:
   ~WorkerPool() {
@@ -57,7 +72,7 @@ class WorkerPool {
         i = next_++;
       }
       try {
-        (*task_)(i);
+        RunTask(*task_, i);
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex_);
         if (!error_) error_ = std::current_exception();
@@ -96,7 +111,7 @@ class WorkerPool {
 
 void RunParallel(int count, int threads, const std::function<void(int)>& task) {
   if (count <= 0) return;
-  if (threads <= 1 || count == 1) {
+  if (threads <= 1 || count == 1 || t_in_task) {  // nested calls run inline
     for (int i = 0; i < count; ++i) task(i);
     return;
   }

@@ -8,8 +8,8 @@ namespace bsf_vpr {
 
 // Runs task(0), ..., task(count - 1) on up to `threads` threads (the caller's among them)
 // and returns when all have finished. The first exception a task throws is rethrown here
-// after the others finish. Calls from several threads are served one at a time; a task
-// must not call RunParallel itself.
+// after the others finish. Calls from several threads are served one at a time; a call
+// from inside a task runs its tasks inline on that thread.
 void RunParallel(int count, int threads, const std::function<void(int)>& task);
 
 }  // namespace bsf_vpr

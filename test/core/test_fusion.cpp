@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/fusion.h"
 #include "test_util.h"
 
@@ -125,6 +126,20 @@ TEST(Fusion, FastPathForDenseSetsAgreesWithTheGeneralPath) {
   EXPECT_TRUE(std::isfinite(b.confidence));
   EXPECT_NEAR(b.confidence, LogOddsOfBest(b.log_posterior, 42), 1e-6);
   EXPECT_GT(b.confidence, 1000);
+}
+
+// Large inputs compute the sets' likelihoods on several threads; the belief must be bitwise
+// the one a single thread computes.
+TEST(Fusion, ParallelLikelihoodsGiveBitwiseTheSameBelief) {
+  Fixture f(3, 20000, 21);  // 60000 distances: above the parallel threshold
+  SetDistanceThreads(1);
+  const PlaceBelief one = Fuse(f.views, 20000);
+  SetDistanceThreads(3);
+  const PlaceBelief many = Fuse(f.views, 20000);
+  SetDistanceThreads(0);
+  EXPECT_EQ(one.match, many.match);
+  EXPECT_EQ(one.confidence, many.confidence);
+  EXPECT_TRUE((one.log_posterior.array() == many.log_posterior.array()).all());
 }
 
 TEST(Fusion, ThresholdAcceptsAboveH) {

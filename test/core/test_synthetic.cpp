@@ -65,6 +65,37 @@ TEST(Synthetic, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErrorsOn) {
   EXPECT_THROW(EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50), std::invalid_argument);
 }
 
+// With many places, fusion inside the evaluator's parallel queries runs its own parallel
+// step nested in theirs: it must neither deadlock nor change a result.
+TEST(Synthetic, NestedParallelFusionInTheEvaluatorMatchesOneThread) {
+  const int n = 20000, q = 6;
+  std::vector<RowMatrixXf> all;
+  for (uint64_t u = 0; u < 3; ++u) {
+    all.push_back(testing::RandomMatrix(q, n, 40 + u).cwiseAbs());
+  }
+  EvaluationInput in;
+  in.num_queries = q;
+  in.num_places = n;
+  in.set_names = {"a", "b", "c"};
+  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
+  };
+  const GroundTruth truth = GroundTruth::FromFrameTolerance(q, n, 2);
+  const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
+  SetDistanceThreads(1);
+  const std::vector<MethodResults> one = EvaluateMethods(in, bsf, {}, truth, {}, 4);
+  SetDistanceThreads(2);
+  const std::vector<MethodResults> two = EvaluateMethods(in, bsf, {}, truth, {}, 4);
+  SetDistanceThreads(0);
+  for (int k = 0; k < q; ++k) {
+    EXPECT_EQ(one[0].outcomes[static_cast<size_t>(k)].match,
+              two[0].outcomes[static_cast<size_t>(k)].match);
+    EXPECT_EQ(one[0].outcomes[static_cast<size_t>(k)].confidence,
+              two[0].outcomes[static_cast<size_t>(k)].confidence);
+  }
+}
+
 TEST(Synthetic, IsDeterministicForASeed) {
   SyntheticOptions opt;
   opt.num_places = 50;

@@ -4,9 +4,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdint>
-#include <cstring>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <type_traits>
 #include <vector>
@@ -30,7 +29,6 @@ inline float ReduceLanes(const float* l) {
 
 inline float Decode(float v) { return v; }
 inline float Decode(uint16_t v) { return HalfToFloat(v); }
-inline float Decode(int8_t v) { return static_cast<float>(v); }
 
 // The last, partial block of a row, zero-padded to eight lanes.
 template <class T>
@@ -52,11 +50,11 @@ struct TileArgs {
   bool first = true;
   float* lanes = nullptr;
   int lanes_stride = 0;
-  float scale = 1.0f;
   float* out = nullptr;
   int out_stride = 0;
-  // int8 rows only: the queries rounded to int16 (query j at q16 + j * q_stride) and the
-  // scale of each (q_scales[j]); `scale` is the rows' scale.
+  // int8 rows only: the queries rounded to int16 (query j at q16 + j * q_stride), the scale
+  // of each (q_scales[j]) and the rows' scale.
+  float scale = 1.0f;
   const int16_t* q16 = nullptr;
   const float* q_scales = nullptr;
 };
@@ -132,7 +130,7 @@ void TilePortable(const TileArgs& a, const T* r, int r_stride) {
     }
   }
   for (int j = 0; j < NQ; ++j) {
-    for (int k = 0; k < NR; ++k) a.out[j * a.out_stride + k] = ReduceLanes(acc[j][k]) * a.scale;
+    for (int k = 0; k < NR; ++k) a.out[j * a.out_stride + k] = ReduceLanes(acc[j][k]);
   }
 }
 
@@ -142,9 +140,6 @@ void TilePortable(const TileArgs& a, const T* r, int r_stride) {
 BSF_VPR_AVX2 inline __m256 Load8(const float* p) { return _mm256_loadu_ps(p); }
 BSF_VPR_AVX2 inline __m256 Load8(const uint16_t* p) {
   return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
-}
-BSF_VPR_AVX2 inline __m256 Load8(const int8_t* p) {
-  return _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
 }
 
 template <class T, int NQ, int NR>
@@ -188,7 +183,7 @@ BSF_VPR_AVX2 void TileAvx2(const TileArgs& a, const T* r, int r_stride) {
   for (int j = 0; j < NQ; ++j) {
     for (int k = 0; k < NR; ++k) {
       _mm256_store_ps(lanes, acc[j][k]);
-      a.out[j * a.out_stride + k] = ReduceLanes(lanes) * a.scale;
+      a.out[j * a.out_stride + k] = ReduceLanes(lanes);
     }
   }
 }

@@ -46,14 +46,9 @@ namespace {
 
 std::atomic<int> g_threads{0};  // 0: hardware concurrency
 
-inline float DistanceFromDot(DistanceMetric metric, float qn, float rn, float dot) {
-  if (metric == DistanceMetric::kEuclidean) return std::sqrt(std::max(qn + rn - 2.0f * dot, 0.0f));
-  const float denom = std::sqrt(qn) * std::sqrt(rn);
-  return denom > 0 ? std::max(1.0f - dot / denom, 0.0f) : 1.0f;
-}
-
 // Fills out(q, r) for every query and the reference rows [r0, r1): inner products by the
-// fixed-order kernel, then the metric from them and the squared norms.
+// fixed-order kernel, then the metric from them and the squared norms (one loop per metric,
+// without branches, so that the compiler vectorises the square roots).
 void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const kernels::RefRows& refs,
                   const float* ref_norms, const Eigen::VectorXf& qn, int r0, int r1,
                   RowMatrixXf* out) {
@@ -62,7 +57,16 @@ void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const kerne
                 static_cast<int>(queries.cols()), out->data() + r0, nr);
   for (Eigen::Index q = 0; q < queries.rows(); ++q) {
     float* row = out->row(q).data();
-    for (int r = r0; r < r1; ++r) row[r] = DistanceFromDot(metric, qn(q), ref_norms[r], row[r]);
+    const float qq = qn(q);
+    if (metric == DistanceMetric::kEuclidean) {
+      for (int r = r0; r < r1; ++r) row[r] = std::sqrt(std::max(qq + ref_norms[r] - 2.0f * row[r], 0.0f));
+    } else {
+      const float q_norm = std::sqrt(qq);
+      for (int r = r0; r < r1; ++r) {
+        const float denom = q_norm * std::sqrt(ref_norms[r]);
+        row[r] = denom > 0 ? std::max(1.0f - row[r] / denom, 0.0f) : 1.0f;
+      }
+    }
   }
 }
 

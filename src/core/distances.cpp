@@ -100,9 +100,7 @@ void PrepareJob(const RowMatrixXf& queries, const ReferenceSet& set, int threads
   job->refs.precision = store.precision;
   job->refs.cols = store.cols;
   job->refs.scale = store.scale;
-  job->refs.data = store.precision == StoragePrecision::kFloat16 ? static_cast<const void*>(store.half.data())
-                   : store.precision == StoragePrecision::kInt8 ? static_cast<const void*>(store.int8.data())
-                                                                : static_cast<const void*>(set.descriptors.data());
+  job->refs.data = set.StoredData();  // the float32 matrix while the store is not built
   job->norms = store.squared_norms.data();
   job->out.resize(queries.rows(), store.rows);
   // Threads only pay off beyond about a million multiply-adds.

@@ -12,6 +12,22 @@ size_t ReferenceSet::MemoryBytes() const {
          place_ids.size() * sizeof(int) + poses.size() * sizeof(PlacePose);
 }
 
+const void* ReferenceSet::StoredData() const {
+  switch (store.precision) {
+    case StoragePrecision::kFloat16:
+      return store.half.data();
+    case StoragePrecision::kInt8:
+      return store.int8.data();
+    default:
+      return descriptors.data();
+  }
+}
+
+size_t ReferenceSet::StoredBytes() const {
+  return static_cast<size_t>(size()) * static_cast<size_t>(dimension()) *
+         static_cast<size_t>(BytesPerElement(store.precision));
+}
+
 void ReferenceSet::Validate() const {
   const std::string who = "reference set '" + name + "'";
   if (name.empty()) throw std::invalid_argument("a reference set needs a non-empty name");

@@ -95,19 +95,6 @@ PlaceRecognizer MakeRecognizer(const Shape& s, uint64_t seed,
   return r;
 }
 
-// The bytes the distance kernel streams for one set.
-std::pair<const void*, size_t> StoredBytes(const ReferenceSet& set) {
-  const DescriptorStore& st = set.store;
-  switch (st.precision) {
-    case StoragePrecision::kFloat16:
-      return {st.half.data(), st.half.size() * sizeof(uint16_t)};
-    case StoragePrecision::kInt8:
-      return {st.int8.data(), st.int8.size()};
-    default:
-      return {set.descriptors.data(), static_cast<size_t>(set.descriptors.size()) * sizeof(float)};
-  }
-}
-
 // XOR-folds 64-bit words [w0, w1) into independent accumulators: far more work per byte
 // than memory delivers, so memory is the limit. The AVX2 build reads 32 bytes a load, as
 // the distance kernel does; the portable one whatever the compiler vectorises.
@@ -158,11 +145,10 @@ uint64_t StreamOnce(const ReferenceMap& map, int threads) {
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {
       for (const ReferenceSet& set : map.sets()) {
-        const auto [data, bytes] = StoredBytes(set);
-        const size_t words = bytes / 8;
-        partial[static_cast<size_t>(t)] ^= FoldWords(static_cast<const uint64_t*>(data),
-                                                     words * t / threads,
-                                                     words * (t + 1) / threads);
+        const size_t words = set.StoredBytes() / 8;
+        const auto* data = static_cast<const uint64_t*>(set.StoredData());
+        partial[static_cast<size_t>(t)] ^=
+            FoldWords(data, words * t / threads, words * (t + 1) / threads);
       }
     });
   }

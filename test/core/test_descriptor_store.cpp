@@ -50,6 +50,11 @@ TEST(DescriptorStore, ReducedPrecisionCutsTheBytesAndReleasesTheFloat32Matrix) {
     const size_t overhead = 100u * (sizeof(float) + sizeof(int));  // norms + place ids
     EXPECT_EQ(set.MemoryBytes(), descriptor_bytes + overhead) << ToString(p);
     EXPECT_EQ(set.descriptors.rows(), p == StoragePrecision::kFloat32 ? 100 : 0);
+    EXPECT_EQ(set.StoredBytes(), descriptor_bytes) << ToString(p);
+    const void* expected = p == StoragePrecision::kFloat32   ? static_cast<const void*>(set.descriptors.data())
+                           : p == StoragePrecision::kFloat16 ? static_cast<const void*>(set.store.half.data())
+                                                             : static_cast<const void*>(set.store.int8.data());
+    EXPECT_EQ(set.StoredData(), expected) << ToString(p);
   }
   EXPECT_EQ(ParseStoragePrecision("int8"), StoragePrecision::kInt8);
   EXPECT_THROW(ParseStoragePrecision("int4"), std::invalid_argument);

@@ -33,7 +33,8 @@ struct LikelihoodOptions {
   LikelihoodVariant variant = LikelihoodVariant::kOneSided;
 };
 
-// c_k = #{ j : values[j] >= values[k] } for each k, in O(N) (a radix sort; NaN not allowed). `counts` has `count` slots.
+// c_k = #{ j : values[j] >= values[k] } for each k, in O(N) (a radix sort; NaN not
+// allowed). `counts` has `count` slots.
 void RankCounts(const float* values, int count, int* counts);
 
 // log P(D^u | X = place_ids[k]) for the k = 0..count-1 places the set covers, written to

@@ -33,6 +33,10 @@ struct ReferenceSet {
   int size() const { return store.built() ? store.rows : static_cast<int>(descriptors.rows()); }
   int dimension() const { return static_cast<int>(descriptors.cols()); }
   size_t MemoryBytes() const;
+  // The descriptor elements as the distance kernel reads them (row-major, size() x
+  // dimension(), of store.precision: the float32 matrix, or the reduced copy) and their bytes.
+  const void* StoredData() const;
+  size_t StoredBytes() const;
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
   // duplicated or negative, poses of the wrong count, non-finite descriptor values.
@@ -52,9 +56,9 @@ class ReferenceMap {
   void SetStoragePrecision(StoragePrecision precision) { storage_ = precision; }
   StoragePrecision storage_precision() const { return storage_; }
 
-  // Adds a set after validating it and building its store. Throws std::invalid_argument if it is invalid, if its
-  // name is taken, or if its dimension differs from the sets already held; the map is
-  // unchanged when it throws.
+  // Adds a set after validating it and building its store. Throws std::invalid_argument if
+  // it is invalid, if its name is taken, or if its dimension differs from the sets already
+  // held; the map is unchanged when it throws.
   void Add(ReferenceSet set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);

@@ -275,10 +275,15 @@ void Sweep(Isa isa, TileArgs a, const T* rows, int b0, int b1) {
   for (; r < b1; ++r) Tile<T, NQ, 1>(isa, a, at(r), a.d);
 }
 
+// Queries from which a tile gains by passes over L1-sized pieces of the rows (and by an
+// aligned copy of the queries).
+constexpr int kBatchQueries = 8;
+
 template <class T>
-void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* queries,
-               int num_queries, int query_stride, float* out, int out_stride) {
+void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& queries, float* out,
+               int out_stride) {
   const Isa isa = CurrentIsa();
+  const int d = queries.cols, num_queries = queries.rows;
   // Like a matrix product's blocking: rows in blocks of 96 (in L2 while a block of 32
   // queries passes over them), and rows cut into passes of 1024 elements, so that a tile's
   // pieces (4 queries and 3 rows, at most 28 KiB) stay in L1 while it works on them. A few
@@ -287,42 +292,10 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
   // whole rows for 256 queries x 3000 rows x 4096.)
   constexpr int kRowBlock = 96, kQueryBlock = 32;
   const bool int8_rows = std::is_same_v<T, int8_t>;
-  const int chunk = num_queries >= 8 && !int8_rows ? 1024 : d;
-  // A batch reads every query many times: a copy whose rows start on 64-byte boundaries
-  // spares its 32-byte loads from straddling cache lines.
-  std::vector<float> aligned_copy;
-  if (chunk < d) {
-    const int stride = (d + 15) / 16 * 16;
-    aligned_copy.resize(static_cast<size_t>(num_queries) * stride + 16);
-    float* base = aligned_copy.data();
-    base += (16 - (reinterpret_cast<uintptr_t>(base) / sizeof(float)) % 16) % 16;
-    for (int q = 0; q < num_queries; ++q) {
-      std::copy(queries + static_cast<size_t>(q) * query_stride,
-                queries + static_cast<size_t>(q) * query_stride + d, base + static_cast<size_t>(q) * stride);
-    }
-    queries = base;
-    query_stride = stride;
+  if (int8_rows && queries.levels.empty()) {
+    throw std::logic_error("int8 rows need queries prepared with int16 levels");
   }
-  // int8 rows: each query rounded to int16 levels with its own scale.
-  std::vector<int16_t> q16;
-  std::vector<float> q_scales;
-  if (int8_rows) {
-    const int levels = QueryLevels(d);
-    q16.resize(static_cast<size_t>(num_queries) * d);
-    q_scales.resize(static_cast<size_t>(num_queries));
-    for (int q = 0; q < num_queries; ++q) {
-      const float* x = queries + static_cast<size_t>(q) * query_stride;
-      float max_abs = 0;
-      for (int i = 0; i < d; ++i) max_abs = std::max(max_abs, std::fabs(x[i]));
-      const float s = max_abs > 0 ? max_abs / static_cast<float>(levels) : 1.0f;
-      q_scales[static_cast<size_t>(q)] = s;
-      for (int i = 0; i < d; ++i) {
-        const float level = std::nearbyint(x[i] / s);
-        q16[static_cast<size_t>(q) * d + i] = static_cast<int16_t>(
-            std::clamp(level, -static_cast<float>(levels), static_cast<float>(levels)));
-      }
-    }
-  }
+  const int chunk = num_queries >= kBatchQueries && !int8_rows ? 1024 : d;
   std::vector<float> lanes(chunk < d ? static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes : 0);
   const int lanes_stride = kRowBlock * kLanes;
   for (int b0 = r0; b0 < r1; b0 += kRowBlock) {
@@ -331,7 +304,7 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
       const int qb1 = std::min(num_queries, qb0 + kQueryBlock);
       for (int i0 = 0; i0 < d; i0 += chunk) {
         TileArgs a;
-        a.q_stride = query_stride;
+        a.q_stride = int8_rows ? d : queries.stride;  // int16 levels are packed
         a.i0 = i0;
         a.i1 = std::min(d, i0 + chunk);
         a.d = d;
@@ -339,12 +312,11 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
         a.lanes_stride = lanes_stride;
         a.scale = scale;
         a.out_stride = out_stride;
-        if (int8_rows) a.q_stride = d;  // the int16 copies
         const auto for_query = [&](int q) {
-          a.q = queries + static_cast<size_t>(q) * query_stride;
-          if (!q16.empty()) {
-            a.q16 = q16.data() + static_cast<size_t>(q) * d;
-            a.q_scales = q_scales.data() + q;
+          a.q = queries.data + static_cast<size_t>(q) * queries.stride;
+          if (int8_rows) {
+            a.q16 = queries.levels.data() + static_cast<size_t>(q) * d;
+            a.q_scales = queries.scales.data() + q;
           }
           a.out = out + static_cast<size_t>(q) * out_stride + (b0 - r0);
           if (!lanes.empty()) a.lanes = lanes.data() + static_cast<size_t>(q - qb0) * lanes_stride;
@@ -360,20 +332,56 @@ void DotsTyped(const T* rows, int d, float scale, int r0, int r1, const float* q
 
 }  // namespace
 
-void Dots(const RefRows& refs, int r0, int r1, const float* queries, int num_queries,
-          int query_stride, float* out, int out_stride) {
+Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool int16_levels) {
+  Queries out;
+  out.data = data;
+  out.rows = rows;
+  out.cols = cols;
+  out.stride = stride;
+  if (rows >= kBatchQueries) {  // a batch reads every query many times: align its rows
+    const int aligned_stride = (cols + 15) / 16 * 16;
+    out.aligned.resize(static_cast<size_t>(rows) * aligned_stride + 16);
+    float* base = out.aligned.data();
+    base += (16 - (reinterpret_cast<uintptr_t>(base) / sizeof(float)) % 16) % 16;
+    for (int q = 0; q < rows; ++q) {
+      const float* from = data + static_cast<size_t>(q) * stride;
+      std::copy(from, from + cols, base + static_cast<size_t>(q) * aligned_stride);
+    }
+    out.data = base;
+    out.stride = aligned_stride;
+  }
+  if (int16_levels) {
+    const int levels = QueryLevels(cols);
+    out.levels.resize(static_cast<size_t>(rows) * cols);
+    out.scales.resize(static_cast<size_t>(rows));
+    for (int q = 0; q < rows; ++q) {
+      const float* x = data + static_cast<size_t>(q) * stride;
+      float max_abs = 0;
+      for (int i = 0; i < cols; ++i) max_abs = std::max(max_abs, std::fabs(x[i]));
+      const float s = max_abs > 0 ? max_abs / static_cast<float>(levels) : 1.0f;
+      out.scales[static_cast<size_t>(q)] = s;
+      for (int i = 0; i < cols; ++i) {
+        const float level = std::nearbyint(x[i] / s);
+        out.levels[static_cast<size_t>(q) * cols + i] = static_cast<int16_t>(
+            std::clamp(level, -static_cast<float>(levels), static_cast<float>(levels)));
+      }
+    }
+  }
+  return out;
+}
+
+void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out,
+          int out_stride) {
   switch (refs.precision) {
     case StoragePrecision::kFloat32:
-      DotsTyped(static_cast<const float*>(refs.data), refs.cols, 1.0f, r0, r1, queries,
-                num_queries, query_stride, out, out_stride);
+      DotsTyped(static_cast<const float*>(refs.data), 1.0f, r0, r1, queries, out, out_stride);
       break;
     case StoragePrecision::kFloat16:
-      DotsTyped(static_cast<const uint16_t*>(refs.data), refs.cols, 1.0f, r0, r1, queries,
-                num_queries, query_stride, out, out_stride);
+      DotsTyped(static_cast<const uint16_t*>(refs.data), 1.0f, r0, r1, queries, out, out_stride);
       break;
     case StoragePrecision::kInt8:
-      DotsTyped(static_cast<const int8_t*>(refs.data), refs.cols, refs.scale, r0, r1, queries,
-                num_queries, query_stride, out, out_stride);
+      DotsTyped(static_cast<const int8_t*>(refs.data), refs.scale, r0, r1, queries, out,
+                out_stride);
       break;
   }
 }

@@ -10,7 +10,9 @@
 // (its own scale) and the products are summed exactly in integers, the same in both kernels.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "bsf_vpr/core/descriptor_store.h"
 
@@ -25,10 +27,25 @@ struct RefRows {
   float scale = 1.0f;  // int8: each inner product is multiplied by it
 };
 
-// out[q * out_stride + (r - r0)] = <query q, reference row r> for q < num_queries and
-// r0 <= r < r1; query q starts at queries + q * query_stride.
-void Dots(const RefRows& refs, int r0, int r1, const float* queries, int num_queries,
-          int query_stride, float* out, int out_stride);
+// Queries as the kernels read them, made once per distance computation and shared by every
+// set and thread: the float32 rows (for a batch, a copy whose rows start on 64-byte
+// boundaries, so that no 32-byte load straddles a cache line) and, for int8 rows, each
+// query rounded to int16 levels with its own scale.
+struct Queries {
+  const float* data = nullptr;  // query q at data + q * stride
+  int rows = 0, cols = 0, stride = 0;
+  std::vector<float> aligned;    // holds `data` when copied
+  std::vector<int16_t> levels;   // rows x cols, for int8 rows
+  std::vector<float> scales;     // rows, for int8 rows
+};
+// `data`: `rows` queries of `cols` floats, query q at data + q * stride (not copied unless
+// the batch is large enough to gain from it: keep it alive while the result is in use).
+Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool int16_levels);
+
+// out[q * out_stride + (r - r0)] = <query q, reference row r> for every query and
+// r0 <= r < r1. int8 rows need `queries` prepared with int16 levels.
+void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out,
+          int out_stride);
 
 // <x, x> in the same order (squared norm of a float32 row).
 float SelfDot(const float* x, int n);

@@ -24,12 +24,15 @@ std::string ToString(DistanceMetric metric) {
 
 namespace {
 
-void CheckQueries(const RowMatrixXf& queries, const ReferenceSet& set) {
+void CheckDimension(const RowMatrixXf& queries, const ReferenceSet& set) {
   if (queries.cols() != set.descriptors.cols()) {
     throw std::invalid_argument("query descriptors have dimension " +
                                 std::to_string(queries.cols()) + ", reference set '" + set.name +
                                 "' has dimension " + std::to_string(set.descriptors.cols()));
   }
+}
+
+void CheckFinite(const RowMatrixXf& queries) {
   if (!queries.allFinite()) {
     for (Eigen::Index q = 0; q < queries.rows(); ++q) {
       if (!queries.row(q).allFinite()) {
@@ -49,13 +52,12 @@ std::atomic<int> g_threads{0};  // 0: hardware concurrency
 // Fills out(q, r) for every query and the reference rows [r0, r1): inner products by the
 // fixed-order kernel, then the metric from them and the squared norms (one loop per metric,
 // without branches, so that the compiler vectorises the square roots).
-void DistanceRows(DistanceMetric metric, const RowMatrixXf& queries, const kernels::RefRows& refs,
-                  const float* ref_norms, const Eigen::VectorXf& qn, int r0, int r1,
-                  RowMatrixXf* out) {
+void DistanceRows(DistanceMetric metric, const kernels::Queries& queries,
+                  const kernels::RefRows& refs, const float* ref_norms, const Eigen::VectorXf& qn,
+                  int r0, int r1, RowMatrixXf* out) {
   const int nr = static_cast<int>(out->cols());
-  kernels::Dots(refs, r0, r1, queries.data(), static_cast<int>(queries.rows()),
-                static_cast<int>(queries.cols()), out->data() + r0, nr);
-  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+  kernels::Dots(refs, r0, r1, queries, out->data() + r0, nr);
+  for (Eigen::Index q = 0; q < out->rows(); ++q) {
     float* row = out->row(q).data();
     const float qq = qn(q);
     if (metric == DistanceMetric::kEuclidean) {
@@ -94,7 +96,6 @@ struct SetJob {
 };
 
 void PrepareJob(const RowMatrixXf& queries, const ReferenceSet& set, int threads, SetJob* job) {
-  CheckQueries(queries, set);
   if (!set.store.built()) job->local = MakeDescriptorStore(set.descriptors, StoragePrecision::kFloat32);
   const DescriptorStore& store = set.store.built() ? set.store : job->local;
   job->refs.precision = store.precision;
@@ -112,13 +113,21 @@ void PrepareJob(const RowMatrixXf& queries, const ReferenceSet& set, int threads
 // on the worker pool.
 std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& queries,
                                     const std::vector<const ReferenceSet*>& sets) {
+  for (const ReferenceSet* set : sets) CheckDimension(queries, *set);
+  CheckFinite(queries);  // once, not per set
   const int threads = DistanceThreads();
   std::vector<SetJob> jobs(sets.size());
   std::vector<std::pair<size_t, int>> tasks;  // (set, part)
+  bool int8_rows = false;
   for (size_t u = 0; u < sets.size(); ++u) {
     PrepareJob(queries, *sets[u], threads, &jobs[u]);
     for (int t = 0; t < jobs[u].parts; ++t) tasks.emplace_back(u, t);
+    int8_rows = int8_rows || jobs[u].refs.precision == StoragePrecision::kInt8;
   }
+  // Once for every set and thread.
+  const kernels::Queries prepared = kernels::PrepareQueries(
+      queries.data(), static_cast<int>(queries.rows()), static_cast<int>(queries.cols()),
+      static_cast<int>(queries.cols()), int8_rows);
   Eigen::VectorXf qn(queries.rows());  // squared norms
   for (Eigen::Index q = 0; q < queries.rows(); ++q) {
     qn(q) = kernels::SelfDot(queries.row(q).data(), static_cast<int>(queries.cols()));
@@ -129,7 +138,7 @@ std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& qu
     const int nr = static_cast<int>(job.out.cols());
     const int r0 = static_cast<int>(static_cast<int64_t>(nr) * t / job.parts);
     const int r1 = static_cast<int>(static_cast<int64_t>(nr) * (t + 1) / job.parts);
-    DistanceRows(metric, queries, job.refs, job.norms, qn, r0, r1, &job.out);
+    DistanceRows(metric, prepared, job.refs, job.norms, qn, r0, r1, &job.out);
   });
   std::vector<RowMatrixXf> out;
   out.reserve(jobs.size());

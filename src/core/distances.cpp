@@ -33,12 +33,10 @@ void CheckDimension(const RowMatrixXf& queries, const ReferenceSet& set) {
 }
 
 void CheckFinite(const RowMatrixXf& queries) {
-  if (!queries.allFinite()) {
-    for (Eigen::Index q = 0; q < queries.rows(); ++q) {
-      if (!queries.row(q).allFinite()) {
-        throw std::invalid_argument("query descriptor " + std::to_string(q) +
-                                    " holds NaN or infinity");
-      }
+  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+    const std::string problem = DescriptorProblem(queries.row(q));
+    if (!problem.empty()) {
+      throw std::invalid_argument("query descriptor " + std::to_string(q) + " " + problem);
     }
   }
 }

@@ -154,8 +154,16 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
       }
     }
   }
+  if (out->log_posterior.hasNaN()) {
+    // Only values out of range can get here (descriptors are checked on the way in); a NaN
+    // belief must never be published, let alone accepted.
+    throw std::invalid_argument("fusion produced a NaN posterior");
+  }
   Eigen::Index best = 0;
   const double max_l = out->log_posterior.maxCoeff(&best);
+  if (!std::isfinite(max_l)) {
+    throw std::invalid_argument("fusion gives every place probability zero or infinity");
+  }
   out->match = static_cast<int>(best);
   // One pass of exp for both the confidence and the normalisation: with the best place
   // left out, rest = sum_{i != best} exp(l_i - l_best).
@@ -173,7 +181,8 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
 }
 
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
-                             int num_places, int top_k, PlaceBelief* out) {
+                             int num_places, double max_match_distance, int top_k,
+                             PlaceBelief* out) {
   Eigen::VectorXd sum = Eigen::VectorXd::Zero(num_places);
   Eigen::VectorXi covered = Eigen::VectorXi::Zero(num_places);
   for (int u : use) {
@@ -192,7 +201,7 @@ void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::v
   if (out->top_places.empty()) throw std::invalid_argument("no reference set covers any place");
   out->match = out->top_places.front();
   out->confidence = neg_mean(out->match);
-  out->accepted = true;
+  out->accepted = std::isfinite(out->confidence) && -out->confidence <= max_match_distance;
   out->log_posterior.resize(0);
   out->cost = -neg_mean;
 }

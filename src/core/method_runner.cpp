@@ -1,5 +1,7 @@
 #include "bsf_vpr/core/method_runner.h"
 
+#include <limits>
+
 namespace bsf_vpr {
 
 MethodRunner::MethodRunner(Method method, MethodOptions options)
@@ -29,11 +31,13 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
     b.cost = matcher.Push(b.cost);
     const Eigen::VectorXd score = -b.cost;
     b.top_places = TopK(score, options_.top_k);
+    b.accepted = false;
+    b.confidence = -std::numeric_limits<double>::infinity();
     if (!b.top_places.empty()) {
       b.match = b.top_places.front();
-      b.confidence = score(b.match);
+      b.confidence = SequenceMatchLogOdds(b.cost, b.match, matcher.velocities());
+      b.accepted = b.confidence > options_.threshold.LogOdds();
     }
-    b.accepted = true;
   }
   return b;
 }

@@ -1,6 +1,7 @@
 #include "bsf_vpr/core/methods.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -122,6 +123,10 @@ void MethodOptions::Validate() const {
   selection.Validate();
   threshold.Validate();
   if (top_k < 1) throw std::invalid_argument("top_k must be >= 1, got " + std::to_string(top_k));
+  if (!(max_match_distance >= 0) || std::isnan(max_match_distance)) {
+    throw std::invalid_argument("max_match_distance must be >= 0, got " +
+                                std::to_string(max_match_distance));
+  }
   sequence.Validate();
   filter.Validate();
 }
@@ -157,7 +162,8 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
               options.top_k, &out);
   } else {
-    FuseMinEnsembleDistance(sets, use, num_places, options.top_k, &out);
+    FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k,
+                            &out);
   }
   return out;
 }

@@ -145,12 +145,14 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
   return result;
 }
 
-RowMatrixXf ReadNpyMatrix(const std::string& path) {
-  const std::string bytes = ReadFile(path);
+RowMatrixXf ReadNpyMatrix(const std::string& path) { return DecodeNpyMatrix(ReadFile(path), path); }
+
+RowMatrixXf DecodeNpyMatrix(const std::string& bytes, const std::string& path) {
   const NpyHeader h = ParseNpyHeader(bytes, path);
   RowMatrixXf m(h.rows, h.cols);
-  const char* data = bytes.data() + h.data_offset;
   const int64_t n = h.rows * h.cols;
+  if (n == 0) return m;  // no data to copy (and m.data() may be null)
+  const char* data = bytes.data() + h.data_offset;
   switch (h.dtype) {
     case NpyDtype::kFloat32:
       std::memcpy(m.data(), data, static_cast<size_t>(n) * 4);
@@ -189,6 +191,7 @@ std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
   out += dict;
   const int64_t n = matrix.size();
   const size_t start = out.size();
+  if (n == 0) return out;
   out.resize(start + static_cast<size_t>(n) * DtypeSize(dtype));
   char* dst = out.data() + start;
   for (int64_t i = 0; i < n; ++i) {

@@ -37,7 +37,11 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   if (map_.IndexOf(name) < 0) {
     throw std::invalid_argument("no reference set named '" + name + "' is loaded");
   }
-  if (options_.method == "nn:" + name || options_.method == "bayes:" + name) {
+  // The method as parsed (suffixes and all) says which set it needs by name.
+  const Method method = ParseMethod(options_.method, map_.SetNames());
+  const bool single = method.kind == MethodKind::kNearestNeighbour ||
+                      method.kind == MethodKind::kBayesSingle;
+  if (single && method.set_name == name) {
     throw std::invalid_argument("reference set '" + name + "' is used by method '" +
                                 options_.method + "'; change the method first");
   }
@@ -68,7 +72,8 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
                                 ", the reference sets have dimension " +
                                 std::to_string(map_.dimension()));
   }
-  if (!descriptor.allFinite()) throw std::invalid_argument("descriptor holds NaN or infinity");
+  const std::string problem = DescriptorProblem(descriptor.transpose());
+  if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
   const RowMatrixXf query = descriptor.transpose();
   const std::vector<RowMatrixXf> distances = ComputeDistances(options_.metric, query, map_);
   std::vector<const std::vector<int>*> ids;

@@ -28,15 +28,20 @@ void ReferenceRecorder::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                                 std::to_string(descriptor.size()) + ", expected " +
                                 std::to_string(dimension_));
   }
-  if (!descriptor.allFinite()) {
-    throw std::invalid_argument("recorded descriptor holds NaN or infinity");
-  }
+  const std::string problem = DescriptorProblem(descriptor.transpose());
+  if (!problem.empty()) throw std::invalid_argument("recorded descriptor " + problem);
   dimension_ = static_cast<int>(descriptor.size());
   rows_.emplace_back(descriptor);
   poses_.push_back(pose);
 }
 
 ReferenceSet ReferenceRecorder::Finish(const std::string& descriptor_type) {
+  ReferenceSet set = Build(descriptor_type);
+  Discard();
+  return set;
+}
+
+ReferenceSet ReferenceRecorder::Build(const std::string& descriptor_type) const {
   if (!recording_) throw std::invalid_argument("no recording is running");
   if (rows_.empty()) {
     throw std::invalid_argument("recording '" + name_ + "' received no descriptor");
@@ -48,7 +53,6 @@ ReferenceSet ReferenceRecorder::Finish(const std::string& descriptor_type) {
   if (std::all_of(poses_.begin(), poses_.end(), [](const auto& p) { return p.has_value(); })) {
     for (const auto& p : poses_) set.poses.push_back(*p);
   }
-  Discard();
   return set;
 }
 

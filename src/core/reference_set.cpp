@@ -1,6 +1,7 @@
 #include "bsf_vpr/core/reference_set.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -54,14 +55,37 @@ void ReferenceSet::Validate() const {
     throw std::invalid_argument(who + " has " + std::to_string(poses.size()) + " poses for " +
                                 std::to_string(place_ids.size()) + " places");
   }
-  if (!descriptors.allFinite()) {
-    for (Eigen::Index r = 0; r < descriptors.rows(); ++r) {
-      if (!descriptors.row(r).allFinite()) {
-        throw std::invalid_argument(who + ": descriptor row " + std::to_string(r) +
-                                    " holds NaN or infinity");
-      }
+  if (sorted.back() >= kMaxPlaces) {
+    throw std::invalid_argument(who + " has place id " + std::to_string(sorted.back()) +
+                                ", beyond the largest place id accepted (" +
+                                std::to_string(kMaxPlaces - 1) + ")");
+  }
+  if (descriptors.cols() > kMaxDimension) {
+    throw std::invalid_argument(who + " has dimension " + std::to_string(descriptors.cols()) +
+                                ", more than " + std::to_string(kMaxDimension));
+  }
+  for (Eigen::Index r = 0; r < descriptors.rows(); ++r) {
+    const std::string problem = DescriptorProblem(descriptors.row(r));
+    if (!problem.empty()) {
+      throw std::invalid_argument(who + ": descriptor row " + std::to_string(r) + " " + problem);
     }
   }
+}
+
+std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
+  // The distances square and sum float32 values: a finite descriptor whose squared norm
+  // overflows float32 would turn them into infinity or NaN.
+  double squared_norm = 0;
+  for (Eigen::Index i = 0; i < descriptor.size(); ++i) {
+    const float v = descriptor(i);
+    if (!std::isfinite(v)) return "holds NaN or infinity";
+    squared_norm += static_cast<double>(v) * v;
+  }
+  if (squared_norm > kMaxDescriptorSquaredNorm) {
+    return "has a norm too large to compute distances with (squared norm " +
+           std::to_string(squared_norm) + " > " + std::to_string(kMaxDescriptorSquaredNorm) + ")";
+  }
+  return "";
 }
 
 ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors, std::string condition) {
@@ -84,20 +108,37 @@ void ReferenceMap::Add(ReferenceSet set) {
                                 std::to_string(set.dimension()) + ", the map holds dimension " +
                                 std::to_string(dimension_));
   }
-  set.store = MakeDescriptorStore(set.descriptors, storage_);  // throws before any change
-  if (storage_ != StoragePrecision::kFloat32) set.descriptors.resize(0, set.descriptors.cols());
+  // A place id far beyond both the map and the set is a mistake, not a map: refuse it before
+  // the place index grows to hold it.
   const int max_id = *std::max_element(set.place_ids.begin(), set.place_ids.end());
-  dimension_ = set.dimension();
-  num_places_ = std::max(num_places_, max_id + 1);
-  place_poses_.resize(static_cast<size_t>(num_places_));
-  IndexPoses(set);
-  UpdateMedianSpacing();
-  sets_.push_back(std::move(set));
+  const int64_t limit = std::max<int64_t>(num_places_, set.size()) * kMaxPlaceIdGrowth + 1000;
+  if (max_id >= limit) {
+    throw std::invalid_argument("reference set '" + set.name + "' has place id " +
+                                std::to_string(max_id) + ", far beyond its " +
+                                std::to_string(set.size()) + " descriptors and the map's " +
+                                std::to_string(num_places_) + " places (at most " +
+                                std::to_string(limit - 1) + ")");
+  }
+  // Everything that can throw happens on copies; the map changes only by moves below.
+  set.store = MakeDescriptorStore(set.descriptors, storage_);
+  if (storage_ != StoragePrecision::kFloat32) set.descriptors.resize(0, set.descriptors.cols());
+  const int num_places = std::max(num_places_, max_id + 1);
+  std::vector<std::optional<PlacePose>> poses = place_poses_;
+  poses.resize(static_cast<size_t>(num_places));
+  IndexPoses(set, &poses);
+  const std::optional<double> spacing = MedianSpacing(poses);
+  sets_.reserve(sets_.size() + 1);
+  sets_.push_back(std::move(set));  // cannot throw after the reserve
+  dimension_ = sets_.back().dimension();
+  num_places_ = num_places;
+  place_poses_ = std::move(poses);
+  median_spacing_ = spacing;
 }
 
-void ReferenceMap::IndexPoses(const ReferenceSet& set) {
+void ReferenceMap::IndexPoses(const ReferenceSet& set,
+                              std::vector<std::optional<PlacePose>>* poses) {
   for (size_t k = 0; k < set.poses.size(); ++k) {
-    std::optional<PlacePose>& slot = place_poses_[static_cast<size_t>(set.place_ids[k])];
+    std::optional<PlacePose>& slot = (*poses)[static_cast<size_t>(set.place_ids[k])];
     if (!slot) slot = set.poses[k];  // the first set with a pose for the place wins
   }
 }
@@ -105,15 +146,22 @@ void ReferenceMap::IndexPoses(const ReferenceSet& set) {
 bool ReferenceMap::Remove(const std::string& name) {
   const int u = IndexOf(name);
   if (u < 0) return false;
-  sets_.erase(sets_.begin() + u);
-  num_places_ = 0;
-  for (const ReferenceSet& s : sets_) {
-    num_places_ =
-        std::max(num_places_, 1 + *std::max_element(s.place_ids.begin(), s.place_ids.end()));
+  // The new place index is built aside; the map changes only once it is complete.
+  int num_places = 0;
+  for (size_t k = 0; k < sets_.size(); ++k) {
+    if (static_cast<int>(k) == u) continue;
+    const std::vector<int>& ids = sets_[k].place_ids;
+    num_places = std::max(num_places, 1 + *std::max_element(ids.begin(), ids.end()));
   }
-  place_poses_.assign(static_cast<size_t>(num_places_), std::nullopt);
-  for (const ReferenceSet& s : sets_) IndexPoses(s);
-  UpdateMedianSpacing();
+  std::vector<std::optional<PlacePose>> poses(static_cast<size_t>(num_places));
+  for (size_t k = 0; k < sets_.size(); ++k) {
+    if (static_cast<int>(k) != u) IndexPoses(sets_[k], &poses);
+  }
+  const std::optional<double> spacing = MedianSpacing(poses);
+  sets_.erase(sets_.begin() + u);
+  num_places_ = num_places;
+  place_poses_ = std::move(poses);
+  median_spacing_ = spacing;
   if (sets_.empty()) dimension_ = 0;
   return true;
 }
@@ -136,22 +184,21 @@ std::optional<PlacePose> ReferenceMap::PoseOf(int place) const {
   return place_poses_[static_cast<size_t>(place)];
 }
 
-void ReferenceMap::UpdateMedianSpacing() {
-  median_spacing_.reset();
+std::optional<double> ReferenceMap::MedianSpacing(
+    const std::vector<std::optional<PlacePose>>& poses) {
   std::vector<double> gaps;
-  std::optional<PlacePose> prev = PoseOf(0);
-  for (int i = 1; i < num_places_; ++i) {
-    const std::optional<PlacePose> cur = PoseOf(i);
+  for (size_t i = 1; i < poses.size(); ++i) {
+    const std::optional<PlacePose>& prev = poses[i - 1];
+    const std::optional<PlacePose>& cur = poses[i];
     if (prev && cur) {
       gaps.push_back(std::sqrt((cur->x_m - prev->x_m) * (cur->x_m - prev->x_m) +
                                (cur->y_m - prev->y_m) * (cur->y_m - prev->y_m) +
                                (cur->z_m - prev->z_m) * (cur->z_m - prev->z_m)));
     }
-    prev = cur;
   }
-  if (gaps.empty()) return;
+  if (gaps.empty()) return std::nullopt;
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<long>(gaps.size() / 2), gaps.end());
-  median_spacing_ = gaps[gaps.size() / 2];
+  return gaps[gaps.size() / 2];
 }
 
 }  // namespace bsf_vpr

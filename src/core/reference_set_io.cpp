@@ -2,9 +2,12 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdio>
+#include <functional>
 #include <set>
 #include <stdexcept>
 
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
@@ -22,39 +25,91 @@ std::string BaseName(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path) {
+// Where the files of a reference set come from: the file system as the caller sees it
+// (command-line tools, the node's start-up configuration), or a data directory that no
+// request may leave (the node's services).
+struct FileAccess {
+  // The path of the file that `field` (a path in a YAML) names, relative to `yaml_path`.
+  std::function<std::string(const std::string& yaml_path, const std::string& field)> resolve;
+  std::function<std::string(const std::string& path)> read;
+};
+
+FileAccess Unconfined() {
+  return {[](const std::string& yaml, const std::string& field) {
+            return ResolvePath(DirName(yaml), field);
+          },
+          [](const std::string& path) { return ReadFile(path); }};
+}
+
+FileAccess Below(const DataDirectory& dir) {
+  return {[&dir](const std::string& yaml, const std::string& field) {
+            // An absolute field must lie below the directory; a relative one is relative to
+            // the YAML's folder and may not climb out of the directory.
+            return dir.Relative(!field.empty() && field[0] == '/' ? field
+                                                                  : DirName(yaml) + "/" + field);
+          },
+          [&dir](const std::string& path) { return dir.Read(path); }};
+}
+
+// The descriptors of a set, refused before anything is allocated for them if empty or too
+// many rows for an int place index.
+RowMatrixXf ReadDescriptors(const FileAccess& files, const std::string& npy_path) {
+  const std::string bytes = files.read(npy_path);
+  const NpyHeader h = ParseNpyHeader(bytes, npy_path);
+  if (h.rows == 0 || h.cols == 0) {
+    throw std::runtime_error("'" + npy_path + "' holds no descriptors (shape " +
+                             std::to_string(h.rows) + " x " + std::to_string(h.cols) + ")");
+  }
+  if (h.rows > kMaxPlaces || h.cols > kMaxDimension) {
+    throw std::runtime_error("'" + npy_path + "' has shape " + std::to_string(h.rows) + " x " +
+                             std::to_string(h.cols) + ": at most " + std::to_string(kMaxPlaces) +
+                             " rows (places) and " + std::to_string(kMaxDimension) +
+                             " columns (dimension) are accepted");
+  }
+  return DecodeNpyMatrix(bytes, npy_path);
+}
+
+ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
+                          const FileAccess& files) {
   if (!root.IsMap()) throw std::runtime_error("is not a YAML mapping");
   static const std::set<std::string> kKnown = {"name",      "condition", "descriptor_type",
                                                "dimension", "distance",  "descriptors",
                                                "place_ids", "poses"};
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
-    if (!kKnown.count(key)) throw std::runtime_error("unknown key '" + key + "'");
+    if (!kKnown.count(key)) throw std::runtime_error("unknown key " + QuotedForMessage(key));
   }
   if (!root["name"]) throw std::runtime_error("missing required key 'name'");
   if (!root["descriptors"]) throw std::runtime_error("missing required key 'descriptors'");
-  const std::string npy = ResolvePath(DirName(yaml_path), root["descriptors"].as<std::string>());
-  ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadNpyMatrix(npy));
+  const std::string npy = files.resolve(yaml_path, root["descriptors"].as<std::string>());
+  ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadDescriptors(files, npy));
   if (root["condition"]) set.condition = root["condition"].as<std::string>();
   if (root["descriptor_type"]) set.descriptor_type = root["descriptor_type"].as<std::string>();
   if (root["distance"]) {
     set.distance = root["distance"].as<std::string>();
     ParseDistanceMetric(set.distance);  // refuses unknown names
   }
-  if (root["dimension"] && root["dimension"].as<int>() != set.dimension()) {
+  if (root["dimension"] && root["dimension"].as<int64_t>() != set.dimension()) {
     throw std::runtime_error("declares dimension " + root["dimension"].as<std::string>() +
                              " but '" + npy + "' has " + std::to_string(set.dimension()) +
                              " columns");
   }
   if (root["place_ids"]) {
-    set.place_ids = root["place_ids"].as<std::vector<int>>();
-    if (set.place_ids.size() != static_cast<size_t>(set.size())) {
-      throw std::runtime_error("lists " + std::to_string(set.place_ids.size()) + " place_ids for " +
+    const YAML::Node ids = root["place_ids"];
+    if (!ids.IsSequence()) throw std::runtime_error("'place_ids' is not a list");
+    if (ids.size() != static_cast<size_t>(set.size())) {
+      throw std::runtime_error("lists " + std::to_string(ids.size()) + " place_ids for " +
                                std::to_string(set.size()) + " descriptors");
     }
+    set.place_ids = ids.as<std::vector<int>>();
   }
   if (root["poses"]) {
-    for (const auto& p : root["poses"]) {
+    const YAML::Node poses = root["poses"];
+    if (!poses.IsSequence() || poses.size() != static_cast<size_t>(set.size())) {
+      throw std::runtime_error("'poses' must list one [x, y, z, yaw] per descriptor (" +
+                               std::to_string(set.size()) + ")");
+    }
+    for (const auto& p : poses) {
       const std::vector<double> v = p.as<std::vector<double>>();
       if (v.size() != 4) throw std::runtime_error("a pose must be [x, y, z, yaw]");
       set.poses.push_back({v[0], v[1], v[2], v[3]});
@@ -64,20 +119,18 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path) 
   return set;
 }
 
-}  // namespace
-
-ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
+ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
+  const std::string text = files.read(yaml_path);  // names the file when it fails
   try {
-    return ParseSidecar(YAML::LoadFile(yaml_path), yaml_path);
-  } catch (const YAML::BadFile&) {
-    throw std::runtime_error("cannot read reference set file '" + yaml_path + "'");
+    return ParseSidecar(YAML::Load(text), yaml_path, files);
   } catch (const std::exception& e) {
     throw std::runtime_error("reference set file '" + yaml_path + "': " + e.what());
   }
 }
 
-ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name) {
-  ReferenceSet set = MakeReferenceSet(name, ReadNpyMatrix(npy_path));
+ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
+                     const std::string& name) {
+  ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
   try {
     set.Validate();
   } catch (const std::exception& e) {
@@ -86,29 +139,29 @@ ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string&
   return set;
 }
 
-ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name) {
+ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
-    ReferenceSet set = LoadReferenceSetYaml(path);
+    ReferenceSet set = LoadYaml(files, path);
     if (!name.empty()) set.name = name;
     return set;
   }
-  if (EndsWith(path, ".npy")) return LoadReferenceSetNpy(path, name);
-  throw std::runtime_error("'" + path + "' is neither a reference-set .yaml nor a descriptor .npy");
+  if (EndsWith(path, ".npy")) return LoadNpy(files, path, name);
+  files.read(path);  // a missing file is reported as missing
+  throw std::runtime_error(QuotedForMessage(path) +
+                           " is neither a reference-set .yaml (.yml) nor a descriptor .npy");
 }
 
-void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
-  set.Validate();
-  std::string stem = yaml_path;
-  if (EndsWith(stem, ".yaml"))
-    stem.resize(stem.size() - 5);
-  else if (EndsWith(stem, ".yml"))
-    stem.resize(stem.size() - 4);
-  if (set.descriptors.rows() != set.size()) {
-    throw std::invalid_argument("reference set '" + set.name + "' is held at " +
-                                ToString(set.store.precision) +
-                                " precision only; save it from its float32 source");
+// FNV-1a, 64 bits: names a descriptor file by its content.
+uint64_t ContentHash(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (const char c : bytes) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ull;
   }
-  const std::string npy_path = stem + ".npy";
+  return h;
+}
+
+std::string SidecarText(const ReferenceSet& set, const std::string& npy_name) {
   YAML::Emitter out;
   out << YAML::BeginMap;
   out << YAML::Key << "name" << YAML::Value << set.name;
@@ -118,7 +171,7 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
   }
   out << YAML::Key << "dimension" << YAML::Value << set.dimension();
   if (!set.distance.empty()) out << YAML::Key << "distance" << YAML::Value << set.distance;
-  out << YAML::Key << "descriptors" << YAML::Value << BaseName(npy_path);
+  out << YAML::Key << "descriptors" << YAML::Value << npy_name;
   out << YAML::Key << "place_ids" << YAML::Value << YAML::Flow << set.place_ids;
   if (!set.poses.empty()) {
     out << YAML::Key << "poses" << YAML::Value << YAML::BeginSeq;
@@ -128,8 +181,86 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
     out << YAML::EndSeq;
   }
   out << YAML::EndMap;
-  WriteNpyMatrix(npy_path, set.descriptors);
-  WriteFileAtomically(yaml_path, std::string(out.c_str()) + "\n");
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
+  return LoadYaml(Unconfined(), yaml_path);
+}
+
+ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name) {
+  return LoadNpy(Unconfined(), npy_path, name);
+}
+
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name) {
+  return LoadFile(Unconfined(), path, name);
+}
+
+ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
+                                  const std::string& name) {
+  return LoadFile(Below(dir), dir.Relative(request), name);
+}
+
+void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
+  const DataDirectory dir(DirName(yaml_path), /*create=*/true);
+  SaveReferenceSet(dir, set, BaseName(yaml_path), /*replace=*/true);
+}
+
+void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                      const std::string& yaml_request, bool replace) {
+  set.Validate();
+  if (set.descriptors.rows() != set.size()) {
+    throw std::invalid_argument("reference set '" + set.name + "' is held at " +
+                                ToString(set.store.precision) +
+                                " precision only; save it from its float32 source");
+  }
+  const std::string yaml = dir.Relative(yaml_request);
+  if (!EndsWith(yaml, ".yaml")) {
+    throw std::invalid_argument("a reference set is saved as a .yaml, got " +
+                                QuotedForMessage(yaml_request));
+  }
+  if (!replace && dir.Exists(yaml)) {
+    throw std::invalid_argument(QuotedForMessage(yaml) +
+                                " exists already; choose another name (or ask to overwrite)");
+  }
+  // The descriptors go to a file named by their content, then the YAML that names them is
+  // renamed into place: that rename is the one step that replaces the old set by the new
+  // one, so an interruption anywhere leaves either the old pair or the new pair whole.
+  const std::string stem = yaml.substr(0, yaml.size() - 5);
+  const std::string bytes = EncodeNpyMatrix(set.descriptors);
+  char hash[17];
+  std::snprintf(hash, sizeof(hash), "%016llx",
+                static_cast<unsigned long long>(ContentHash(bytes)));
+  const std::string npy = stem + "." + std::string(hash, 12) + ".npy";
+  std::string old_npy;
+  if (dir.Exists(yaml)) {
+    try {
+      const YAML::Node old = YAML::Load(dir.Read(yaml));
+      if (old.IsMap() && old["descriptors"]) {
+        old_npy = Below(dir).resolve(yaml, old["descriptors"].as<std::string>());
+      }
+    } catch (const std::exception&) {
+      // An unreadable old YAML: its descriptors are left where they are.
+    }
+  }
+  dir.WriteAtomically(npy, bytes);
+  try {
+    dir.WriteAtomically(yaml, SidecarText(set, BaseName(npy)), replace);
+  } catch (...) {
+    if (npy != old_npy) dir.Remove(npy);
+    throw;
+  }
+  // The old descriptors, if they were this set's own file (<stem>.npy or <stem>.<hash>.npy).
+  if (!old_npy.empty() && old_npy != npy && old_npy.rfind(stem + ".", 0) == 0 &&
+      EndsWith(old_npy, ".npy") && old_npy.find('/', stem.size()) == std::string::npos) {
+    try {
+      dir.Remove(old_npy);
+    } catch (const std::exception&) {
+      // Left behind: the new pair is whole; the old file only takes space.
+    }
+  }
 }
 
 }  // namespace bsf_vpr

@@ -7,16 +7,73 @@
 namespace bsf_vpr {
 
 void SequenceOptions::Validate() const {
-  if (length < 1) throw std::invalid_argument("sequence length must be >= 1");
-  if (!(min_velocity > 0) || !(max_velocity >= min_velocity)) {
+  if (length < 1 || length > kMaxSequenceLength) {
+    throw std::invalid_argument("sequence length must lie in 1.." +
+                                std::to_string(kMaxSequenceLength) + ", got " +
+                                std::to_string(length));
+  }
+  if (!(min_velocity > 0) || !(max_velocity >= min_velocity) ||
+      !(max_velocity <= kMaxSequenceVelocity)) {
     throw std::invalid_argument(
-        "sequence velocities must satisfy 0 < min_velocity <= max_velocity");
+        "sequence velocities must satisfy 0 < min_velocity <= max_velocity <= " +
+        std::to_string(kMaxSequenceVelocity) + " places per query, got " +
+        std::to_string(min_velocity) + " and " + std::to_string(max_velocity));
   }
   if (!(velocity_step > 0)) throw std::invalid_argument("sequence velocity_step must be > 0");
+  // Computed in double before any conversion to int: a tiny step cannot overflow.
+  const double velocities = (max_velocity - min_velocity) / velocity_step + 1;
+  if (!(velocities <= kMaxSequenceVelocities)) {
+    throw std::invalid_argument(
+        "sequence velocity_step " + std::to_string(velocity_step) + " gives " +
+        std::to_string(velocities) + " velocities between " + std::to_string(min_velocity) +
+        " and " + std::to_string(max_velocity) + "; at most " +
+        std::to_string(kMaxSequenceVelocities) + " are searched (use a larger step)");
+  }
+}
+
+double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
+                            int hypotheses_per_place) {
+  double sum = 0;
+  int n = 0;
+  for (Eigen::Index i = 0; i < sequence_costs.size(); ++i) {
+    if (std::isfinite(sequence_costs(i))) {
+      sum += sequence_costs(i);
+      ++n;
+    }
+  }
+  if (best < 0 || best >= sequence_costs.size() || !std::isfinite(sequence_costs(best))) {
+    return -std::numeric_limits<double>::infinity();
+  }
+  if (n < 2) return 0;  // one candidate place: no evidence either way
+  const double mean = sum / n;
+  double sq = 0;
+  for (Eigen::Index i = 0; i < sequence_costs.size(); ++i) {
+    if (std::isfinite(sequence_costs(i))) sq += (sequence_costs(i) - mean) * (sequence_costs(i) - mean);
+  }
+  const double sd = std::sqrt(sq / n);
+  const double z = sd > 0 ? (mean - sequence_costs(best)) / sd : 0.0;
+  // P(no chance alignment beats z) = Phi(z)^m under a standard normal null, m hypotheses;
+  // log-odds of it.
+  const double m = static_cast<double>(n) * std::max(1, hypotheses_per_place);
+  const double q = 0.5 * std::erfc(z / std::sqrt(2.0));  // upper tail Q(z)
+  if (q > 1e-300) {
+    const double log_ok = m * std::log1p(-q);
+    const double not_ok = -std::expm1(log_ok);
+    if (not_ok > 0) return log_ok - std::log(not_ok);
+    return -(std::log(m) + std::log(q));
+  }
+  // Q(z) underflows: its asymptotic log, log Q ~ -z^2/2 - log(z sqrt(2 pi)).
+  const double log_q = -0.5 * z * z - std::log(z) - 0.5 * std::log(2 * M_PI);
+  return -(std::log(m) + log_q);
 }
 
 SequenceMatcher::SequenceMatcher(SequenceOptions options) : options_(options) {
   options_.Validate();
+}
+
+int SequenceMatcher::velocities() const {
+  return 1 + static_cast<int>(std::floor(
+                 (options_.max_velocity - options_.min_velocity) / options_.velocity_step + 1e-9));
 }
 
 namespace {
@@ -60,7 +117,7 @@ Eigen::VectorXd SequenceMatcher::Push(const Eigen::VectorXd& costs) {
 
   const Eigen::Index n = costs.size();
   Eigen::VectorXd best = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
-  const int steps = static_cast<int>(
+  const int steps = static_cast<int>(  // bounded by Validate
       std::floor((options_.max_velocity - options_.min_velocity) / options_.velocity_step + 1e-9));
   for (int s = 0; s <= steps; ++s) {
     const double v = options_.min_velocity + s * options_.velocity_step;

@@ -103,7 +103,12 @@ TEST_F(Files, ReferenceSetYamlRoundTrips) {
   s.place_ids = {4, 0, 7};
   s.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, -1}};
   SaveReferenceSet(s, Path("winter.yaml"));
-  EXPECT_TRUE(fs::exists(Path("winter.npy")));
+  std::string npy;  // winter.<content hash>.npy, named by the YAML
+  for (const auto& e : fs::directory_iterator(dir_)) {
+    if (e.path().extension() == ".npy") npy = e.path().filename().string();
+  }
+  EXPECT_EQ(npy.rfind("winter.", 0), 0u) << npy;
+  EXPECT_EQ(npy.size(), std::string("winter.0123456789ab.npy").size()) << npy;
   const ReferenceSet back = LoadReferenceSetFile(Path("winter.yaml"), "");
   EXPECT_EQ(back.name, "winter");
   EXPECT_EQ(back.condition, "snow");
@@ -112,7 +117,31 @@ TEST_F(Files, ReferenceSetYamlRoundTrips) {
   ASSERT_EQ(back.poses.size(), 3u);
   EXPECT_DOUBLE_EQ(back.poses[2].y_m, 8);
   EXPECT_TRUE(back.descriptors.isApprox(s.descriptors));
-  EXPECT_EQ(LoadReferenceSetFile(Path("winter.npy"), "w2").name, "w2");
+  EXPECT_EQ(LoadReferenceSetFile(Path(npy), "w2").name, "w2");
+}
+
+TEST_F(Files, EmptyOrHugeShapesAreRefusedBeforeAllocatingAndNameTheFile) {
+  // Tiny files whose shapes would have allocated gigabytes of place ids.
+  for (const std::string shape : {"(1000000000, 0)", "(4294967296, 0)", "(0, 5)"}) {
+    WriteRaw("e.npy", Npy("{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }", 0));
+    try {
+      LoadReferenceSetNpy(Path("e.npy"), "e");
+      ADD_FAILURE() << shape;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("e.npy"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("no descriptors"), std::string::npos) << e.what();
+    }
+  }
+  // An empty matrix still round-trips through the generic reader and writer.
+  WriteNpyMatrix(Path("z.npy"), RowMatrixXf(0, 3));
+  EXPECT_EQ(ReadNpyMatrix(Path("z.npy")).cols(), 3);
+  // A missing file is called missing, whatever its extension.
+  try {
+    LoadReferenceSetFile(Path("missing.txt"), "m");
+    ADD_FAILURE();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(Files, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {

@@ -178,7 +178,7 @@ TEST(Fusion, RefusesPlaceIdsOutsideTheMap) {
   const std::vector<SetDistances> v = {{d.data(), ids.data(), 2}};
   PlaceBelief b;
   EXPECT_THROW(FuseBayes(v, {0}, 10, {}, nullptr, {}, 5, &b), std::invalid_argument);
-  EXPECT_THROW(FuseMinEnsembleDistance(v, {0}, 10, 5, &b), std::invalid_argument);
+  EXPECT_THROW(FuseMinEnsembleDistance(v, {0}, 10, 0.0, 5, &b), std::invalid_argument);
 }
 
 TEST(Fusion, TopKOrdersByScoreAndBreaksTiesTowardsSmallerIndex) {

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "bsf_vpr/core/methods.h"
 #include "test_util.h"
 
@@ -82,6 +84,42 @@ TEST(Methods, NamesParseAndUnknownNamesAreRefusedWithTheChoices) {
   }
   EXPECT_THROW(ParseMethod("seqslam", kNames), std::invalid_argument);
   EXPECT_THROW(ParseMethodList(",", kNames), std::invalid_argument);
+}
+
+TEST(Methods, DistanceMethodsAreGatedByMaxMatchDistance) {
+  Data data(100, 5);
+  for (const std::string name : {"nn:winter", "med", "med_selective"}) {
+    const Method m = ParseMethod(name, kNames);
+    const PlaceBelief strict = RunMethod(m, data.views, 100, {});  // default 0
+    EXPECT_FALSE(strict.accepted) << name;
+    const double distance = -strict.confidence;
+    MethodOptions o;
+    o.max_match_distance = distance;  // exactly the match's distance: accepted
+    EXPECT_TRUE(RunMethod(m, data.views, 100, o).accepted) << name;
+    o.max_match_distance = distance * 0.999;
+    EXPECT_FALSE(RunMethod(m, data.views, 100, o).accepted) << name;
+  }
+  MethodOptions bad;
+  bad.max_match_distance = -1;
+  EXPECT_THROW(bad.Validate(), std::invalid_argument);
+  bad.max_match_distance = NAN;
+  EXPECT_THROW(bad.Validate(), std::invalid_argument);
+}
+
+TEST(Methods, ANanDistanceNeverGivesAnAcceptedBelief) {
+  Data data(50, 6);
+  data.d[0][7] = NAN;
+  data.d[1][7] = NAN;
+  data.d[2][7] = NAN;
+  MethodOptions o;
+  o.threshold = Threshold::Parse("logodds:-1000");
+  try {
+    const PlaceBelief b = RunMethod(ParseMethod("bayes_full", kNames), data.views, 50, o);
+    EXPECT_FALSE(b.log_posterior.hasNaN());
+    EXPECT_FALSE(std::isnan(b.confidence));
+  } catch (const std::invalid_argument&) {
+    // Refusing the query is as good: nothing is published.
+  }
 }
 
 }  // namespace

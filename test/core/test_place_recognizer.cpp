@@ -71,6 +71,9 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
   Eigen::VectorXf nan = Eigen::VectorXf::Zero(16);
   nan(3) = NAN;
   EXPECT_THROW(r.Recognize(nan, true), std::invalid_argument);
+  // Finite but so large that the distances would overflow: refused, not a NaN belief.
+  Eigen::VectorXf huge = Eigen::VectorXf::Constant(16, 3.0e38f);
+  EXPECT_THROW(r.Recognize(huge, true), std::invalid_argument);
   RecognizerOptions bad;
   bad.method = "nn:missing";
   EXPECT_THROW(r.SetOptions(bad), std::invalid_argument);
@@ -79,6 +82,16 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
   single.method = "nn:c1";
   r.SetOptions(single);
   EXPECT_THROW(r.RemoveReferenceSet("c1"), std::invalid_argument);
+  // With suffixes too: the parsed method names the set it needs.
+  for (const std::string m : {"nn:c1+seq", "bayes:c1+filter", "bayes:c1+filter+seq"}) {
+    RecognizerOptions o;
+    o.method = m;
+    r.SetOptions(o);
+    EXPECT_THROW(r.RemoveReferenceSet("c1"), std::invalid_argument) << m;
+    EXPECT_EQ(r.map().num_sets(), 2);
+    EXPECT_NO_THROW(r.Recognize(data.queries.row(0).transpose(), true)) << m;
+  }
+  r.SetOptions(single);
   EXPECT_THROW(r.RemoveReferenceSet("nope"), std::invalid_argument);
   r.RemoveReferenceSet("c0");
   EXPECT_EQ(r.map().num_sets(), 1);
@@ -98,6 +111,11 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   rec.Add(Eigen::VectorXf::Constant(4, 2.0f), PlacePose{2, 0, 0, 0});
   EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(5)), std::invalid_argument);
   EXPECT_EQ(rec.count(), 2);
+  // Build leaves the recording running (a failed save must lose nothing).
+  EXPECT_EQ(rec.Build("test_4").size(), 2);
+  EXPECT_TRUE(rec.recording());
+  EXPECT_EQ(rec.count(), 2);
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Constant(4, 3.0e38f)), std::invalid_argument);
   const ReferenceSet s = rec.Finish("test_4");
   EXPECT_FALSE(rec.recording());
   EXPECT_EQ(s.name, "today");

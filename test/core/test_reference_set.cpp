@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "bsf_vpr/core/reference_set.h"
 #include "test_util.h"
 
@@ -71,6 +74,37 @@ TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
   ReferenceSet poses = MakeReferenceSet("f", testing::RandomMatrix(2, 3, 2));
   poses.poses.resize(1);
   expect_refused(poses, "poses");
+  // Absurd place ids are refused before the place index grows (it used to grow to 2e9
+  // places and then fail to allocate, leaving the map broken; INT_MAX overflowed).
+  ReferenceSet far = MakeReferenceSet("g", testing::RandomMatrix(3, 3, 2));
+  far.place_ids = {0, 1, 2000000000};
+  expect_refused(far, "2000000000");
+  far.place_ids = {0, 1, std::numeric_limits<int>::max()};
+  expect_refused(far, "place id");
+  far.place_ids = {0, 1, 500000};  // beyond 1000 x max(3 descriptors, 4 places) + 1000
+  expect_refused(far, "far beyond");
+  // Finite values whose squared norm overflows float32 would make every distance inf/NaN.
+  RowMatrixXf huge = testing::RandomMatrix(4, 3, 2);
+  huge(1, 0) = 3.0e38f;
+  expect_refused(MakeReferenceSet("h", huge), "norm too large");
+  // Sparse coverage well within the bound is accepted.
+  ReferenceSet sparse = MakeReferenceSet("s", testing::RandomMatrix(3, 3, 2));
+  sparse.place_ids = {0, 1500, 3000};
+  map.Add(sparse);
+  EXPECT_EQ(map.num_places(), 3001);
+  EXPECT_TRUE(map.Remove("s"));
+  EXPECT_EQ(map.num_places(), 4);
+}
+
+TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
+  Eigen::RowVectorXf d = Eigen::RowVectorXf::Ones(8);
+  EXPECT_EQ(DescriptorProblem(d), "");
+  d(2) = 1e19f;  // squared 1e38 > the bound
+  EXPECT_NE(DescriptorProblem(d).find("norm too large"), std::string::npos);
+  d(2) = NAN;
+  EXPECT_NE(DescriptorProblem(d).find("NaN"), std::string::npos);
+  d(2) = -INFINITY;
+  EXPECT_NE(DescriptorProblem(d).find("infinity"), std::string::npos);
 }
 
 }  // namespace

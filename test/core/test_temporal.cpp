@@ -37,7 +37,7 @@ TEST(SequenceMatcher, MatchesTheBruteForceFormula) {
   o.length = 4;
   o.standardize = false;
   SequenceMatcher m(o);
-  std::mt19937_64 rng(3);
+  std::mt19937_64 rng(9);
   std::uniform_real_distribution<double> uni(0, 1);
   std::vector<Eigen::VectorXd> history;  // newest first
   for (int t = 0; t < 9; ++t) {
@@ -84,11 +84,74 @@ TEST(SequenceMatcher, OptionsAreChecked) {
   o = {};
   o.max_velocity = 0.5;
   EXPECT_THROW(o.Validate(), std::invalid_argument);
+  // An unbounded search is refused before any int conversion (1e-4 took 7 s per query;
+  // a huge ratio overflowed an int).
+  o = {};
+  o.velocity_step = 1e-4;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+  o = {};
+  o.max_velocity = 1e300;
+  o.velocity_step = 1e-300;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+  o = {};
+  o.length = 1000000;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
   o = {};
   o.use_partial_sequences = false;
   SequenceMatcher m(o);
   const Eigen::VectorXd c = Eigen::VectorXd::LinSpaced(10, 0, 9);
   EXPECT_TRUE(m.Push(c).isApprox(m.Push(c)));  // fewer than L queries: the query's own costs
+}
+
+TEST(SequenceMatcher, MatchLogOddsIsScaleFreeAndRewardsAClearerBest) {
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> noise(0, 1);
+  Eigen::VectorXd c(500);
+  for (Eigen::Index i = 0; i < c.size(); ++i) c(i) = noise(rng);
+  c(100) = -3.0;
+  const double base = SequenceMatchLogOdds(c, 100);
+  // The same costs in other units and offsets: the same confidence (comparable across
+  // queries whatever the base method's scale).
+  EXPECT_NEAR(SequenceMatchLogOdds(7.5 * c.array() + 40.0, 100), base, 1e-9);
+  c(100) = -6.0;
+  const double clearer = SequenceMatchLogOdds(c, 100);
+  EXPECT_GT(clearer, base);
+  EXPECT_GT(clearer, std::log(0.99 / 0.01));  // six standard deviations among 500 places
+  c(100) = -2.0;  // no better than chance among 500 places
+  EXPECT_LT(SequenceMatchLogOdds(c, 100), 0.0);
+  c(100) = -60.0;  // Q(z) underflows: still finite and ordered
+  EXPECT_TRUE(std::isfinite(SequenceMatchLogOdds(c, 100)));
+  EXPECT_GT(SequenceMatchLogOdds(c, 100), clearer);
+  c(3) = INFINITY;
+  EXPECT_EQ(SequenceMatchLogOdds(c, 3), -INFINITY);
+}
+
+TEST(SequenceMatcher, SeqMethodsAreGatedByTheThreshold) {
+  // Pure noise: whatever the base method, a +seq match must not be accepted at h = 0.99
+  // (it used to be accepted always: 1500 of 1500 in a replay, 668 of them wrong).
+  const std::vector<std::string> names = {"a", "b"};
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<float> u(0.5f, 1.5f);
+  MethodOptions o;
+  o.threshold = Threshold::Parse("p:0.99");
+  for (const std::string name : {"bsf+seq", "nn:a+seq", "med+seq", "bsf+filter+seq"}) {
+    MethodRunner runner(ParseMethod(name, names), o);
+    int accepted_noise = 0, accepted_route = 0;
+    for (int t = 0; t < 60; ++t) {
+      std::vector<std::vector<float>> d(2, std::vector<float>(400));
+      for (auto& set : d) {
+        for (float& x : set) x = u(rng);
+        if (t >= 30) set[static_cast<size_t>(100 + t)] = 0.05f;  // then a clear route
+      }
+      const std::vector<SetDistances> v = {{d[0].data(), nullptr, 400}, {d[1].data(), nullptr, 400}};
+      const PlaceBelief b = runner.Step(v, 400, nullptr, std::nullopt, true);
+      EXPECT_TRUE(std::isfinite(b.confidence) || !b.accepted);
+      if (t < 30) accepted_noise += b.accepted;
+      if (t >= 40) accepted_route += b.accepted && b.match == 100 + t;
+    }
+    EXPECT_LE(accepted_noise, 1) << name;
+    EXPECT_GE(accepted_route, 18) << name;
+  }
 }
 
 TEST(TemporalFilter, MovesTheBeliefForwardAndKeepsEveryPlaceReachable) {

@@ -35,9 +35,13 @@ struct PlaceBelief {
   // Higher means more sure. Bayesian methods: the log-odds of the match,
   // log P(match) - log P(any other place), from the unnormalised log posterior (stays
   // finite and ordered where the normalised maximum rounds to 1). Distance methods: minus
-  // the (mean) distance of the match.
+  // the (mean) distance of the match. +seq methods (any base): the log-odds that the best
+  // sequence is not a chance alignment (SequenceMatchLogOdds), comparable across queries.
   double confidence = -std::numeric_limits<double>::infinity();
-  bool accepted = false;          // confidence > h (distance methods: always true)
+  // Whether the match may be acted on. Bayesian methods: confidence > h (as log-odds).
+  // Distance methods: the match's (mean) distance <= max_match_distance. +seq methods: the
+  // sequence's log-odds (SequenceMatchLogOdds) > h. Never true for a non-finite belief.
+  bool accepted = false;
   std::vector<int> top_places;    // best first, at most top_k
   Eigen::VectorXd log_posterior;  // N entries, normalised; empty for distance methods
   // Per place, lower is better: -log posterior (Bayesian) or the mean distance (distance
@@ -68,8 +72,11 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
 
 // Minimum ensemble distance over the sets `use`: the place with the smallest mean distance
 // over the used sets that cover it (with full coverage exactly Eq. MED: argmin of the sum).
-// Places no used set covers cannot be matched. Fills match, confidence, accepted, top_places.
+// Places no used set covers cannot be matched. Fills match, confidence (minus the mean
+// distance), accepted (mean distance <= max_match_distance, in the distance's units) and
+// top_places.
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
-                             int num_places, int top_k, PlaceBelief* out);
+                             int num_places, double max_match_distance, int top_k,
+                             PlaceBelief* out);
 
 }  // namespace bsf_vpr

@@ -21,8 +21,8 @@ class MethodRunner {
   // given, is the prior for a method without +filter (null: uniform). `step_places`, if
   // given, replaces the filter's mean step for this query (odometry). With update_state the
   // query is appended to the history; without, the runner is left as it was.
-  // With +seq, match, confidence (minus the sequence cost), top_places and cost describe
-  // the best sequence ending at each place, and accepted is true (h applies to posteriors).
+  // With +seq, match, top_places and cost describe the best sequence ending at each place;
+  // confidence is SequenceMatchLogOdds of the match and accepted compares it with h.
   PlaceBelief Step(const std::vector<SetDistances>& sets, int num_places,
                    const Eigen::VectorXd* log_prior, std::optional<double> step_places,
                    bool update_state);

@@ -49,7 +49,12 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
 struct MethodOptions {
   SelectionOptions selection;
   LikelihoodOptions likelihood;
-  Threshold threshold;           // h, for the Bayesian methods
+  // What makes a match accepted (PlaceBelief::accepted), per kind of method:
+  Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
+  // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of
+  // an accepted match, in the distance's own units (not squared). The default 0 accepts
+  // only a query identical to a reference: set it for the descriptor and distance in use.
+  double max_match_distance = 0;
   int top_k = 10;                // how many ranked places to return (recall@K needs K)
   SequenceOptions sequence;      // for +seq methods
   TemporalFilterOptions filter;  // for +filter methods

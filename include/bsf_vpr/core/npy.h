@@ -32,6 +32,9 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path);
 // Reads a 2-D .npy matrix and converts it to float32. Throws std::runtime_error.
 RowMatrixXf ReadNpyMatrix(const std::string& path);
 
+// The same for a file's bytes already in memory (`path` only names it in messages).
+RowMatrixXf DecodeNpyMatrix(const std::string& bytes, const std::string& path);
+
 // Serialises `matrix` as a version 1.0 .npy file in the given dtype (C order).
 std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype = NpyDtype::kFloat32);
 

@@ -30,6 +30,9 @@ class ReferenceRecorder {
   // Ends the recording and returns the set. Poses are kept only if every descriptor had one.
   // Throws std::invalid_argument if nothing was recorded (the recording stays open).
   ReferenceSet Finish(const std::string& descriptor_type = "");
+  // The set recorded so far, the recording left running (so that a save that fails loses
+  // nothing: Discard once it succeeded). Throws std::invalid_argument like Finish.
+  ReferenceSet Build(const std::string& descriptor_type = "") const;
   // Ends the recording and drops what was recorded.
   void Discard();
 

@@ -4,6 +4,7 @@
 // of those places, with at most one descriptor per place (paper, Sec. III-A).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -12,6 +13,17 @@
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
+
+// Bounds on what a map may hold, checked before anything is allocated for it: place ids lie
+// in [0, kMaxPlaces), descriptors have at most kMaxDimension elements.
+constexpr int kMaxPlaces = 1 << 27;
+constexpr int kMaxDimension = 1 << 20;
+// A set may add places up to kMaxPlaceIdGrowth x max(its descriptors, the map's places)
+// (+1000); a larger id is taken for a mistake (e.g. a typo of 2000000000).
+constexpr int64_t kMaxPlaceIdGrowth = 1000;
+// Largest squared L2 norm of a descriptor: float32 distances between two such descriptors
+// stay finite (4 x this < FLT_MAX).
+constexpr double kMaxDescriptorSquaredNorm = 8.0e37;
 
 // Pose of a place in the map frame: metres and radians.
 struct PlacePose {
@@ -39,9 +51,14 @@ struct ReferenceSet {
   size_t StoredBytes() const;
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
-  // duplicated or negative, poses of the wrong count, non-finite descriptor values.
+  // duplicated, negative or >= kMaxPlaces, poses of the wrong count, a descriptor that
+  // DescriptorProblem refuses.
   void Validate() const;
 };
+
+// Why a descriptor cannot be used ("" if it can): a NaN or infinite value, or a norm so
+// large (finite values near 3.4e38) that float32 distances would overflow.
+std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor);
 
 // Makes a set whose row k is place k (the usual case for frame-aligned traversals).
 ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
@@ -57,8 +74,9 @@ class ReferenceMap {
   StoragePrecision storage_precision() const { return storage_; }
 
   // Adds a set after validating it and building its store. Throws std::invalid_argument if
-  // it is invalid, if its name is taken, or if its dimension differs from the sets already
-  // held; the map is unchanged when it throws.
+  // it is invalid, if its name is taken, if its dimension differs from the sets already
+  // held, or if a place id lies far beyond the set and the map (kMaxPlaceIdGrowth); the map
+  // is unchanged whenever it throws (std::bad_alloc included).
   void Add(ReferenceSet set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);
@@ -79,8 +97,8 @@ class ReferenceMap {
   std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }
 
  private:
-  void IndexPoses(const ReferenceSet& set);
-  void UpdateMedianSpacing();
+  static void IndexPoses(const ReferenceSet& set, std::vector<std::optional<PlacePose>>* poses);
+  static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses);
 
   std::vector<ReferenceSet> sets_;
   std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries

@@ -7,6 +7,7 @@
 //   dimension: 2048                   # optional; checked against the .npy when given
 //   distance: euclidean               # optional: euclidean | cosine
 //   descriptors: winter.npy           # required; relative paths are relative to this file
+//                                     # (saving names it winter.<content hash>.npy)
 //   place_ids: [0, 1, 2]              # optional; default 0 .. N_u-1
 //   poses: [[x, y, z, yaw], ...]      # optional; one per row, metres and radians
 //
@@ -15,23 +16,40 @@
 
 #include <string>
 
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/reference_set.h"
 
 namespace bsf_vpr {
 
 // Loads a reference set from a sidecar YAML. Throws std::runtime_error naming the file and
-// the problem (missing key, unknown key, unreadable .npy, dimension or count mismatch).
+// the problem (missing key, unknown key, unreadable .npy, dimension or count mismatch, no
+// descriptors). Only regular files are read.
 ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path);
 
 // Loads a descriptor .npy as a set named `name` whose row k is place k.
 ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name);
 
 // Dispatches on the extension: .yaml/.yml sidecar, or .npy (named `name`). Throws
-// std::runtime_error for other paths. (Image folders are described by the caller.)
+// std::runtime_error for other paths (saying so, or that the file is missing).
 ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name);
 
-// Writes `set` as `yaml_path` plus its descriptors as `<yaml_path without .yaml>.npy` (float32),
-// both atomically; the YAML refers to the .npy by its file name.
+// The same, for a request (relative, or absolute below dir.path()) from the outside world:
+// the YAML and the .npy it names are read through `dir`, so neither may lie outside it,
+// be reached through a link, or be anything but a regular file.
+ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
+                                  const std::string& name);
+
+// Writes `set` as `yaml_path` plus its descriptors (float32) as `<stem>.<content hash>.npy`
+// beside it, which the YAML names. The pair is replaced as one: the .npy is written first
+// under its new name, then the YAML is renamed into place, then the old .npy (if it was
+// this set's) is removed; an interruption leaves the old or the new pair whole. Missing
+// folders are created. Throws std::invalid_argument for a set held at reduced precision
+// only, std::runtime_error naming the file when writing fails (nothing is replaced then).
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
+
+// The same below a data directory (`yaml_request` as for DataDirectory::Relative, ending
+// in .yaml). With `replace` false an existing YAML is never replaced.
+void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                      const std::string& yaml_request, bool replace);
 
 }  // namespace bsf_vpr

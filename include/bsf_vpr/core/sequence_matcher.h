@@ -17,6 +17,11 @@
 
 namespace bsf_vpr {
 
+// Bounds that keep one query's sequence search small (N x L x velocities evaluations).
+constexpr int kMaxSequenceLength = 1000;
+constexpr double kMaxSequenceVelocity = 1000;  // places per query
+constexpr double kMaxSequenceVelocities = 1000;
+
 struct SequenceOptions {
   int length = 5;               // L, queries per sequence (the paper's study 5 uses 5)
   double min_velocity = 0.8;    // places per query
@@ -27,8 +32,22 @@ struct SequenceOptions {
   // false reports the current query's own costs until L are there.
   bool use_partial_sequences = true;
 
-  void Validate() const;  // throws std::invalid_argument naming the bad field
+  // Throws std::invalid_argument naming the bad field, also when the search would be
+  // unbounded (more than kMaxSequenceVelocities velocities, longer than kMaxSequenceLength).
+  void Validate() const;
 };
+
+// The confidence of a +seq match, comparable across queries and independent of the cost
+// scale: the log-odds that the best sequence (cost sequence_costs(best)) is not a chance
+// alignment. Its z-score z = (mean - cost_best) / sd over the n places with finite cost is
+// compared with the maximum of m = n x hypotheses_per_place standard normals (the
+// sequences searched, each place's best over the velocities, where nothing matches):
+// P = Phi(z)^m, and the result is log(P / (1 - P)). So a threshold h given as a probability
+// means "P(the best sequence is no accident) > h" for every base method (approximately:
+// the null treats the searched sequences as independent, which makes it conservative).
+// -infinity for an impossible best place; 0 with fewer than two candidate places.
+double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
+                            int hypotheses_per_place = 1);
 
 class SequenceMatcher {
  public:
@@ -40,6 +59,7 @@ class SequenceMatcher {
   Eigen::VectorXd Push(const Eigen::VectorXd& costs);
   void Reset() { history_.clear(); }
   int queries() const { return static_cast<int>(history_.size()); }
+  int velocities() const;  // how many velocities each place's sequence is searched over
   const SequenceOptions& options() const { return options_; }
 
  private:

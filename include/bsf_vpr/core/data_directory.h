@@ -1,0 +1,72 @@
+// A folder that requests from the outside world (service calls, YAML fields they lead to)
+// may read and write below, and nowhere else.
+//
+// The folder is opened once; every later access walks from that handle one path component
+// at a time with openat(O_NOFOLLOW), so a symbolic link below the folder is never followed
+// and a link swapped in between a check and a use cannot redirect a read or a write: the
+// path is checked at the moment the file is opened. ".." is resolved lexically and may not
+// climb above the folder. Reads accept only regular files (opened non-blocking, so a FIFO
+// cannot hang the caller). Writes go to a temporary file beside the target, are flushed and
+// renamed into place below the same handle.
+//
+// Thread-safe: every method is const and uses only the folder's handle.
+#pragma once
+
+#include <string>
+
+namespace bsf_vpr {
+
+class DataDirectory {
+ public:
+  // Opens `path` (links within `path` itself are followed: choosing the folder is the
+  // operator's decision). With `create`, missing folders are made first (mode 0755).
+  // Throws std::runtime_error naming the folder if it cannot be opened.
+  explicit DataDirectory(const std::string& path, bool create = false);
+  ~DataDirectory();
+  DataDirectory(const DataDirectory&) = delete;
+  DataDirectory& operator=(const DataDirectory&) = delete;
+
+  // The folder's absolute path, links resolved (as opened).
+  const std::string& path() const { return path_; }
+
+  // The path of a request below the folder, normalised: "a/b.yaml". Accepts a relative
+  // path or an absolute one that starts with path(). Throws std::invalid_argument naming
+  // the request if it is empty, escapes the folder ("..", another absolute path), names
+  // the folder itself, or holds a control character or invalid UTF-8.
+  std::string Relative(const std::string& request) const;
+
+  // The bytes of the regular file at `relative` (a path from Relative). Throws
+  // std::runtime_error naming it if it is missing, a link, a FIFO, a device, a folder or
+  // unreadable, or std::invalid_argument if `relative` is not a valid relative path.
+  std::string Read(const std::string& relative) const;
+
+  // Whether an entry (file, folder or link) exists at `relative`. Links are not followed.
+  bool Exists(const std::string& relative) const;
+
+  // Writes `bytes` to `relative` atomically, creating missing folders on the way (links
+  // refused). With `replace` false an existing entry is never replaced (the write fails
+  // and names it). Throws std::runtime_error naming the file and the system error; the
+  // temporary file is removed on failure.
+  void WriteAtomically(const std::string& relative, const std::string& bytes,
+                       bool replace = true) const;
+
+  // Removes the file at `relative` if it exists (never follows a link; removes the link).
+  void Remove(const std::string& relative) const;
+
+  // Removes what interrupted writes left behind anywhere below the folder: temporary files
+  // of WriteAtomically. Returns how many were removed.
+  int RemoveStaleTemporaries() const;
+
+ private:
+  int fd_ = -1;
+  std::string path_;
+};
+
+// `text` quoted for a message: control characters escaped and, past `max_chars`, cut with
+// the full length said ('abc...' (10000000 characters)). For echoing input in errors.
+std::string QuotedForMessage(const std::string& text, size_t max_chars = 160);
+
+// Whether `text` is valid UTF-8 without control characters (a name a person can read).
+bool IsPrintableUtf8(const std::string& text);
+
+}  // namespace bsf_vpr

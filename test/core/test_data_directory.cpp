@@ -1,0 +1,189 @@
+// DataDirectory (confined reads and writes) and the atomic save of a reference set.
+#include "bsf_vpr/core/data_directory.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/npy.h"
+#include "bsf_vpr/core/reference_set_io.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DataDir : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_datadir_XXXXXX";
+    root_ = mkdtemp(tmpl);
+    fs::create_directories(root_ + "/data/sets");
+    fs::create_directories(root_ + "/outside");
+    Write(root_ + "/outside/secret.txt", "secret");
+    WriteNpyMatrix(root_ + "/outside/o.npy", testing::RandomMatrix(4, 3, 1));
+    dir_ = std::make_unique<DataDirectory>(root_ + "/data");
+  }
+  void TearDown() override { fs::remove_all(root_); }
+  static void Write(const std::string& path, const std::string& text) {
+    std::ofstream(path, std::ios::binary) << text;
+  }
+  static std::string Slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  std::string Data(const std::string& rel) const { return root_ + "/data/" + rel; }
+  // Every regular file below root/outside with its content: nothing may change there.
+  std::map<std::string, std::string> Outside() const {
+    std::map<std::string, std::string> out;
+    for (const auto& e : fs::recursive_directory_iterator(root_ + "/outside")) {
+      if (e.is_regular_file()) out[e.path().string()] = Slurp(e.path().string());
+    }
+    return out;
+  }
+
+  std::string root_;
+  std::unique_ptr<DataDirectory> dir_;
+};
+
+TEST_F(DataDir, RelativeNormalisesAndRefusesEscapes) {
+  EXPECT_EQ(dir_->Relative("sets/a.yaml"), "sets/a.yaml");
+  EXPECT_EQ(dir_->Relative("./sets//x/../a.yaml"), "sets/a.yaml");
+  EXPECT_EQ(dir_->Relative(dir_->path() + "/sets/a.yaml"), "sets/a.yaml");
+  for (const std::string bad : {"", "..", "../outside/secret.txt", "sets/../../outside/o.npy",
+                                "/etc/passwd", ".", "sets/..", "a\nb.yaml", "bad\xff.yaml",
+                                "tab\t.yaml"}) {
+    EXPECT_THROW(dir_->Relative(bad), std::invalid_argument) << bad;
+  }
+  // Another folder whose name starts with the data directory's.
+  EXPECT_THROW(dir_->Relative(dir_->path() + "x/a.yaml"), std::invalid_argument);
+}
+
+TEST_F(DataDir, ReadsOnlyRegularFilesBelowWithoutFollowingLinks) {
+  Write(Data("sets/a.txt"), "inside");
+  EXPECT_EQ(dir_->Read("sets/a.txt"), "inside");
+  fs::create_symlink(root_ + "/outside/secret.txt", Data("link.txt"));
+  fs::create_directory_symlink(root_ + "/outside", Data("outlink"));
+  fs::create_symlink("/dev/zero", Data("zero.npy"));
+  ASSERT_EQ(mkfifo(Data("fifo.npy").c_str(), 0644), 0);
+  for (const std::string bad : {"link.txt", "outlink/secret.txt", "zero.npy", "sets", "missing"}) {
+    EXPECT_THROW(dir_->Read(bad), std::runtime_error) << bad;
+  }
+  // A FIFO is refused at once instead of blocking the reader.
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    dir_->Read("fifo.npy");
+    ADD_FAILURE() << "read a FIFO";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  // The unconfined reader refuses FIFOs and devices too.
+  EXPECT_THROW(ReadFile(Data("fifo.npy")), std::runtime_error);
+  EXPECT_THROW(ReadFile("/dev/zero"), std::runtime_error);
+}
+
+TEST_F(DataDir, WritesAtomicallyBelowAndNeverThroughALink) {
+  const auto before = Outside();
+  dir_->WriteAtomically("new/deeper/a.txt", "one");  // folders are made
+  EXPECT_EQ(Slurp(Data("new/deeper/a.txt")), "one");
+  dir_->WriteAtomically("new/deeper/a.txt", "two");
+  EXPECT_EQ(Slurp(Data("new/deeper/a.txt")), "two");
+  EXPECT_THROW(dir_->WriteAtomically("new/deeper/a.txt", "three", /*replace=*/false),
+               std::runtime_error);
+  EXPECT_EQ(Slurp(Data("new/deeper/a.txt")), "two");
+  // A link swapped in where the file goes is replaced as a link, its target untouched.
+  fs::create_symlink(root_ + "/outside/secret.txt", Data("swap.yaml"));
+  EXPECT_THROW(dir_->WriteAtomically("swap.yaml", "x", /*replace=*/false), std::runtime_error);
+  dir_->WriteAtomically("swap.yaml", "mine");
+  EXPECT_FALSE(fs::is_symlink(Data("swap.yaml")));
+  // A link where a folder is on the way is refused.
+  fs::create_directory_symlink(root_ + "/outside", Data("via"));
+  EXPECT_THROW(dir_->WriteAtomically("via/evil.txt", "x"), std::runtime_error);
+  EXPECT_THROW(dir_->WriteAtomically("../outside/evil.txt", "x"), std::invalid_argument);
+  EXPECT_EQ(Outside(), before);
+  // A file where a folder should be makes the write fail with its reason.
+  Write(Data("blocker"), "");
+  EXPECT_THROW(dir_->WriteAtomically("blocker/a.txt", "x"), std::runtime_error);
+  // No temporary is left behind by any of this.
+  for (const auto& e : fs::recursive_directory_iterator(root_ + "/data")) {
+    EXPECT_EQ(e.path().filename().string().find(".bsf_tmp."), std::string::npos) << e.path();
+  }
+}
+
+TEST_F(DataDir, RemovesStaleTemporariesOnly) {
+  Write(Data(".a.yaml.bsf_tmp.abcdefgh"), "half");
+  Write(Data("sets/.b.npy.bsf_tmp.12345678"), "half");
+  Write(Data("sets/keep.yaml"), "name: keep");
+  EXPECT_EQ(dir_->RemoveStaleTemporaries(), 2);
+  EXPECT_TRUE(fs::exists(Data("sets/keep.yaml")));
+  EXPECT_FALSE(fs::exists(Data(".a.yaml.bsf_tmp.abcdefgh")));
+}
+
+TEST_F(DataDir, ReferenceSetYamlCannotReachOutside) {
+  const auto bad = [&](const std::string& field) {
+    Write(Data("bad.yaml"), "name: bad\ndescriptors: " + field + "\n");
+    EXPECT_THROW(LoadReferenceSetFile(*dir_, "bad.yaml", ""), std::exception) << field;
+  };
+  bad(root_ + "/outside/o.npy");  // absolute, outside
+  bad("../outside/o.npy");
+  bad("sets/../../outside/o.npy");
+  fs::create_symlink(root_ + "/outside/o.npy", Data("l.npy"));
+  bad("l.npy");
+  bad("/dev/zero");
+  // The same YAML is fine when its descriptors lie below the directory.
+  WriteNpyMatrix(Data("sets/d.npy"), testing::RandomMatrix(4, 3, 2));
+  Write(Data("sets/good.yaml"), "name: good\ndescriptors: d.npy\n");
+  EXPECT_EQ(LoadReferenceSetFile(*dir_, "sets/good.yaml", "").size(), 4);
+  Write(Data("abs.yaml"), "name: abs\ndescriptors: " + dir_->path() + "/sets/d.npy\n");
+  EXPECT_EQ(LoadReferenceSetFile(*dir_, "abs.yaml", "").size(), 4);
+}
+
+TEST_F(DataDir, SavingReplacesTheYamlAndNpyPairAsOne) {
+  ReferenceSet a = MakeReferenceSet("route", testing::RandomMatrix(5, 3, 3));
+  SaveReferenceSet(*dir_, a, "route.yaml", /*replace=*/false);
+  const std::string first_npy = LoadReferenceSetYaml(Data("route.yaml")).name;
+  EXPECT_EQ(first_npy, "route");
+  EXPECT_THROW(SaveReferenceSet(*dir_, a, "route.yaml", /*replace=*/false), std::invalid_argument);
+
+  // A save interrupted after its .npy was written (before the YAML's rename) leaves the old
+  // pair whole: the YAML still names the old descriptors, which are still there.
+  ReferenceSet b = MakeReferenceSet("route", testing::RandomMatrix(7, 3, 4));
+  dir_->WriteAtomically("route.0123456789ab.npy", EncodeNpyMatrix(b.descriptors));
+  EXPECT_TRUE(LoadReferenceSetFile(*dir_, "route.yaml", "").descriptors.isApprox(a.descriptors));
+
+  // A finished save: the new pair, and the old descriptors file is gone.
+  SaveReferenceSet(*dir_, b, "route.yaml", /*replace=*/true);
+  EXPECT_TRUE(LoadReferenceSetFile(*dir_, "route.yaml", "").descriptors.isApprox(b.descriptors));
+  int npys = 0;
+  for (const auto& e : fs::directory_iterator(root_ + "/data")) {
+    npys += e.path().extension() == ".npy" && e.path().filename() != "route.0123456789ab.npy";
+  }
+  EXPECT_EQ(npys, 1);
+
+  // A save that cannot write keeps the old pair.
+  Write(Data("blocked"), "");
+  EXPECT_THROW(SaveReferenceSet(*dir_, b, "blocked/x.yaml", true), std::runtime_error);
+  EXPECT_TRUE(LoadReferenceSetFile(*dir_, "route.yaml", "").descriptors.isApprox(b.descriptors));
+}
+
+TEST(QuotedForMessage, CutsLongInputAndEscapesControlCharacters) {
+  EXPECT_EQ(QuotedForMessage("abc"), "'abc'");
+  EXPECT_EQ(QuotedForMessage("a\nb"), "'a\\x0ab'");
+  const std::string q = QuotedForMessage(std::string(10000000, 'x'));
+  EXPECT_LT(q.size(), 250u);
+  EXPECT_NE(q.find("10000000 characters"), std::string::npos);
+  EXPECT_TRUE(IsPrintableUtf8("nacht_\xc3\xa9t\xc3\xa9"));
+  EXPECT_FALSE(IsPrintableUtf8("\xc0\xaf"));  // overlong '/'
+  EXPECT_FALSE(IsPrintableUtf8("\xed\xa0\x80"));  // surrogate
+  EXPECT_FALSE(IsPrintableUtf8("abc\xe2\x82"));  // cut short
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -131,14 +131,16 @@ DataDirectory::DataDirectory(const std::string& path, bool create) {
   if (path.empty()) throw std::runtime_error("no data directory is configured");
   std::error_code ec;
   if (create) std::filesystem::create_directories(path, ec);
-  fd_ = open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd_ < 0) throw std::runtime_error(SystemError("open the data directory", path, errno));
+  const Fd root(open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (root.get() < 0) throw std::runtime_error(SystemError("open the data directory", path, errno));
   path_ = std::filesystem::canonical(path, ec).string();
   if (ec) path_ = std::filesystem::absolute(path).lexically_normal().string();
 }
 
-DataDirectory::~DataDirectory() {
-  if (fd_ >= 0) close(fd_);
+int DataDirectory::OpenRoot() const {
+  const int fd = open(path_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error(SystemError("open the data directory", path_, errno));
+  return fd;
 }
 
 std::string DataDirectory::Relative(const std::string& request) const {
@@ -185,7 +187,8 @@ std::string DataDirectory::Relative(const std::string& request) const {
 
 std::string DataDirectory::Read(const std::string& relative) const {
   const std::vector<std::string> parts = Split(Relative(relative));
-  const Fd dir = OpenParent(fd_, parts, relative, false);
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
   const Fd file(openat(dir.get(), parts.back().c_str(),
                        O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
   if (file.get() < 0) {
@@ -217,7 +220,8 @@ std::string DataDirectory::Read(const std::string& relative) const {
 bool DataDirectory::Exists(const std::string& relative) const {
   const std::vector<std::string> parts = Split(Relative(relative));
   try {
-    const Fd dir = OpenParent(fd_, parts, relative, false);
+    const Fd root(OpenRoot());
+    const Fd dir = OpenParent(root.get(), parts, relative, false);
     struct stat st;
     return fstatat(dir.get(), parts.back().c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0;
   } catch (const std::runtime_error&) {
@@ -228,7 +232,8 @@ bool DataDirectory::Exists(const std::string& relative) const {
 void DataDirectory::WriteAtomically(const std::string& relative, const std::string& bytes,
                                     bool replace) const {
   const std::vector<std::string> parts = Split(Relative(relative));
-  const Fd dir = OpenParent(fd_, parts, relative, true);
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, true);
   const std::string& name = parts.back();
   std::string tmp;
   int raw = -1;
@@ -269,13 +274,17 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
 
 void DataDirectory::Remove(const std::string& relative) const {
   const std::vector<std::string> parts = Split(Relative(relative));
-  const Fd dir = OpenParent(fd_, parts, relative, false);
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
   if (unlinkat(dir.get(), parts.back().c_str(), 0) != 0 && errno != ENOENT) {
     throw std::runtime_error(SystemError("remove", relative, errno));
   }
 }
 
-int DataDirectory::RemoveStaleTemporaries() const { return RemoveTemporariesBelow(fd_); }
+int DataDirectory::RemoveStaleTemporaries() const {
+  const Fd root(OpenRoot());
+  return RemoveTemporariesBelow(root.get());
+}
 
 std::string QuotedForMessage(const std::string& text, size_t max_chars) {
   std::string out = "'";

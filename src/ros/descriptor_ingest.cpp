@@ -76,6 +76,54 @@ IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
   return p;
 }
 
+std::string ImageProblem(const sensor_msgs::Image& m) {
+  constexpr uint64_t kMaxSide = 1 << 15;
+  if (m.width == 0 || m.height == 0) return "empty image (" + std::to_string(m.width) + " x " +
+                                            std::to_string(m.height) + ")";
+  if (m.width > kMaxSide || m.height > kMaxSide) {
+    return "image of " + std::to_string(m.width) + " x " + std::to_string(m.height) +
+           " pixels is larger than " + std::to_string(kMaxSide) + " a side";
+  }
+  uint64_t channels = 0, bits = 0;
+  try {
+    channels = static_cast<uint64_t>(sensor_msgs::image_encodings::numChannels(m.encoding));
+    bits = static_cast<uint64_t>(sensor_msgs::image_encodings::bitDepth(m.encoding));
+  } catch (const std::exception&) {
+    return "unknown image encoding '" + m.encoding.substr(0, 40) + "'";
+  }
+  const uint64_t row_bytes = static_cast<uint64_t>(m.width) * channels * ((bits + 7) / 8);
+  if (row_bytes == 0) return "unknown image encoding '" + m.encoding.substr(0, 40) + "'";
+  if (static_cast<uint64_t>(m.step) < row_bytes) {
+    return "step " + std::to_string(m.step) + " is shorter than a row of " +
+           std::to_string(m.width) + " " + m.encoding + " pixels (" + std::to_string(row_bytes) +
+           " bytes)";
+  }
+  const uint64_t need = static_cast<uint64_t>(m.step) * m.height;
+  if (need > m.data.size()) {
+    return "image data holds " + std::to_string(m.data.size()) + " bytes, step x height needs " +
+           std::to_string(need);
+  }
+  return "";
+}
+
+Descriptor::Ptr FromFloat32MultiArray(const std_msgs::Float32MultiArray& array) {
+  int long_dims = 0;
+  for (const std_msgs::MultiArrayDimension& d : array.layout.dim) long_dims += d.size > 1;
+  if (long_dims > 1) {
+    throw std::invalid_argument("a Float32MultiArray descriptor must be 1-D, got " +
+                                std::to_string(array.layout.dim.size()) + " dimensions");
+  }
+  if (array.layout.data_offset > array.data.size()) {
+    throw std::invalid_argument("Float32MultiArray data_offset " +
+                                std::to_string(array.layout.data_offset) + " lies beyond its " +
+                                std::to_string(array.data.size()) + " values");
+  }
+  auto out = boost::make_shared<Descriptor>();
+  out->header.stamp = ros::Time::now();  // the array carries no stamp: its time of arrival
+  out->data.assign(array.data.begin() + array.layout.data_offset, array.data.end());
+  return out;
+}
+
 DescriptorIngest::DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(std::move(nh)), pnh_(std::move(pnh)), it_(nh_) {}
 
@@ -110,8 +158,10 @@ void DescriptorIngest::UpdateSubscription() {
     if (params_.input == "image") {
       image_sub_ = it_.subscribe(names::kImageTopic, q, &DescriptorIngest::OnImage, this);
     } else {
-      descriptor_sub_ =
-          nh_.subscribe(names::kExternalDescriptorTopic, q, &DescriptorIngest::OnDescriptor, this);
+      // Any type: bsf_vpr/Descriptor and std_msgs/Float32MultiArray are told apart per
+      // message, and a publisher of another type is reported rather than silently unheard.
+      descriptor_sub_ = nh_.subscribe(names::kExternalDescriptorTopic, q,
+                                      &DescriptorIngest::OnAnyDescriptor, this);
     }
   } else if (!wanted && subscribed) {
     image_sub_.shutdown();
@@ -128,6 +178,8 @@ void DescriptorIngest::Reject(const std::string& why) {
 
 void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   auto out = boost::make_shared<Descriptor>();
+  const std::string problem = ImageProblem(*msg);
+  if (!problem.empty()) return Reject("bad image: " + problem);
   try {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
@@ -141,6 +193,28 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   out->header = msg->header;
   out->descriptor_type = params_.descriptor_type;
   ValidateAndPublish(out);
+}
+
+void DescriptorIngest::OnAnyDescriptor(const topic_tools::ShapeShifter::ConstPtr& msg) {
+  const std::string type = msg->getDataType();
+  try {
+    if (type == ros::message_traits::DataType<Descriptor>::value()) {
+      return OnDescriptor(msg->instantiate<Descriptor>());
+    }
+    if (type == ros::message_traits::DataType<std_msgs::Float32MultiArray>::value()) {
+      Descriptor::Ptr out = FromFloat32MultiArray(*msg->instantiate<std_msgs::Float32MultiArray>());
+      out->descriptor_type = params_.descriptor_type;
+      return ValidateAndPublish(out);
+    }
+  } catch (const std::exception& e) {
+    return Reject(std::string("bad descriptor message: ") + e.what());
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    wrong_type_ = type;
+  }
+  Reject("the input topic carries " + type +
+         "; expected bsf_vpr/Descriptor or std_msgs/Float32MultiArray");
 }
 
 void DescriptorIngest::OnDescriptor(const Descriptor::ConstPtr& msg) {
@@ -194,8 +268,29 @@ void DescriptorIngest::Published(const Descriptor::ConstPtr& out) {
 }
 
 void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  // A publisher whose type differs from the image input's never connects (roscpp refuses
+  // the connection), so it is looked up on the master.
+  std::string image_type_problem;
+  if (params_.input == "image") {
+    ros::master::V_TopicInfo topics;
+    const std::string topic = nh_.resolveName(names::kImageTopic);
+    if (ros::master::getTopics(topics)) {
+      for (const ros::master::TopicInfo& t : topics) {
+        if (t.name == topic && t.datatype != "sensor_msgs/Image") {
+          image_type_problem = "the input topic " + topic + " is published as " + t.datatype +
+                               "; expected sensor_msgs/Image";
+        }
+      }
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (rejected_ > 0) {
+  if (!image_type_problem.empty() || !wrong_type_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   !image_type_problem.empty()
+                       ? image_type_problem
+                       : "the input topic carries " + wrong_type_ +
+                             "; expected bsf_vpr/Descriptor or std_msgs/Float32MultiArray");
+  } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %ld bad input(s): %s",
                     rejected_, last_rejection_.c_str());
   } else {
@@ -206,6 +301,7 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   status.add("dropped", rejected_);
   status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));
   rejected_ = 0;
+  wrong_type_.clear();
 }
 
 }  // namespace bsf_vpr

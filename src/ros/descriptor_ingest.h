@@ -1,7 +1,10 @@
 // descriptor_ingest: turns images (described with the core's patch-normalised image
 // descriptor) or descriptor messages from another node (NetVLAD, ...) into validated
 // bsf_vpr/Descriptor messages: non-empty, finite, of the expected dimension, optionally
-// L2-normalised. Bad input is dropped with a throttled error and counted in diagnostics.
+// L2-normalised. Descriptors may come as bsf_vpr/Descriptor or std_msgs/Float32MultiArray
+// (a 1-D array, as a Python node publishes it) on the same topic. Bad input (an image whose
+// sizes do not fit its data, a message of another type) is dropped with a throttled error
+// and counted in diagnostics.
 // It subscribes to its input only while someone listens to its output (a pure transform).
 #pragma once
 
@@ -9,6 +12,9 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
+#include <sensor_msgs/Image.h>
+#include <std_msgs/Float32MultiArray.h>
+#include <topic_tools/shape_shifter.h>
 
 #include <memory>
 #include <mutex>
@@ -30,6 +36,15 @@ struct IngestParams {
 // Reads and validates ~ parameters; throws std::invalid_argument naming a bad or unknown one.
 IngestParams LoadIngestParams(const ros::NodeHandle& pnh);
 
+// Why an image message cannot be converted safely ("" if it can): zero or huge sizes, an
+// unknown encoding, a step shorter than a row, or less data than step x height. Computed in
+// 64 bits, before any conversion reads the data.
+std::string ImageProblem(const sensor_msgs::Image& image);
+
+// The descriptor in a std_msgs/Float32MultiArray: its data after data_offset, which must be
+// a 1-D array (at most one dimension of size > 1). Throws std::invalid_argument otherwise.
+Descriptor::Ptr FromFloat32MultiArray(const std_msgs::Float32MultiArray& array);
+
 class DescriptorIngest {
  public:
   DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -38,6 +53,7 @@ class DescriptorIngest {
  private:
   void UpdateSubscription();
   void OnImage(const sensor_msgs::ImageConstPtr& msg);
+  void OnAnyDescriptor(const topic_tools::ShapeShifter::ConstPtr& msg);
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
   void ValidateAndPublish(const Descriptor::Ptr& out);
@@ -59,6 +75,7 @@ class DescriptorIngest {
   ros::Timer diagnostics_timer_;
   long published_ = 0, rejected_ = 0;
   std::string last_rejection_;
+  std::string wrong_type_;  // the input topic's type, when a publisher offers another one
 };
 
 }  // namespace bsf_vpr

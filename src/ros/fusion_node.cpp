@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include "belief_markers.h"
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
@@ -16,31 +17,68 @@ namespace bsf_vpr {
 FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
 
-ReferenceSet FusionNode::LoadEntry(const ReferenceSetEntry& entry,
-                                   const std::string& base_dir) const {
-  const std::string path = ResolvePath(base_dir, entry.path);
-  ReferenceSet set = LoadReferenceSetFile(path, entry.name);
-  if (!entry.condition.empty()) set.condition = entry.condition;
+FusionNode::~FusionNode() {
+  if (load_spinner_) load_spinner_->stop();
+}
+
+void FusionNode::CheckDistance(const ReferenceSet& set, const std::string& where) const {
   const std::string metric = ToString(params_.recognizer.metric);
   if (!set.distance.empty() && set.distance != metric) {
-    throw std::invalid_argument("reference set '" + set.name + "' (" + path + ") is meant for " +
+    throw std::invalid_argument("reference set '" + set.name + "' (" + where + ") is meant for " +
                                 set.distance + " distance, the node uses " + metric);
   }
-  return set;
 }
 
 void FusionNode::Start() {
   params_ = LoadFusionParams(pnh_);
-  // Config paths are relative to the data directory when one is set.
+  if (!params_.data_directory.empty()) {
+    data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
+    const int stale = data_dir_->RemoveStaleTemporaries();
+    if (stale > 0) {
+      ROS_WARN("bsf_vpr: removed %d temporary file(s) left in %s by an interrupted save", stale,
+               data_dir_->path().c_str());
+    }
+  }
+  // Config paths are relative to the data directory when one is set. The configuration is
+  // the operator's own file: its paths are not confined like service requests.
   const std::string base = params_.data_directory.empty() ? "." : params_.data_directory;
-  recognizer_.SetStoragePrecision(params_.storage);
+  std::vector<std::pair<ReferenceSet, std::string>> sets;
   for (const ReferenceSetEntry& e : params_.reference_sets) {
-    recognizer_.AddReferenceSet(LoadEntry(e, base));
+    const std::string path = ResolvePath(base, e.path);
+    ReferenceSet set = LoadReferenceSetFile(path, e.name);
+    if (!e.condition.empty()) set.condition = e.condition;
+    sets.emplace_back(std::move(set), path);
+  }
+  if (!params_.distance_given) {
+    // No distance configured: the one the sets were made for, if they agree on one.
+    std::string declared;
+    for (const auto& [set, path] : sets) {
+      if (set.distance.empty()) continue;
+      if (!declared.empty() && set.distance != declared) {
+        throw std::invalid_argument("the reference sets are meant for different distances (" +
+                                    declared + " and " + set.distance + " for '" + set.name +
+                                    "'); set the parameter distance");
+      }
+      declared = set.distance;
+    }
+    if (!declared.empty()) params_.recognizer.metric = ParseDistanceMetric(declared);
+  }
+  recognizer_.SetStoragePrecision(params_.storage);
+  for (auto& [set, path] : sets) {
+    CheckDistance(set, path);
+    recognizer_.AddReferenceSet(std::move(set));
     const ReferenceSet& s = recognizer_.map().sets().back();
     ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name.c_str(),
              s.size(), s.dimension(), ToString(s.store.precision).c_str());
   }
   recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
+  const Method& method = recognizer_.method();
+  if (!method.IsBayesian() && !method.sequence &&
+      params_.recognizer.method_options.max_match_distance == 0) {
+    ROS_WARN("bsf_vpr: method %s is gated by max_match_distance, which is 0: only a query "
+             "identical to a reference is accepted; set it to the largest distance to accept",
+             params_.recognizer.method.c_str());
+  }
 
   belief_pub_ = nh_.advertise<Belief>(names::kBeliefTopic, 10);
   match_pub_ = nh_.advertise<Match>(names::kMatchTopic, 10);
@@ -48,8 +86,19 @@ void FusionNode::Start() {
   if (params_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
-  services_.push_back(
-      nh_.advertiseService(names::kLoadReferenceSetService, &FusionNode::OnLoad, this));
+  {
+    // Its own queue and thread: reading a large set must not hold up the descriptors.
+    ros::AdvertiseServiceOptions load =
+        ros::AdvertiseServiceOptions::create<LoadReferenceSet>(
+            names::kLoadReferenceSetService,
+            [this](LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
+              return OnLoad(req, res);
+            },
+            ros::VoidConstPtr(), &load_queue_);
+    services_.push_back(nh_.advertiseService(load));
+    load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
+    load_spinner_->start();
+  }
   services_.push_back(
       nh_.advertiseService(names::kUnloadReferenceSetService, &FusionNode::OnUnload, this));
   services_.push_back(nh_.advertiseService(names::kQueryPlaceService, &FusionNode::OnQuery, this));
@@ -93,6 +142,19 @@ void FusionNode::RejectMessage(const std::string& why) {
   ROS_ERROR_THROTTLE(1.0, "bsf_vpr: dropped a descriptor: %s", why.c_str());
 }
 
+void FusionNode::CheckDescriptorType(const std::string& type) {
+  if (type.empty()) return;
+  for (const ReferenceSet& s : recognizer_.map().sets()) {
+    if (!s.descriptor_type.empty() && s.descriptor_type != type) {
+      type_mismatch_ = "descriptors of type " + QuotedForMessage(type, 60) + " meet set '" +
+                       s.name + "' of type '" + s.descriptor_type + "'";
+      ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
+                        type_mismatch_.c_str());
+      return;
+    }
+  }
+}
+
 void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
@@ -100,15 +162,17 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   if (recorder_.recording()) {
     try {
       recorder_.Add(d);
+      if (!msg->descriptor_type.empty()) recording_descriptor_type_ = msg->descriptor_type;
     } catch (const std::exception& e) {
+      // Reported; recognition goes on (a recording must not stop localisation).
       RejectMessage(std::string("recording: ") + e.what());
-      return;
     }
   }
   if (recognizer_.map().num_sets() == 0) {
     if (!recorder_.recording()) RejectMessage("no reference set is loaded");
     return;
   }
+  CheckDescriptorType(msg->descriptor_type);
   Recognition r;
   try {
     r = recognizer_.Recognize(d, true, OdometryStep(msg->header.stamp));
@@ -209,6 +273,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
     o.method_options.selection.rule = ParseSelectionRule(config.selection);
     o.method_options.likelihood.variant = ParseLikelihoodVariant(config.likelihood);
     o.method_options.threshold = MakeThreshold(config.threshold, config.threshold_kind);
+    o.method_options.max_match_distance = config.max_match_distance;
     o.carry_prior = config.carry_prior;
     o.prior_uniform_fraction = config.prior_uniform_fraction;
     recognizer_.SetOptions(o);
@@ -228,6 +293,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   config.threshold_kind = now.method_options.threshold.kind == Threshold::Kind::kProbability
                               ? "probability"
                               : "log_odds";
+  config.max_match_distance = now.method_options.max_match_distance;
   config.carry_prior = now.carry_prior;
   config.prior_uniform_fraction = now.prior_uniform_fraction;
 }
@@ -242,6 +308,8 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
                     rejected_, last_rejection_.c_str());
   } else if (map.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
+  } else if (!type_mismatch_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "recognising places");
   }
@@ -250,6 +318,8 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("max processing time (ms)", 1e3 * processing_s_max_);
   status.add("dropped descriptors", rejected_);
   status.add("method", recognizer_.options().method);
+  status.add("distance", ToString(recognizer_.options().metric));
+  status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
   for (const ReferenceSet& s : map.sets()) {
@@ -262,6 +332,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());
   }
   processed_ = rejected_ = 0;
+  type_mismatch_.clear();
   processing_s_sum_ = processing_s_max_ = 0;
   last_diagnostics_ = now;
 }

@@ -5,7 +5,8 @@
 //
 // Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
 // Every callback takes mutex_: services and reconfiguration may run while descriptors
-// stream in, from any thread.
+// stream in, from any thread. load_reference_set runs on a queue and thread of its own and
+// reads its files without the lock, so a large load never stops recognition.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
@@ -20,7 +21,9 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -32,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/reference_recorder.h"
 #include "fusion_params.h"
@@ -41,6 +45,7 @@ namespace bsf_vpr {
 class FusionNode {
  public:
   FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~FusionNode();
 
   // Reads the parameters and loads the configured reference sets, then starts listening.
   // Throws std::exception with a message naming the problem if the node cannot start.
@@ -65,13 +70,22 @@ class FusionNode {
   bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res);
   bool OnStatistics(GetSelectionStatistics::Request& req, GetSelectionStatistics::Response& res);
 
-  ReferenceSet LoadEntry(const ReferenceSetEntry& entry, const std::string& base_dir) const;
+  // Refuses a set meant for another distance than the node's.
+  void CheckDistance(const ReferenceSet& set, const std::string& where) const;
+  // Warns (log and diagnostics) when a descriptor's type differs from the loaded sets'.
+  void CheckDescriptorType(const std::string& type);
 
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;
   std::mutex mutex_;
   PlaceRecognizer recognizer_;
   ReferenceRecorder recorder_;
+  bool recording_overwrite_ = false;  // the recording may replace a set on disk
+  std::string recording_descriptor_type_;
+  std::unique_ptr<DataDirectory> data_dir_;  // null: the file services are off
+  // load_reference_set's own queue and thread.
+  ros::CallbackQueue load_queue_;
+  std::unique_ptr<ros::AsyncSpinner> load_spinner_;
 
   ros::Subscriber descriptor_sub_;
   ros::Publisher belief_pub_, match_pub_, marker_pub_;
@@ -90,6 +104,7 @@ class FusionNode {
   int processed_ = 0, rejected_ = 0;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string last_rejection_;
+  std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
   // Per set name, since start or the last statistics reset.
   std::map<std::string, long> selected_count_, best_count_, supplied_count_;
   long total_processed_ = 0;

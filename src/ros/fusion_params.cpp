@@ -66,6 +66,7 @@ const std::vector<std::string>& FusionParamNames() {
                                                   "likelihood",
                                                   "threshold",
                                                   "threshold_kind",
+                                                  "max_match_distance",
                                                   "carry_prior",
                                                   "prior_uniform_fraction",
                                                   "top_k",
@@ -134,7 +135,9 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   RecognizerOptions& r = p.recognizer;
   p.reference_sets = LoadReferenceSetEntries(pnh);
   p.data_directory = GetParam<std::string>(pnh, "data_directory", "");
-  r.metric = ParseDistanceMetric(GetParam<std::string>(pnh, "distance", "euclidean"));
+  const std::string distance = GetParam<std::string>(pnh, "distance", "");
+  p.distance_given = !distance.empty();
+  r.metric = ParseDistanceMetric(p.distance_given ? distance : "euclidean");
   p.storage = ParseStoragePrecision(GetParam<std::string>(pnh, "storage", "float32"));
   r.method = GetParam<std::string>(pnh, "method", r.method);
   r.method_options.selection.gamma_fraction =
@@ -146,6 +149,8 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   r.method_options.threshold =
       MakeThreshold(GetParam<double>(pnh, "threshold", 0.9),
                     GetParam<std::string>(pnh, "threshold_kind", "probability"));
+  r.method_options.max_match_distance =
+      GetParam<double>(pnh, "max_match_distance", r.method_options.max_match_distance);
   r.method_options.top_k = GetParam<int>(pnh, "top_k", r.method_options.top_k);
   r.carry_prior = GetParam<bool>(pnh, "carry_prior", r.carry_prior);
   r.prior_uniform_fraction =

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <filesystem>
 
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "conversions.h"
@@ -18,11 +19,16 @@ bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response
 }
 
 bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
+  // Runs on the load queue's own thread: the files are read without the lock, so
+  // descriptors keep flowing meanwhile; only adding the set takes it.
   try {
-    // Read the files without holding the lock: descriptors keep flowing meanwhile.
-    const std::string path = ResolveBelowDirectory(params_.data_directory, req.path);
-    ReferenceSet set = LoadEntry({req.name, path, req.condition}, params_.data_directory);
+    if (!data_dir_) {
+      throw std::invalid_argument("no data directory is configured (parameter data_directory)");
+    }
+    ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
+    if (!req.condition.empty()) set.condition = req.condition;
     std::lock_guard<std::mutex> lock(mutex_);
+    CheckDistance(set, data_dir_->Relative(req.path));
     if (recorder_.recording() && recorder_.name() == set.name) {
       throw std::invalid_argument("a reference set named '" + set.name + "' is being recorded");
     }
@@ -43,6 +49,10 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
 bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
+    if (recognizer_.map().IndexOf(req.name) < 0) {
+      throw std::invalid_argument("no reference set named " + QuotedForMessage(req.name) +
+                                  " is loaded");
+    }
     recognizer_.RemoveReferenceSet(req.name);
     selected_count_.erase(req.name);
     best_count_.erase(req.name);
@@ -102,15 +112,49 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
   return true;
 }
 
+namespace {
+
+// The YAML a recording named `name` is saved to, below `dir`. Throws std::invalid_argument
+// for a name that is not a plain path of printable parts.
+std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
+  if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
+  if (!IsPrintableUtf8(name)) {
+    throw std::invalid_argument("recording name " + QuotedForMessage(name) +
+                                " holds a control character or invalid UTF-8");
+  }
+  size_t start = 0;
+  for (;;) {
+    const size_t slash = name.find('/', start);
+    const std::string part = name.substr(start, slash == std::string::npos ? slash : slash - start);
+    if (part.empty() || part == "." || part == "..") {
+      throw std::invalid_argument("recording name " + QuotedForMessage(name) +
+                                  " has an empty, '.' or '..' part");
+    }
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  return dir.Relative(name + ".yaml");
+}
+
+}  // namespace
+
 bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
+    if (!data_dir_) {
+      throw std::invalid_argument("no data directory is configured (parameter data_directory)");
+    }
+    const std::string path = RecordingPath(*data_dir_, req.name);
     if (recognizer_.map().IndexOf(req.name) >= 0) {
       throw std::invalid_argument("a reference set named '" + req.name + "' is already loaded");
     }
-    // The file it will be saved to must lie below the data directory.
-    ResolveBelowDirectory(params_.data_directory, req.name + ".yaml");
+    if (data_dir_->Exists(path) && !req.overwrite) {
+      throw std::invalid_argument("'" + path + "' exists in the data directory; choose another " +
+                                  "name, or set overwrite to replace it");
+    }
     recorder_.Start(req.name, req.condition, recognizer_.map().dimension());
+    recording_overwrite_ = req.overwrite;
+    recording_descriptor_type_.clear();
     res.success = true;
     res.message = "recording '" + req.name + "'";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -132,20 +176,38 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
       res.message = "discarded " + std::to_string(res.num_descriptors) + " descriptors";
       return true;
     }
-    const std::string path =
-        ResolveBelowDirectory(params_.data_directory, recorder_.name() + ".yaml");
-    ReferenceSet set = recorder_.Finish();  // throws (and keeps recording) if nothing arrived
+    const std::string path = RecordingPath(*data_dir_, recorder_.name());
+    // Built, saved, and only then forgotten: a save that fails keeps the recording, so the
+    // caller can free space or fix the folder and call again.
+    ReferenceSet set = recorder_.Build(recording_descriptor_type_);  // throws if empty
     set.distance = ToString(params_.recognizer.metric);
-    SaveReferenceSet(set, path);
-    recognizer_.AddReferenceSet(std::move(set));
+    try {
+      SaveReferenceSet(*data_dir_, set, path, recording_overwrite_);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string("saving failed, the recording of ") +
+                               std::to_string(res.num_descriptors) +
+                               " descriptors is kept (call again to retry, or discard): " +
+                               e.what());
+    }
+    recorder_.Discard();
+    res.path = data_dir_->path() + "/" + path;
+    try {
+      recognizer_.AddReferenceSet(std::move(set));
+    } catch (const std::exception& e) {
+      res.success = true;
+      res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " +
+                    res.path + " but did not load them: " + e.what();
+      ROS_WARN("bsf_vpr: %s", res.message.c_str());
+      return true;
+    }
     res.success = true;
-    res.path = path;
-    res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + path +
-                  " and loaded them";
+    res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " +
+                  res.path + " and loaded them";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
+    ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;
 }

@@ -259,8 +259,10 @@ class FusionServices(unittest.TestCase):
         self.assertTrue(r.success, r.message)
         self.assertEqual(r.num_descriptors, 30)
         self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.yaml")))
-        self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.npy")))
-        saved = np.load(os.path.join(self.data_dir, "tonight.npy"))
+        with open(os.path.join(self.data_dir, "tonight.yaml")) as f:
+            npy = [l.split(":", 1)[1].strip() for l in f if l.startswith("descriptors:")][0]
+        self.assertRegex(npy, r"^tonight\.[0-9a-f]{12}\.npy$")  # named by its content
+        saved = np.load(os.path.join(self.data_dir, npy))
         np.testing.assert_allclose(saved, self.night[:30], rtol=1e-6)
         info = [s for s in self.list().sets if s.name == "tonight"][0]
         self.assertEqual(info.condition, "night")

@@ -1,10 +1,12 @@
 // A folder that requests from the outside world (service calls, YAML fields they lead to)
 // may read and write below, and nowhere else.
 //
-// The folder is opened once; every later access walks from that handle one path component
-// at a time with openat(O_NOFOLLOW), so a symbolic link below the folder is never followed
-// and a link swapped in between a check and a use cannot redirect a read or a write: the
-// path is checked at the moment the file is opened. ".." is resolved lexically and may not
+// Every access opens the folder (by its path: links in the folder's own path are the
+// operator's choice) and walks from that handle one path component at a time with
+// openat(O_NOFOLLOW), so a symbolic link below the folder is never followed and a link
+// swapped in between a check and a use cannot redirect a read or a write: the path is
+// checked at the moment the file is opened. (The folder may be emptied or recreated while
+// a node runs.) ".." is resolved lexically and may not
 // climb above the folder. Reads accept only regular files (opened non-blocking, so a FIFO
 // cannot hang the caller). Writes go to a temporary file beside the target, are flushed and
 // renamed into place below the same handle.
@@ -22,7 +24,6 @@ class DataDirectory {
   // operator's decision). With `create`, missing folders are made first (mode 0755).
   // Throws std::runtime_error naming the folder if it cannot be opened.
   explicit DataDirectory(const std::string& path, bool create = false);
-  ~DataDirectory();
   DataDirectory(const DataDirectory&) = delete;
   DataDirectory& operator=(const DataDirectory&) = delete;
 
@@ -58,7 +59,8 @@ class DataDirectory {
   int RemoveStaleTemporaries() const;
 
  private:
-  int fd_ = -1;
+  int OpenRoot() const;  // a new handle on the folder; the caller closes it
+
   std::string path_;
 };
 

@@ -43,8 +43,9 @@ struct SequenceOptions {
 // compared with the maximum of m = n x hypotheses_per_place standard normals (the
 // sequences searched, each place's best over the velocities, where nothing matches):
 // P = Phi(z)^m, and the result is log(P / (1 - P)). So a threshold h given as a probability
-// means "P(the best sequence is no accident) > h" for every base method (approximately:
-// the null treats the searched sequences as independent, which makes it conservative).
+// means "P(the best sequence is no accident) > h" for every base method, under an idealised
+// null: real routes alias along their length and consecutive queries are correlated, so the
+// nominal P is optimistic there (README gives the precision measured at several h).
 // -infinity for an impossible best place; 0 with fewer than two candidate places.
 double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
                             int hypotheses_per_place = 1);

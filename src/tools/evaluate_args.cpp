@@ -40,10 +40,11 @@ Ground truth (one of):
 
 Methods and parameters:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
-                          nn:<set>, bayes:<set>; or 'all' (default: all, with nn: and
-                          bayes: for every set). Suffixes over time (queries in traversal
-                          order): +filter (temporal filter prior, Bayesian methods) and
-                          +seq (sequence matching), e.g. bsf+seq, nn:winter+seq, bsf+filter
+                          nn:<set>, bayes:<set>, and 'all' (every one of these, with nn:
+                          and bayes: for every set; the default). Suffixes over time
+                          (queries in traversal order): +filter (temporal filter prior,
+                          Bayesian methods) and +seq (sequence matching), e.g. bsf+seq,
+                          nn:winter+seq, all,bsf+filter. A repeated method runs once.
   --gamma G               selection fraction gamma (default 0.04)
   --selection relative|standardized   selection rule (default relative)
   --likelihood one_sided|two_sided    likelihood variant (default one_sided)

@@ -151,6 +151,37 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
   EXPECT_NE(clash.output.find("cosine"), std::string::npos) << clash.output;
 }
 
+TEST_F(EvaluateTool, AllCombinesWithOtherMethodsAndRepeatsRunOnce) {
+  const std::string in = "--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                         "night_right.npy --distance cosine --tolerance 3 --no-progress";
+  auto methods = [&](const std::string& out) {
+    std::vector<std::string> names;
+    for (const std::string& line : Lines(out + "/summary.csv"))
+      names.push_back(line.substr(0, line.find(',')));
+    return std::vector<std::string>(names.begin() + (names.empty() ? 0 : 1), names.end());
+  };
+  const Result all = Evaluate(in + " --methods all --out " + dir_ + "/all");
+  ASSERT_EQ(all.exit_code, 0) << all.output;
+  const std::vector<std::string> every = methods(dir_ + "/all");
+  ASSERT_EQ(every.size(), 6u);  // M = 1
+  const Result plus = Evaluate(in + " --methods all,bsf+filter --out " + dir_ + "/plus");
+  ASSERT_EQ(plus.exit_code, 0) << plus.output;
+  std::vector<std::string> expected = every;
+  expected.push_back("bsf+filter");
+  EXPECT_EQ(methods(dir_ + "/plus"), expected);
+  // Repeats (also through 'all') run once, where they first appear.
+  const Result dup = Evaluate(in + " --methods nn:day,bsf+filter,all,nn:day,bsf+filter --out " +
+                              dir_ + "/dup");
+  ASSERT_EQ(dup.exit_code, 0) << dup.output;
+  expected = {"nn:day", "bsf+filter"};
+  for (const std::string& m : every)
+    if (m != "nn:day") expected.push_back(m);
+  EXPECT_EQ(methods(dir_ + "/dup"), expected);
+  const Result bad = Evaluate(in + " --methods all,bsf+fliter");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("+fliter"), std::string::npos) << bad.output;
+}
+
 TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
   // 200 places 1 m apart along x; the query traversal is offset by 0.4 m.
   ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");

@@ -22,7 +22,9 @@ Inputs (either descriptors, or precomputed per-source matrices):
                           one source (lower is better). Repeatable.
   --similarities NAME=PATH  the same with similarities (higher is better); they become
                           distances c - s with c = max(1, largest similarity of all sources)
-  --distance euclidean|cosine   distance between descriptors (default euclidean)
+  --distance euclidean|cosine   distance between descriptors (default: the distance the
+                          reference-set YAMLs declare when they agree, else euclidean; sets
+                          that declare another distance than this are refused)
   --storage float32|float16|int8  precision the reference descriptors are held at
                           (default float32; float16 halves and int8 quarters their bytes)
   --results-bag PATH      instead: the beliefs a node published during a replay (recorded by

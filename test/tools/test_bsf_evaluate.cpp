@@ -146,9 +146,63 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
   EXPECT_EQ(Summary(dir_ + "/o").at("bsf").at("n_queries"), 200);
   // The sidecar says cosine: asking for euclidean is refused rather than silently mixed.
   const Result clash = Evaluate("--reference day=" + dir_ + "/day.yaml --query " + kGardens +
-                                "night_right.npy --tolerance 1");
+                                "night_right.npy --tolerance 1 --distance euclidean");
   EXPECT_EQ(clash.exit_code, 2);
-  EXPECT_NE(clash.output.find("cosine"), std::string::npos) << clash.output;
+  EXPECT_NE(clash.output.find("meant for cosine distance but --distance is euclidean"),
+            std::string::npos)
+      << clash.output;
+}
+
+TEST_F(EvaluateTool, TheDistanceTheSetsDeclareIsTheDefault) {
+  ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
+  day.distance = "cosine";
+  SaveReferenceSet(day, dir_ + "/day.yaml");
+  const std::string in = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                         "night_right.npy --tolerance 3 --methods bsf --no-progress --out ";
+  const Result declared = Evaluate(in + dir_ + "/declared");
+  ASSERT_EQ(declared.exit_code, 0) << declared.output;
+  EXPECT_NE(declared.output.find("cosine distance (--distance not given: declared by reference "
+                                 "set 'day' (" + dir_ + "/day.yaml))"),
+            std::string::npos)
+      << declared.output;
+  ASSERT_EQ(Evaluate(in + dir_ + "/cosine --distance cosine").exit_code, 0);
+  // An explicit --distance is still checked against the sidecar.
+  EXPECT_EQ(Evaluate(in + dir_ + "/euclidean --distance euclidean").exit_code, 2);
+  EXPECT_EQ(Lines(dir_ + "/declared/matches/bsf.csv"), Lines(dir_ + "/cosine/matches/bsf.csv"));
+  // A set (or query) without a declaration fits the declared distance; no declaration at
+  // all keeps euclidean, and says so.
+  const Result mixed = Evaluate("--reference plain=" + kGardens + "day_left.npy " + in + dir_ +
+                                "/mixed");
+  ASSERT_EQ(mixed.exit_code, 0) << mixed.output;
+  EXPECT_NE(mixed.output.find("cosine distance (--distance not given"), std::string::npos)
+      << mixed.output;
+  const Result none = Evaluate("--reference plain=" + kGardens + "day_left.npy --query " +
+                               kGardens + "night_right.npy --tolerance 3 --methods bsf " +
+                               "--no-progress");
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  EXPECT_NE(none.output.find("euclidean distance (the default"), std::string::npos)
+      << none.output;
+  // Sets that declare different distances: refused, naming both, unless --distance decides
+  // (and then the set meant for the other distance is refused by name).
+  ReferenceSet night = LoadReferenceSetNpy(kGardens + "night_right.npy", "night");
+  night.distance = "euclidean";
+  SaveReferenceSet(night, dir_ + "/night.yaml");
+  const Result clash = Evaluate("--reference day=" + dir_ + "/day.yaml --reference night=" +
+                                dir_ + "/night.yaml --query " + kGardens +
+                                "night_right.npy --tolerance 3");
+  EXPECT_EQ(clash.exit_code, 2);
+  EXPECT_NE(clash.output.find("reference set 'day' (" + dir_ + "/day.yaml) declares cosine "
+                              "distance but reference set 'night' (" + dir_ +
+                              "/night.yaml) declares euclidean"),
+            std::string::npos)
+      << clash.output;
+  EXPECT_EQ(std::count(clash.output.begin(), clash.output.end(), '\n'), 1) << clash.output;
+  const Result query_clash = Evaluate("--reference day=" + dir_ + "/day.yaml --query " + dir_ +
+                                      "/night.yaml --tolerance 3");
+  EXPECT_EQ(query_clash.exit_code, 2);
+  EXPECT_NE(query_clash.output.find("query '" + dir_ + "/night.yaml' declares euclidean"),
+            std::string::npos)
+      << query_clash.output;
 }
 
 TEST_F(EvaluateTool, AllCombinesWithOtherMethodsAndRepeatsRunOnce) {

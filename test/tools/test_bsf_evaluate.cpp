@@ -236,6 +236,48 @@ TEST_F(EvaluateTool, AllCombinesWithOtherMethodsAndRepeatsRunOnce) {
   EXPECT_NE(bad.output.find("+fliter"), std::string::npos) << bad.output;
 }
 
+TEST_F(EvaluateTool, ToolsCreateTheFoldersTheyWriteInto) {
+  const std::string day = kGardens + "day_left.npy", night = kGardens + "night_right.npy";
+  const Result bag = RunCommand(std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night +
+                                " --tolerance 8 --limit 5 --out " + dir_ + "/a/b/night.bag");
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/a/b/night.bag"));
+  const Result ref = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day +
+                                " --name day --out " + dir_ + "/c/d/day.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/c/d/day.npy"));
+  const Result syn = RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " +
+                                dir_ + "/e/f");
+  ASSERT_EQ(syn.exit_code, 0) << syn.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/e/f/queries.npy"));
+  const Result eval = Evaluate("--reference day=" + day + " --query " + night +
+                               " --distance cosine --tolerance 3 --methods bsf --no-progress "
+                               "--out " + dir_ + "/g/h");
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/g/h/summary.csv"));
+  // A folder that cannot be made (a file is in the way): one line naming it, exit 2.
+  std::ofstream(dir_ + "/file") << "x";
+  const std::vector<std::string> commands = {
+      std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night + " --out " + dir_ +
+          "/file/sub/n.bag",
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day + " --name day --out " +
+          dir_ + "/file/sub/day.yaml",
+      std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/file/sub",
+  };
+  for (const std::string& command : commands) {
+    const Result r = RunCommand(command);
+    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find("cannot create folder '" + dir_ + "/file/sub'"), std::string::npos)
+        << command << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  const Result bad_eval = Evaluate("--reference day=" + day + " --query " + night +
+                                   " --distance cosine --tolerance 3 --methods bsf --no-progress "
+                                   "--out " + dir_ + "/file/sub");
+  EXPECT_EQ(bad_eval.exit_code, 2);
+  EXPECT_NE(bad_eval.output.find(dir_ + "/file/"), std::string::npos) << bad_eval.output;
+}
+
 TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
   // 200 places 1 m apart along x; the query traversal is offset by 0.4 m.
   ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");

@@ -103,6 +103,16 @@ class ConfigFiles(unittest.TestCase):
                                       {"use_nodelets": use_nodelets})
             types = {n.type for n in config.nodes}
             self.assertEqual("nodelet" in types, use_nodelets == "true")
+            # The default data_directory is below ~/.ros (not the package's source folder).
+            self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
+                             os.path.expanduser("~/.ros/bsf_vpr"))
+            # A missing data_directory is created when the launch file is read.
+            with tempfile.TemporaryDirectory() as tmp:
+                wanted = os.path.join(tmp, "new", "data")
+                config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
+                                          {"use_nodelets": use_nodelets, "data_directory": wanted})
+                self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value, wanted)
+                self.assertTrue(os.path.isdir(wanted))
 
     def fusion_params(self, launch, args):
         """The fusion node's private parameters as `launch` with `args` sets them."""

@@ -10,6 +10,7 @@ import sys
 import tempfile
 import unittest
 
+import rosbag
 import rosgraph
 import rospy
 import rostest
@@ -162,6 +163,66 @@ class LaunchFiles(unittest.TestCase):
                       data_directory=os.path.join(self.pkg, "data"),
                       nodelet_args="--no-bond") as launch:
             self.check_pipeline(launch, ["day_left"], {})
+
+    def make_bag(self):
+        """A bag of the first 5 Nordland summer frames with their ground truth."""
+        path = os.path.join(self.tmp, "in", "tiny.bag")
+        r = subprocess.run(["rosrun", "bsf_vpr", "bsf_make_bag", "--images",
+                            os.path.join(self.pkg, "data", "nordland_64x32", "summer"),
+                            "--limit", "5", "--tolerance", "2", "--num-places", "1500",
+                            "--rate", "10", "--out", path],
+                           capture_output=True, text=True, timeout=60, check=False)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        return path
+
+    def replay(self, results, **extra):
+        args = {"bag": self.bag, "results": results, "data_directory": self.fixture,
+                "extra_config": os.path.join(self.pkg, "config", "nordland.yaml"),
+                "nodelet_args": "--no-bond", "rate": "10"}
+        args.update(extra)
+        return Roslaunch("replay.launch", args)
+
+    def test_replay_runs_on_sim_time_leaves_it_unset_and_fails_without_results(self):
+        self.bag = self.make_bag()
+        self.assertFalse(rospy.has_param("/use_sim_time"))
+        out = os.path.join(self.tmp, "out")
+        os.makedirs(out)
+
+        # A results path that cannot be written stops roslaunch before anything runs.
+        with open(os.path.join(self.tmp, "a_file"), "w") as f:
+            f.write("x")
+        for results in (os.path.join(self.tmp, "missing", "results.bag"),
+                        os.path.join(self.tmp, "a_file", "results.bag"), out):
+            launch = self.replay(results)
+            self.assertEqual(launch.wait(60), 1, launch.describe())
+            self.assertIn("launch_path: cannot write '%s'" % results, launch.output())
+            self.assertNotIn("process[", launch.output())  # no node was started
+        self.assertFalse(rospy.has_param("/use_sim_time"))
+
+        # A recorder that cannot write once running (the file it writes is taken by a
+        # folder): the monitor ends the replay with exit code 1 and says why.
+        os.makedirs(os.path.join(out, "blocked.bag.active"))
+        launch = self.replay(os.path.join(out, "blocked.bag"), recorder_timeout_s="5")
+        launch.wait(120)  # roslaunch's own status is 0 whatever its nodes do
+        self.assertIn("replay_monitor: the recorder is not writing the results bag",
+                      launch.output(), launch.describe())
+        self.assertRegex(launch.output(), r"REQUIRED process \[replay_monitor-\d+\] has died!\n"
+                         r"process has died \[pid \d+, exit code 1", launch.describe())
+        self.assertFalse(os.path.isfile(os.path.join(out, "blocked.bag")))
+        self.assertFalse(rospy.has_param("/use_sim_time"))
+
+        # A replay that works: every belief recorded, on the bag's (simulated) time, and
+        # /use_sim_time deleted at the end.
+        results = os.path.join(out, "results.bag")
+        launch = self.replay(results)
+        self.assertEqual(launch.wait(120), 0, launch.describe())
+        self.assertIn("replay_monitor: done, 5 beliefs", launch.output(), launch.describe())
+        with rosbag.Bag(results) as bag:
+            times = [t.to_sec() for _, _, t in bag.read_messages(topics=["/bsf_vpr/belief"])]
+        self.assertEqual(len(times), 5)
+        # bsf_make_bag stamps the queries from 1000 s on; wall-clock times are ~1.7e9 s.
+        self.assertTrue(all(1000 <= t < 1100 for t in times), times)
+        self.assertFalse(rospy.has_param("/use_sim_time"))
 
 
 if __name__ == "__main__":

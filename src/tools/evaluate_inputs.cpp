@@ -42,17 +42,16 @@ struct DeclaredDistance {
 // Records the distance `set` declares, if any (a set without a declaration fits any
 // distance). Refuses a set meant for another distance than --distance, or, without
 // --distance, than the first declaration.
-void NoteDeclaredDistance(const EvaluateArgs& args, const std::string& who,
-                          const ReferenceSet& set, std::vector<DeclaredDistance>* declared) {
+void NoteDeclaredDistance(const EvaluateArgs& args, const std::string& who, const ReferenceSet& set,
+                          std::vector<DeclaredDistance>* declared) {
   if (set.distance.empty()) return;
   if (args.metric && set.distance != ToString(*args.metric)) {
     throw std::invalid_argument(who + " is meant for " + set.distance +
                                 " distance but --distance is " + ToString(*args.metric));
   }
   if (!declared->empty() && set.distance != declared->front().distance) {
-    throw std::invalid_argument(declared->front().who + " declares " +
-                                declared->front().distance + " distance but " + who +
-                                " declares " + set.distance +
+    throw std::invalid_argument(declared->front().who + " declares " + declared->front().distance +
+                                " distance but " + who + " declares " + set.distance +
                                 ": give --distance euclidean|cosine");
   }
   declared->push_back({who, set.distance});

@@ -110,10 +110,15 @@ std::vector<Method> ParseMethodList(const std::string& list,
   std::string item;
   while (std::getline(ss, item, ',')) {
     if (item.empty()) continue;
-    Method m = ParseMethod(item, set_names);
-    const bool dup =
-        std::any_of(out.begin(), out.end(), [&](const Method& o) { return o.Name() == m.Name(); });
-    if (!dup) out.push_back(m);
+    // "all" may be combined with other names (all,bsf+filter); a repeated method is kept once,
+    // where it first appears.
+    const std::vector<Method> items =
+        item == "all" ? AllMethods(set_names) : std::vector<Method>{ParseMethod(item, set_names)};
+    for (const Method& m : items) {
+      const bool dup = std::any_of(out.begin(), out.end(),
+                                   [&](const Method& o) { return o.Name() == m.Name(); });
+      if (!dup) out.push_back(m);
+    }
   }
   if (out.empty()) throw std::invalid_argument("the method list '" + list + "' names no method");
   return out;

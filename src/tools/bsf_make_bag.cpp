@@ -32,7 +32,8 @@ Writes one message per query at a fixed rate, so that a traversal can be replaye
                          (default /camera/image_raw)
   --descriptors PATH     rows of a Q x D .npy as bsf_vpr/Descriptor on --topic
                          (default /vpr/descriptor)
-  --out BAG              the bag to write (written to a temporary name, then renamed)
+  --out BAG              the bag to write (written to a temporary name, then renamed;
+                         missing folders are created)
   --rate HZ              messages per second (default 10)
   --ground-truth CSV     correct places per query ('query,place place ...'), written as
                          bsf_vpr/QueryGroundTruth on /vpr/ground_truth with each query's stamp
@@ -153,6 +154,7 @@ int Run(int argc, char** argv) {
   const auto poses =
       a.poses.empty() ? std::vector<std::optional<PlacePose>>() : ReadPoses(a.poses, q);
 
+  tools::CreateParentFolders(a.out);
   const std::string tmp = a.out + ".tmp";
   try {
     rosbag::Bag bag(tmp, rosbag::bagmode::Write);

@@ -1,7 +1,6 @@
 // bsf_make_reference: describes a folder of images (or takes a descriptor .npy) and saves it
 // as a reference set (.yaml sidecar + .npy) that the fusion node can load (see --help).
 #include <cmath>
-#include <filesystem>
 #include <iostream>
 
 #include "bsf_vpr/core/distances.h"
@@ -18,7 +17,8 @@ Writes PATH.yaml and PATH.npy (atomically): row k is place k (images sorted by n
   --images DIR           describe the images with the patch-normalised image descriptor
   --descriptors PATH     or take the rows of a descriptor .npy as they are
   --name NAME            name of the reference set
-  --out PATH.yaml        the sidecar to write; the .npy goes next to it
+  --out PATH.yaml        the sidecar to write; the .npy goes next to it (missing
+                         folders are created)
   --condition TEXT       optional condition label (e.g. winter, night)
   --distance euclidean|cosine   the distance the set is meant for (recorded in the YAML)
   --patch-width W, --patch-height H, --patch-size P   image descriptor (default 64 32 8)
@@ -74,8 +74,7 @@ int Run(int argc, char** argv) {
     set.condition = condition;
   }
   set.distance = distance;
-  const std::filesystem::path parent = std::filesystem::path(out).parent_path();
-  if (!parent.empty()) std::filesystem::create_directories(parent);
+  tools::CreateParentFolders(out);
   SaveReferenceSet(set, out);
   std::cout << "bsf_make_reference: wrote " << out << " (" << set.size() << " places, dimension "
             << set.dimension() << ")\n";

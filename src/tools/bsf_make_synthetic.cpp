@@ -1,6 +1,5 @@
 // bsf_make_synthetic: writes the seeded multi-condition data of synthetic.h as .npy files,
 // for studies that need more conditions than the shipped real data has (see --help).
-#include <filesystem>
 #include <iostream>
 #include <sstream>
 
@@ -15,7 +14,8 @@ namespace {
 const char kUsage[] = R"(usage: bsf_make_synthetic --out DIR [options]
 
 Writes DIR/c0.npy, c1.npy, ... (one reference set per condition, N x D), DIR/queries.npy
-(N x D; query q is at place q), DIR/query_conditions.csv and DIR/ground_truth.csv.
+(N x D; query q is at place q), DIR/query_conditions.csv and DIR/ground_truth.csv; DIR is
+created if missing.
   --places N             places (default 300)
   --dimension D          descriptor dimension (default 32)
   --set-noise A,B,...    per-set image noise; one value per condition (default 0.3,0.3,0.3)
@@ -66,7 +66,7 @@ int Run(int argc, char** argv) {
   }
   if (out.empty()) throw std::invalid_argument("no --out DIR given");
   const SyntheticData d = GenerateMultiConditionData(o);
-  std::filesystem::create_directories(out);
+  tools::CreateFolders(out);
   for (const ReferenceSet& s : d.map.sets())
     WriteNpyMatrix(out + "/" + s.name + ".npy", s.descriptors);
   WriteNpyMatrix(out + "/queries.npy", d.queries);

@@ -1,6 +1,7 @@
 #include "cli_util.h"
 
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <stdexcept>
 
@@ -27,6 +28,17 @@ int ParseInteger(const std::string& flag, const std::string& value) {
     throw std::invalid_argument(flag + " expects an integer, got '" + value + "'");
   }
   return static_cast<int>(v);
+}
+
+void CreateFolders(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw std::runtime_error("cannot create folder '" + dir + "': " + ec.message());
+}
+
+void CreateParentFolders(const std::string& file) {
+  const std::filesystem::path parent = std::filesystem::path(file).parent_path();
+  if (!parent.empty()) CreateFolders(parent.string());
 }
 
 bool FlagReader::Next(std::string* flag, std::string* value) {

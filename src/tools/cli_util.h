@@ -13,6 +13,11 @@ constexpr int kExitBadInput = 2;
 double ParseNumber(const std::string& flag, const std::string& value);
 int ParseInteger(const std::string& flag, const std::string& value);
 
+// Creates `dir` and its missing parents / the folder that will hold `file` (nothing when the
+// path has no folder part). Throws std::runtime_error naming the folder and the reason.
+void CreateFolders(const std::string& dir);
+void CreateParentFolders(const std::string& file);
+
 // Reads the "--flag value" pairs of argv in order. Next() returns false at the end or at
 // -h/--help (then help() is true); it throws std::invalid_argument for a flag without value.
 class FlagReader {

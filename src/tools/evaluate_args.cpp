@@ -22,7 +22,9 @@ Inputs (either descriptors, or precomputed per-source matrices):
                           one source (lower is better). Repeatable.
   --similarities NAME=PATH  the same with similarities (higher is better); they become
                           distances c - s with c = max(1, largest similarity of all sources)
-  --distance euclidean|cosine   distance between descriptors (default euclidean)
+  --distance euclidean|cosine   distance between descriptors (default: the distance the
+                          reference-set YAMLs declare when they agree, else euclidean; sets
+                          that declare another distance than this are refused)
   --storage float32|float16|int8  precision the reference descriptors are held at
                           (default float32; float16 halves and int8 quarters their bytes)
   --results-bag PATH      instead: the beliefs a node published during a replay (recorded by
@@ -40,10 +42,11 @@ Ground truth (one of):
 
 Methods and parameters:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
-                          nn:<set>, bayes:<set>; or 'all' (default: all, with nn: and
-                          bayes: for every set). Suffixes over time (queries in traversal
-                          order): +filter (temporal filter prior, Bayesian methods) and
-                          +seq (sequence matching), e.g. bsf+seq, nn:winter+seq, bsf+filter
+                          nn:<set>, bayes:<set>, and 'all' (every one of these, with nn:
+                          and bayes: for every set; the default). Suffixes over time
+                          (queries in traversal order): +filter (temporal filter prior,
+                          Bayesian methods) and +seq (sequence matching), e.g. bsf+seq,
+                          nn:winter+seq, all,bsf+filter. A repeated method runs once.
   --gamma G               selection fraction gamma (default 0.04)
   --selection relative|standardized   selection rule (default relative)
   --likelihood one_sided|two_sided    likelihood variant (default one_sided)

@@ -1,6 +1,7 @@
 // Command-line arguments of bsf_evaluate.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,7 +26,9 @@ struct EvaluateArgs {
   std::string results_bag;              // --results-bag PATH
   std::string belief_topic = "/bsf_vpr/belief";
   std::string truth_topic = "/vpr/ground_truth";
-  DistanceMetric metric = DistanceMetric::kEuclidean;
+  // --distance; when not given: the distance the reference sets (and a query YAML) declare,
+  // if they agree, else euclidean (evaluate_inputs.h).
+  std::optional<DistanceMetric> metric;
   StoragePrecision storage = StoragePrecision::kFloat32;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 
 #include "bsf_vpr/core/ground_truth_io.h"
@@ -32,19 +33,58 @@ ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
   return LoadReferenceSetFile(path, name);
 }
 
+// A distance declared by a reference-set (or query) YAML, and who declared it.
+struct DeclaredDistance {
+  std::string who;  // e.g. "reference set 'winter' (winter.yaml)"
+  std::string distance;
+};
+
+// Records the distance `set` declares, if any (a set without a declaration fits any
+// distance). Refuses a set meant for another distance than --distance, or, without
+// --distance, than the first declaration.
+void NoteDeclaredDistance(const EvaluateArgs& args, const std::string& who, const ReferenceSet& set,
+                          std::vector<DeclaredDistance>* declared) {
+  if (set.distance.empty()) return;
+  if (args.metric && set.distance != ToString(*args.metric)) {
+    throw std::invalid_argument(who + " is meant for " + set.distance +
+                                " distance but --distance is " + ToString(*args.metric));
+  }
+  if (!declared->empty() && set.distance != declared->front().distance) {
+    throw std::invalid_argument(declared->front().who + " declares " + declared->front().distance +
+                                " distance but " + who + " declares " + set.distance +
+                                ": give --distance euclidean|cosine");
+  }
+  declared->push_back({who, set.distance});
+}
+
+// The distance to compute: --distance, else the one the inputs declare, else euclidean;
+// `*how` says where it came from (for the description line).
+DistanceMetric ChooseMetric(const EvaluateArgs& args, const std::vector<DeclaredDistance>& declared,
+                            std::string* how) {
+  if (args.metric) return *args.metric;
+  if (declared.empty()) {
+    *how = " (the default: --distance not given and no input declares one)";
+    return DistanceMetric::kEuclidean;
+  }
+  const size_t more = declared.size() - 1;
+  *how = " (--distance not given: declared by " + declared[0].who +
+         (more > 0 ? " and " + std::to_string(more) + " more" : "") + ")";
+  return ParseDistanceMetric(declared[0].distance);
+}
+
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   std::unique_ptr<ImageDescriber> describer;
   data->map.SetStoragePrecision(args.storage);
+  std::vector<DeclaredDistance> declared;
   for (const NamedPath& r : args.references) {
     ReferenceSet set = LoadAnySet(r.path, r.name, args.describer, &describer);
-    if (!set.distance.empty() && set.distance != ToString(args.metric)) {
-      throw std::invalid_argument("reference set '" + r.name + "' (" + r.path + ") is meant for " +
-                                  set.distance + " distance but --distance is " +
-                                  ToString(args.metric));
-    }
+    NoteDeclaredDistance(args, "reference set '" + r.name + "' (" + r.path + ")", set, &declared);
     data->map.Add(std::move(set));
   }
   ReferenceSet query = LoadAnySet(args.query, "query", args.describer, &describer);
+  NoteDeclaredDistance(args, "query '" + args.query + "'", query, &declared);
+  std::string how;
+  const DistanceMetric metric = ChooseMetric(args, declared, &how);
   if (query.dimension() != data->map.dimension()) {
     throw std::invalid_argument("query '" + args.query + "' has dimension " +
                                 std::to_string(query.dimension()) + ", the reference sets have " +
@@ -58,7 +98,6 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
     data->input.set_names.push_back(s.name);
     data->input.place_ids.push_back(s.place_ids);
   }
-  const DistanceMetric metric = args.metric;
   data->input.distances = [data, metric](int begin, int end, std::vector<RowMatrixXf>* block) {
     const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
     *block = ComputeDistances(metric, q, data->map);
@@ -67,8 +106,7 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
                       std::to_string(data->map.num_places()) + " places, " +
                       std::to_string(data->input.num_queries) + " queries, dimension " +
                       std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
-                      " storage, " + ToString(args.metric) +
-                      " distance";
+                      " storage, " + ToString(metric) + " distance" + how;
 }
 
 void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {

@@ -4,6 +4,7 @@ import glob
 import os
 import subprocess
 import sys
+import tempfile
 import unittest
 
 import roslaunch.config
@@ -92,11 +93,52 @@ class ConfigFiles(unittest.TestCase):
             names = {n.name for n in config.nodes}
             self.assertIn("fusion", names, path)
             self.assertIn("descriptor_ingest", names, path)
+            if "data_directory" not in args:  # not in the package's source folder
+                self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
+                                 os.path.expanduser("~/.ros/bsf_vpr"), path)
+            # Every node starts from a clean private namespace: a key an earlier launch left
+            # on the master (and the node would refuse) is cleared.
+            for node in config.nodes:
+                if node.package != "rosbag":
+                    self.assertIn(node.namespace + node.name + "/", config.clear_params, path)
         for use_nodelets in ("true", "false"):
             config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
                                       {"use_nodelets": use_nodelets})
             types = {n.type for n in config.nodes}
             self.assertEqual("nodelet" in types, use_nodelets == "true")
+            # A missing data_directory is created when the launch file is read.
+            with tempfile.TemporaryDirectory() as tmp:
+                wanted = os.path.join(tmp, "new", "data")
+                config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
+                                          {"use_nodelets": use_nodelets, "data_directory": wanted})
+                self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value, wanted)
+                self.assertTrue(os.path.isdir(wanted))
+
+    def fusion_params(self, launch, args):
+        """The fusion node's private parameters as `launch` with `args` sets them."""
+        params = self.load_launch(os.path.join(self.pkg, "launch", launch), args).params
+        ns = "/bsf_vpr/fusion/"
+        return {k[len(ns):]: p.value for k, p in params.items() if k.startswith(ns)}
+
+    def test_config_and_extra_config_each_take_effect_alone(self):
+        cosine = os.path.join(self.pkg, "config", "cosine.yaml")
+        with tempfile.NamedTemporaryFile("w", suffix=".yaml") as mine:
+            mine.write("distance: cosine\nmethod: med\n")
+            mine.flush()
+            for launch, args in (("bsf_vpr.launch", {}),
+                                 ("bsf_vpr.launch", {"use_nodelets": "false"}),
+                                 ("replay.launch", {"bag": "/tmp/none.bag"})):
+                # config:= alone: that file only; the node's defaults fill in the rest.
+                alone = self.fusion_params(launch, dict(args, config=mine.name))
+                self.assertEqual(alone["distance"], "cosine", launch)
+                self.assertEqual(alone["method"], "med", launch)
+                self.assertNotIn("reference_sets", alone, launch)
+                # extra_config:= alone: on top of the default config (config/fusion.yaml).
+                extra = self.fusion_params(launch, dict(args, extra_config=cosine))
+                self.assertEqual(extra["distance"], "cosine", launch)
+                self.assertEqual(extra["method"], "bsf", launch)
+                # Neither: config/fusion.yaml.
+                self.assertEqual(self.fusion_params(launch, args)["distance"], "euclidean")
 
     def test_rviz_file_shows_the_published_topics(self):
         with open(os.path.join(self.pkg, "rviz", "bsf_vpr.rviz")) as f:

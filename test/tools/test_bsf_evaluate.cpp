@@ -146,9 +146,133 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
   EXPECT_EQ(Summary(dir_ + "/o").at("bsf").at("n_queries"), 200);
   // The sidecar says cosine: asking for euclidean is refused rather than silently mixed.
   const Result clash = Evaluate("--reference day=" + dir_ + "/day.yaml --query " + kGardens +
-                                "night_right.npy --tolerance 1");
+                                "night_right.npy --tolerance 1 --distance euclidean");
   EXPECT_EQ(clash.exit_code, 2);
-  EXPECT_NE(clash.output.find("cosine"), std::string::npos) << clash.output;
+  EXPECT_NE(clash.output.find("meant for cosine distance but --distance is euclidean"),
+            std::string::npos)
+      << clash.output;
+}
+
+TEST_F(EvaluateTool, TheDistanceTheSetsDeclareIsTheDefault) {
+  ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
+  day.distance = "cosine";
+  SaveReferenceSet(day, dir_ + "/day.yaml");
+  const std::string in = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                         "night_right.npy --tolerance 3 --methods bsf --no-progress --out ";
+  const Result declared = Evaluate(in + dir_ + "/declared");
+  ASSERT_EQ(declared.exit_code, 0) << declared.output;
+  const std::string day_yaml = dir_ + "/day.yaml", night_yaml = dir_ + "/night.yaml";
+  const std::string said = "(--distance not given: declared by reference set 'day' (";
+  EXPECT_NE(declared.output.find("cosine distance " + said + day_yaml + "))"), std::string::npos)
+      << declared.output;
+  ASSERT_EQ(Evaluate(in + dir_ + "/cosine --distance cosine").exit_code, 0);
+  // An explicit --distance is still checked against the sidecar.
+  EXPECT_EQ(Evaluate(in + dir_ + "/euclidean --distance euclidean").exit_code, 2);
+  EXPECT_EQ(Lines(dir_ + "/declared/matches/bsf.csv"), Lines(dir_ + "/cosine/matches/bsf.csv"));
+  // A set (or query) without a declaration fits the declared distance; no declaration at
+  // all keeps euclidean, and says so.
+  const Result mixed =
+      Evaluate("--reference plain=" + kGardens + "day_left.npy " + in + dir_ + "/mixed");
+  ASSERT_EQ(mixed.exit_code, 0) << mixed.output;
+  EXPECT_NE(mixed.output.find("cosine distance (--distance not given"), std::string::npos)
+      << mixed.output;
+  const Result none =
+      Evaluate("--reference plain=" + kGardens + "day_left.npy --query " + kGardens +
+               "night_right.npy --tolerance 3 --methods bsf --no-progress");
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  EXPECT_NE(none.output.find("euclidean distance (the default"), std::string::npos) << none.output;
+  // Sets that declare different distances: refused, naming both, unless --distance decides
+  // (and then the set meant for the other distance is refused by name).
+  ReferenceSet night = LoadReferenceSetNpy(kGardens + "night_right.npy", "night");
+  night.distance = "euclidean";
+  SaveReferenceSet(night, dir_ + "/night.yaml");
+  const Result clash =
+      Evaluate("--reference day=" + dir_ + "/day.yaml --reference night=" + dir_ +
+               "/night.yaml --query " + kGardens + "night_right.npy --tolerance 3");
+  EXPECT_EQ(clash.exit_code, 2);
+  EXPECT_NE(clash.output.find("reference set 'day' (" + day_yaml + ") declares cosine distance " +
+                              "but reference set 'night' (" + night_yaml + ") declares euclidean"),
+            std::string::npos)
+      << clash.output;
+  EXPECT_EQ(std::count(clash.output.begin(), clash.output.end(), '\n'), 1) << clash.output;
+  const Result query_clash = Evaluate("--reference day=" + dir_ + "/day.yaml --query " + dir_ +
+                                      "/night.yaml --tolerance 3");
+  EXPECT_EQ(query_clash.exit_code, 2);
+  EXPECT_NE(query_clash.output.find("query '" + dir_ + "/night.yaml' declares euclidean"),
+            std::string::npos)
+      << query_clash.output;
+}
+
+TEST_F(EvaluateTool, AllCombinesWithOtherMethodsAndRepeatsRunOnce) {
+  const std::string in = "--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                         "night_right.npy --distance cosine --tolerance 3 --no-progress";
+  auto methods = [&](const std::string& out) {
+    std::vector<std::string> names;
+    for (const std::string& line : Lines(out + "/summary.csv"))
+      names.push_back(line.substr(0, line.find(',')));
+    return std::vector<std::string>(names.begin() + (names.empty() ? 0 : 1), names.end());
+  };
+  const Result all = Evaluate(in + " --methods all --out " + dir_ + "/all");
+  ASSERT_EQ(all.exit_code, 0) << all.output;
+  const std::vector<std::string> every = methods(dir_ + "/all");
+  ASSERT_EQ(every.size(), 6u);  // M = 1
+  const Result plus = Evaluate(in + " --methods all,bsf+filter --out " + dir_ + "/plus");
+  ASSERT_EQ(plus.exit_code, 0) << plus.output;
+  std::vector<std::string> expected = every;
+  expected.push_back("bsf+filter");
+  EXPECT_EQ(methods(dir_ + "/plus"), expected);
+  // Repeats (also through 'all') run once, where they first appear.
+  const Result dup =
+      Evaluate(in + " --methods nn:day,bsf+filter,all,nn:day,bsf+filter --out " + dir_ + "/dup");
+  ASSERT_EQ(dup.exit_code, 0) << dup.output;
+  expected = {"nn:day", "bsf+filter"};
+  for (const std::string& m : every)
+    if (m != "nn:day") expected.push_back(m);
+  EXPECT_EQ(methods(dir_ + "/dup"), expected);
+  const Result bad = Evaluate(in + " --methods all,bsf+fliter");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("+fliter"), std::string::npos) << bad.output;
+}
+
+TEST_F(EvaluateTool, ToolsCreateTheFoldersTheyWriteInto) {
+  const std::string day = kGardens + "day_left.npy", night = kGardens + "night_right.npy";
+  const Result bag = RunCommand(std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night +
+                                " --tolerance 8 --limit 5 --out " + dir_ + "/a/b/night.bag");
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/a/b/night.bag"));
+  const Result ref = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day +
+                                " --name day --out " + dir_ + "/c/d/day.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/c/d/day.npy"));
+  const Result syn =
+      RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/e/f");
+  ASSERT_EQ(syn.exit_code, 0) << syn.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/e/f/queries.npy"));
+  const std::string in = "--reference day=" + day + " --query " + night +
+                         " --distance cosine --tolerance 3 --methods bsf --no-progress --out ";
+  const Result eval = Evaluate(in + dir_ + "/g/h");
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/g/h/summary.csv"));
+  // A folder that cannot be made (a file is in the way): one line naming it, exit 2.
+  std::ofstream(dir_ + "/file") << "x";
+  const std::vector<std::string> commands = {
+      std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night + " --out " + dir_ +
+          "/file/sub/n.bag",
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day + " --name day --out " + dir_ +
+          "/file/sub/day.yaml",
+      std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/file/sub",
+  };
+  for (const std::string& command : commands) {
+    const Result r = RunCommand(command);
+    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find("cannot create folder '" + dir_ + "/file/sub'"), std::string::npos)
+        << command << "\n"
+        << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  const Result bad_eval = Evaluate(in + dir_ + "/file/sub");
+  EXPECT_EQ(bad_eval.exit_code, 2);
+  EXPECT_NE(bad_eval.output.find(dir_ + "/file/"), std::string::npos) << bad_eval.output;
 }
 
 TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {

@@ -28,3 +28,20 @@ def write_reference_set(directory, name, descriptors, distance="cosine", poses=N
             f.write("poses:\n")
             for p in poses:
                 f.write("  - [%f, %f, %f, %f]\n" % tuple(p))
+
+
+def attach_fusion_services(target, ns="/bsf_vpr/"):
+    """Waits for every service of the fusion node in `ns` and sets a proxy for each on
+    `target`: list, load, unload, query, start, stop, stats."""
+    from bsf_vpr.srv import (GetSelectionStatistics, ListReferenceSets, LoadReferenceSet,
+                             QueryPlace, StartRecording, StopRecording, UnloadReferenceSet)
+    services = {"list": ("list_reference_sets", ListReferenceSets),
+                "load": ("load_reference_set", LoadReferenceSet),
+                "unload": ("unload_reference_set", UnloadReferenceSet),
+                "query": ("query_place", QueryPlace),
+                "start": ("start_recording", StartRecording),
+                "stop": ("stop_recording", StopRecording),
+                "stats": ("get_selection_statistics", GetSelectionStatistics)}
+    for attribute, (name, kind) in services.items():
+        rospy.wait_for_service(ns + name, timeout=60)
+        setattr(target, attribute, rospy.ServiceProxy(ns + name, kind))

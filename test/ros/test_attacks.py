@@ -20,11 +20,9 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Float32MultiArray, String
 
 from bsf_vpr.msg import Belief, Descriptor, Match
-from bsf_vpr.srv import (ListReferenceSets, LoadReferenceSet, StartRecording, StopRecording,
-                         UnloadReferenceSet)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for, write_reference_set  # noqa: E402
+from rostest_util import attach_fusion_services, wait_for, write_reference_set  # noqa: E402
 
 NS = "/bsf_vpr/"
 
@@ -88,14 +86,7 @@ class Attacks(unittest.TestCase):
         cls.wrong = rospy.Publisher("/vpr/wrong", String, queue_size=10)
         cls.image = rospy.Publisher("/vpr/image", Image, queue_size=10)
         cls.not_image = rospy.Publisher("/vpr/not_an_image", String, queue_size=10)
-        for srv in ["list_reference_sets", "load_reference_set", "unload_reference_set",
-                    "start_recording", "stop_recording"]:
-            rospy.wait_for_service(NS + srv, timeout=60)
-        cls.list = rospy.ServiceProxy(NS + "list_reference_sets", ListReferenceSets)
-        cls.load = rospy.ServiceProxy(NS + "load_reference_set", LoadReferenceSet)
-        cls.unload = rospy.ServiceProxy(NS + "unload_reference_set", UnloadReferenceSet)
-        cls.start = rospy.ServiceProxy(NS + "start_recording", StartRecording)
-        cls.stop = rospy.ServiceProxy(NS + "stop_recording", StopRecording)
+        attach_fusion_services(cls, NS)
         wait_for(lambda: cls.raw.get_num_connections() > 0, 30, "fusion to subscribe")
         wait_for(lambda: cls.external.get_num_connections() > 0, 30, "ingest to subscribe")
         wait_for(lambda: cls.array.get_num_connections() > 0, 30, "array ingest to subscribe")

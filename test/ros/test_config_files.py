@@ -137,8 +137,10 @@ class ConfigFiles(unittest.TestCase):
                 extra = self.fusion_params(launch, dict(args, extra_config=cosine))
                 self.assertEqual(extra["distance"], "cosine", launch)
                 self.assertEqual(extra["method"], "bsf", launch)
-                # Neither: config/fusion.yaml.
-                self.assertEqual(self.fusion_params(launch, args)["distance"], "euclidean")
+                # Neither: config/fusion.yaml (distance "": the loaded sets' own).
+                neither = self.fusion_params(launch, args)
+                self.assertEqual(neither["distance"], "", launch)
+                self.assertEqual(neither["method"], "bsf", launch)
 
     def test_rviz_file_shows_the_published_topics(self):
         with open(os.path.join(self.pkg, "rviz", "bsf_vpr.rviz")) as f:

@@ -15,11 +15,9 @@ from diagnostic_msgs.msg import DiagnosticArray
 from dynamic_reconfigure.client import Client
 
 from bsf_vpr.msg import Belief, Descriptor, Match
-from bsf_vpr.srv import (GetSelectionStatistics, ListReferenceSets, LoadReferenceSet,
-                         QueryPlace, StartRecording, StopRecording, UnloadReferenceSet)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for, write_reference_set  # noqa: E402
+from rostest_util import attach_fusion_services, wait_for, write_reference_set  # noqa: E402
 
 NS = "/bsf_vpr/"
 
@@ -43,17 +41,7 @@ class FusionServices(unittest.TestCase):
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append)
         cls.raw = rospy.Publisher(NS + "descriptor", Descriptor, queue_size=100)  # into fusion
         cls.external = rospy.Publisher("/vpr/descriptor", Descriptor, queue_size=100)  # into ingest
-        for srv in ["list_reference_sets", "load_reference_set", "unload_reference_set",
-                    "query_place", "start_recording", "stop_recording",
-                    "get_selection_statistics"]:
-            rospy.wait_for_service(NS + srv, timeout=60)
-        cls.list = rospy.ServiceProxy(NS + "list_reference_sets", ListReferenceSets)
-        cls.load = rospy.ServiceProxy(NS + "load_reference_set", LoadReferenceSet)
-        cls.unload = rospy.ServiceProxy(NS + "unload_reference_set", UnloadReferenceSet)
-        cls.query = rospy.ServiceProxy(NS + "query_place", QueryPlace)
-        cls.start = rospy.ServiceProxy(NS + "start_recording", StartRecording)
-        cls.stop = rospy.ServiceProxy(NS + "stop_recording", StopRecording)
-        cls.stats = rospy.ServiceProxy(NS + "get_selection_statistics", GetSelectionStatistics)
+        attach_fusion_services(cls, NS)
         wait_for(lambda: cls.raw.get_num_connections() > 0, 30, "fusion to subscribe")
         wait_for(lambda: cls.external.get_num_connections() > 0, 30, "ingest to subscribe")
         cls.stamp = 0
@@ -211,11 +199,13 @@ class FusionServices(unittest.TestCase):
                 client.update_configuration({"gamma_fraction": 0.01 * (k + 1),
                                              "method": "bayes_full" if k % 2 else "bsf"})
                 self.assertTrue(self.unload(name="extra").success)
+            # The loop may finish before many descriptors went out: stream on until enough
+            # beliefs arrived (services do not wait for the descriptor queue).
+            wait_for(lambda: len(self.beliefs) > n_before + 50, 20, "beliefs while streaming")
         finally:
             stop.set()
             streamer.join()
             client.update_configuration({"method": "bsf", "gamma_fraction": 0.04})
-        wait_for(lambda: len(self.beliefs) > n_before + 50, 20, "beliefs while streaming")
         # Every belief is internally consistent: no torn state between sets and selection.
         for b in self.beliefs[n_before:]:
             self.assertTrue(set(b.selected_sets) <= set(b.set_names), b.set_names)

@@ -243,7 +243,8 @@ TEST_F(EvaluateTool, ToolsCreateTheFoldersTheyWriteInto) {
   const Result ref = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day +
                                 " --name day --out " + dir_ + "/c/d/day.yaml");
   ASSERT_EQ(ref.exit_code, 0) << ref.output;
-  EXPECT_TRUE(fs::is_regular_file(dir_ + "/c/d/day.npy"));
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/c/d/day.yaml"));
+  EXPECT_EQ(LoadReferenceSetYaml(dir_ + "/c/d/day.yaml").size(), 200);  // and its .npy
   const Result syn =
       RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/e/f");
   ASSERT_EQ(syn.exit_code, 0) << syn.output;

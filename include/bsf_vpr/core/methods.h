@@ -41,7 +41,9 @@ struct Method {
 // Parses one method name against the map's set names. Throws std::invalid_argument for an
 // unknown method or set name (the message lists the valid ones).
 Method ParseMethod(const std::string& name, const std::vector<std::string>& set_names);
-// A comma-separated list, or "all": every method, with nn: and bayes: for every set.
+// A comma-separated list of names; the item "all" stands for every method, with nn: and
+// bayes: for every set ("all,bsf+filter"). A repeated method is kept once, where it first
+// appears.
 std::vector<Method> ParseMethodList(const std::string& list,
                                     const std::vector<std::string>& set_names);
 std::vector<Method> AllMethods(const std::vector<std::string>& set_names);

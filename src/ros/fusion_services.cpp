@@ -28,6 +28,15 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
     if (!req.condition.empty()) set.condition = req.condition;
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!params_.distance_given && recognizer_.map().num_sets() == 0 && !set.distance.empty()) {
+      // No distance configured and nothing loaded yet: the first set's own distance.
+      RecognizerOptions o = recognizer_.options();
+      o.metric = ParseDistanceMetric(set.distance);
+      recognizer_.SetOptions(o);
+      params_.recognizer.metric = o.metric;
+      ROS_INFO("bsf_vpr: distance %s, as the reference set '%s' declares", set.distance.c_str(),
+               set.name.c_str());
+    }
     CheckDistance(set, data_dir_->Relative(req.path));
     if (recorder_.recording() && recorder_.name() == set.name) {
       throw std::invalid_argument("a reference set named '" + set.name + "' is being recorded");

@@ -20,6 +20,7 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Float32MultiArray, String
 
 from bsf_vpr.msg import Belief, Descriptor, Match
+from bsf_vpr.srv import LoadReferenceSet
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rostest_util import attach_fusion_services, wait_for, write_reference_set  # noqa: E402
@@ -375,6 +376,7 @@ class Attacks(unittest.TestCase):
             self.assertTrue(self.stop(discard=True).success)
 
     def test_distance_defaults_to_the_sets_own(self):
+        # The gp node was started without a distance and with a cosine set.
         since = len(self.diagnostics)
 
         def found():
@@ -387,6 +389,11 @@ class Attacks(unittest.TestCase):
             return None
         wait_for(lambda: found() is not None, 30, "diagnostics of the gp node")
         self.assertEqual(found(), "cosine")
+        # The empty node without a distance takes the first loaded set's (a cosine set).
+        load = rospy.ServiceProxy("/empty/load_reference_set", LoadReferenceSet)
+        rospy.wait_for_service("/empty/load_reference_set", timeout=60)
+        r = load(path="gardens_point_hdc_delf/day_left.yaml", name="", condition="")
+        self.assertTrue(r.success, r.message)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,169 @@
+// libFuzzer target for the core's .npy reader.
+//
+// Every input is decoded from memory by DecodeNpyMatrix (the decoder behind ReadNpyMatrix)
+// and its header parsed by ParseNpyHeader. The two must agree on what they accept. An input
+// they accept is then
+//  - decoded again here, independently, from libFuzzer's own buffer, which is exactly the
+//    input's size, so that AddressSanitizer reports any read that the header's promise ("the
+//    data fits") would not cover; both decodings must agree bit for bit;
+//  - re-encoded as float32 (EncodeNpyMatrix) and parsed again: same shape;
+//  - loaded as a reference set through the file path (LoadReferenceSetNpy: its size limits,
+//    the place ids, the validation), from a file in a private temporary folder. Only accepted
+//    inputs pay for the file; most inputs are refused.
+//
+// A std::exception from the core is the expected answer to a bad file. Anything else is a
+// finding: a crash, a sanitizer report, an allocation beyond -malloc_limit_mb, or one of the
+// disagreements above (reported as "FINDING: ..." followed by abort()).
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <optional>
+#include <string>
+
+#include "bsf_vpr/core/npy.h"
+#include "bsf_vpr/core/reference_set_io.h"
+#include "fuzz_fixture.h"
+
+namespace bsf_vpr {
+namespace fuzz {
+namespace {
+
+std::string g_dir;   // private temporary folder, made once
+std::string g_path;  // <g_dir>/input.npy
+
+void RemoveTempDir() {
+  std::remove(g_path.c_str());
+  rmdir(g_dir.c_str());
+}
+
+[[noreturn]] void Finding(const std::string& what) {
+  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
+  std::abort();
+}
+
+size_t ElementBytes(NpyDtype dtype) {
+  switch (dtype) {
+    case NpyDtype::kFloat16:
+      return 2;
+    case NpyDtype::kFloat32:
+      return 4;
+    case NpyDtype::kFloat64:
+      return 8;
+  }
+  Finding("ParseNpyHeader returned an unknown dtype");
+}
+
+// Decodes the elements the header describes, reading only
+// data[h.data_offset, h.data_offset + rows * cols * element bytes).
+RowMatrixXf Decode(const uint8_t* data, const NpyHeader& h) {
+  RowMatrixXf m(h.rows, h.cols);
+  const uint8_t* p = data + h.data_offset;
+  for (Eigen::Index i = 0; i < m.size(); ++i) {
+    switch (h.dtype) {
+      case NpyDtype::kFloat16: {
+        uint16_t bits;
+        std::memcpy(&bits, p + 2 * i, 2);
+        m.data()[i] = static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(bits));
+        break;
+      }
+      case NpyDtype::kFloat32:
+        std::memcpy(m.data() + i, p + 4 * i, 4);
+        break;
+      case NpyDtype::kFloat64: {
+        double v;
+        std::memcpy(&v, p + 8 * i, 8);
+        m.data()[i] = static_cast<float>(v);
+        break;
+      }
+    }
+  }
+  return m;
+}
+
+bool SameBits(const RowMatrixXf& a, const RowMatrixXf& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(float) * a.size()) == 0);
+}
+
+void WriteInput(const uint8_t* data, size_t size) {
+  std::FILE* f = std::fopen(g_path.c_str(), "wb");
+  if (f == nullptr || std::fwrite(data, 1, size, f) != size || std::fclose(f) != 0) {
+    std::fprintf(stderr, "fuzz_npy: cannot write '%s'\n", g_path.c_str());
+    std::exit(2);
+  }
+}
+
+std::string Shape(int64_t rows, int64_t cols) {
+  return "(" + std::to_string(rows) + ", " + std::to_string(cols) + ")";
+}
+
+}  // namespace
+}  // namespace fuzz
+}  // namespace bsf_vpr
+
+extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
+  using namespace bsf_vpr::fuzz;
+  g_dir = MakePrivateTempDir("bsf_fuzz_npy");
+  g_path = g_dir + "/input.npy";
+  std::atexit(RemoveTempDir);
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace bsf_vpr;
+  using namespace bsf_vpr::fuzz;
+  const std::string bytes(reinterpret_cast<const char*>(data), size);
+  std::optional<RowMatrixXf> decoded;
+  std::string decode_error;
+  try {
+    decoded = DecodeNpyMatrix(bytes, "input");
+  } catch (const std::exception& e) {
+    decode_error = e.what();
+  }
+  NpyHeader h;
+  try {
+    h = ParseNpyHeader(bytes, "input");
+  } catch (const std::exception& e) {
+    if (decoded) Finding(std::string("DecodeNpyMatrix accepted a header refused: ") + e.what());
+    return 0;
+  }
+  if (!decoded) {
+    Finding("DecodeNpyMatrix refused what ParseNpyHeader accepted: " + decode_error);
+  }
+
+  // The header's promise, in exact arithmetic.
+  const unsigned __int128 need = static_cast<unsigned __int128>(h.rows < 0 ? 0 : h.rows) *
+                                 static_cast<unsigned __int128>(h.cols < 0 ? 0 : h.cols) *
+                                 ElementBytes(h.dtype);
+  if (h.rows < 0 || h.cols < 0 || h.data_offset > size || need > size - h.data_offset) {
+    Finding("ParseNpyHeader accepted shape " + Shape(h.rows, h.cols) + " at offset " +
+            std::to_string(h.data_offset) + " for " + std::to_string(size) + " bytes");
+  }
+  if (!SameBits(*decoded, Decode(data, h))) {
+    Finding("DecodeNpyMatrix disagrees with the header's shape " + Shape(h.rows, h.cols) +
+            " or with the elements decoded here");
+  }
+
+  try {
+    const std::string encoded = EncodeNpyMatrix(*decoded);
+    const NpyHeader back = ParseNpyHeader(encoded, "re-encoded");
+    if (back.rows != h.rows || back.cols != h.cols || back.dtype != NpyDtype::kFloat32 ||
+        back.data_offset + 4 * static_cast<size_t>(decoded->size()) != encoded.size()) {
+      Finding("EncodeNpyMatrix of shape " + Shape(h.rows, h.cols) + " parses back as " +
+              Shape(back.rows, back.cols));
+    }
+  } catch (const std::exception& e) {
+    Finding("the re-encoded matrix " + Shape(h.rows, h.cols) + " is refused: " + e.what());
+  }
+
+  WriteInput(data, size);
+  try {
+    LoadReferenceSetNpy(g_path, "fuzz");
+  } catch (const std::exception&) {
+  }
+  return 0;
+}

@@ -11,6 +11,7 @@
 #include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
 #include <immintrin.h>
 #define BSF_VPR_HAVE_AVX2_KERNEL 1
 #define BSF_VPR_AVX2 __attribute__((target("avx2,fma,f16c")))
@@ -224,8 +225,10 @@ BSF_VPR_AVX2 void TileInt8Avx2(const TileArgs& a, const int8_t* r, int r_stride)
 }
 
 bool CpuHasAvx2() {
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-         __builtin_cpu_supports("f16c");
+  // F16C from CPUID leaf 1 directly: clang before 16 refuses __builtin_cpu_supports("f16c").
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  const bool f16c = __get_cpuid(1, &eax, &ebx, &ecx, &edx) && (ecx & bit_F16C) != 0;
+  return f16c && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 }
 #else
 bool CpuHasAvx2() { return false; }

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -46,9 +47,12 @@ std::string ReadFile(const std::string& path) {
   // Non-blocking, so that a FIFO cannot hang the reader; only regular files are read.
   const int fd = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
   if (fd < 0) throw std::runtime_error("cannot open '" + path + "': " + std::strerror(errno));
+  const std::unique_ptr<int, void (*)(int*)> closer(new int(fd), [](int* f) {
+    close(*f);
+    delete f;
+  });
   struct stat st;
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    close(fd);
     throw std::runtime_error("'" + path + "' is not a regular file (a folder, FIFO or device)");
   }
   std::string bytes(static_cast<size_t>(st.st_size), '\0');
@@ -56,15 +60,10 @@ std::string ReadFile(const std::string& path) {
   while (got < bytes.size()) {
     const ssize_t n = read(fd, bytes.data() + got, bytes.size() - got);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = errno;
-      close(fd);
-      if (n == 0) break;
-      throw std::runtime_error("cannot read '" + path + "': " + std::strerror(err));
-    }
+    if (n < 0) throw std::runtime_error("cannot read '" + path + "': " + std::strerror(errno));
+    if (n == 0) break;  // shrank while being read
     got += static_cast<size_t>(n);
   }
-  if (got == bytes.size()) close(fd);
   bytes.resize(got);
   return bytes;
 }

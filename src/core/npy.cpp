@@ -32,18 +32,6 @@ std::string ValueAfterKey(const std::string& header, const std::string& key,
   return header.substr(pos);
 }
 
-size_t DtypeSize(NpyDtype dtype) {
-  switch (dtype) {
-    case NpyDtype::kFloat16:
-      return 2;
-    case NpyDtype::kFloat32:
-      return 4;
-    case NpyDtype::kFloat64:
-      return 8;
-  }
-  return 0;
-}
-
 const char* DtypeDescr(NpyDtype dtype) {
   switch (dtype) {
     case NpyDtype::kFloat16:
@@ -93,6 +81,18 @@ std::vector<int64_t> ParseShape(const std::string& value, const std::string& pat
 
 }  // namespace
 
+size_t NpyDtypeBytes(NpyDtype dtype) {
+  switch (dtype) {
+    case NpyDtype::kFloat16:
+      return 2;
+    case NpyDtype::kFloat32:
+      return 4;
+    case NpyDtype::kFloat64:
+      return 8;
+  }
+  return 0;
+}
+
 NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
   if (bytes.size() < 10 || std::memcmp(bytes.data(), kMagic, kMagicSize) != 0) {
     Fail(path, "missing the \\x93NUMPY magic string");
@@ -136,7 +136,7 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
                    ") exceeds the limit of " + std::to_string(kMaxNpyElements) + " elements");
   }
   result.data_offset = header_start + header_len;
-  const uint64_t need = static_cast<uint64_t>(result.rows * result.cols) * DtypeSize(result.dtype);
+  const uint64_t need = static_cast<uint64_t>(result.rows * result.cols) * NpyDtypeBytes(result.dtype);
   const uint64_t have = bytes.size() - result.data_offset;
   if (have < need) {
     Fail(path, "header announces " + std::to_string(need) + " bytes of data but the file holds " +
@@ -192,7 +192,7 @@ std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
   const int64_t n = matrix.size();
   const size_t start = out.size();
   if (n == 0) return out;
-  out.resize(start + static_cast<size_t>(n) * DtypeSize(dtype));
+  out.resize(start + static_cast<size_t>(n) * NpyDtypeBytes(dtype));
   char* dst = out.data() + start;
   for (int64_t i = 0; i < n; ++i) {
     const float v = matrix.data()[i];

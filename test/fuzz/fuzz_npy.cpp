@@ -46,15 +46,9 @@ void RemoveTempDir() {
 }
 
 size_t ElementBytes(NpyDtype dtype) {
-  switch (dtype) {
-    case NpyDtype::kFloat16:
-      return 2;
-    case NpyDtype::kFloat32:
-      return 4;
-    case NpyDtype::kFloat64:
-      return 8;
-  }
-  Finding("ParseNpyHeader returned an unknown dtype");
+  const size_t bytes = NpyDtypeBytes(dtype);
+  if (bytes == 0) Finding("ParseNpyHeader returned an unknown dtype");
+  return bytes;
 }
 
 // Decodes the elements the header describes, reading only

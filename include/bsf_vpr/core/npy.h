@@ -18,6 +18,9 @@ enum class NpyDtype { kFloat16, kFloat32, kFloat64 };
 // Largest number of elements accepted in one matrix (4 Gi floats = 16 GiB as float32).
 constexpr int64_t kMaxNpyElements = int64_t{1} << 32;
 
+// Bytes of one element of `dtype`.
+size_t NpyDtypeBytes(NpyDtype dtype);
+
 struct NpyHeader {
   NpyDtype dtype = NpyDtype::kFloat32;
   int64_t rows = 0;

@@ -113,7 +113,8 @@ int RemoveTemporariesBelow(int dir_fd) {
     if (fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
     if (S_ISDIR(st.st_mode)) {
       folders.push_back(name);
-    } else if (S_ISREG(st.st_mode) && name[0] == '.' && name.find(kTempMarker) != std::string::npos) {
+    } else if (S_ISREG(st.st_mode) && name[0] == '.' &&
+               name.find(kTempMarker) != std::string::npos) {
       if (unlinkat(dir_fd, name.c_str(), 0) == 0) ++removed;
     }
   }
@@ -181,7 +182,8 @@ std::string DataDirectory::Relative(const std::string& request) const {
   }
   std::string out;
   for (const std::string& part : kept) out += (out.empty() ? "" : "/") + part;
-  if (out.size() > 4000) throw std::invalid_argument("path " + QuotedForMessage(request) + " is too long");
+  if (out.size() > 4000)
+    throw std::invalid_argument("path " + QuotedForMessage(request) + " is too long");
   return out;
 }
 
@@ -193,12 +195,13 @@ std::string DataDirectory::Read(const std::string& relative) const {
                        O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
   if (file.get() < 0) {
     const int err = errno;
-    throw std::runtime_error(SystemError("open", relative, err) +
-                             (err == ELOOP ? " (links are not followed below the data directory)"
-                                           : ""));
+    throw std::runtime_error(
+        SystemError("open", relative, err) +
+        (err == ELOOP ? " (links are not followed below the data directory)" : ""));
   }
   struct stat st;
-  if (fstat(file.get(), &st) != 0) throw std::runtime_error(SystemError("inspect", relative, errno));
+  if (fstat(file.get(), &st) != 0)
+    throw std::runtime_error(SystemError("inspect", relative, errno));
   if (!S_ISREG(st.st_mode)) {
     throw std::runtime_error(QuotedForMessage(relative) +
                              " is not a regular file (a folder, FIFO, socket or device)");
@@ -239,10 +242,12 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
   int raw = -1;
   for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
     tmp = "." + name.substr(0, 200) + kTempMarker + RandomSuffix();
-    raw = openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    raw =
+        openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (raw < 0 && errno != EEXIST) break;
   }
-  if (raw < 0) throw std::runtime_error(SystemError("create a temporary file for", relative, errno));
+  if (raw < 0)
+    throw std::runtime_error(SystemError("create a temporary file for", relative, errno));
   int err = 0;
   {
     const Fd file(raw);
@@ -259,9 +264,9 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
     if (err == 0 && fsync(file.get()) != 0) err = errno;
   }
   if (err == 0) {
-    const int rc = replace ? renameat(dir.get(), tmp.c_str(), dir.get(), name.c_str())
-                           : renameat2(dir.get(), tmp.c_str(), dir.get(), name.c_str(),
-                                       RENAME_NOREPLACE);
+    const int rc =
+        replace ? renameat(dir.get(), tmp.c_str(), dir.get(), name.c_str())
+                : renameat2(dir.get(), tmp.c_str(), dir.get(), name.c_str(), RENAME_NOREPLACE);
     if (rc != 0) err = errno;
   }
   if (err != 0) {

@@ -167,8 +167,7 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
               options.top_k, &out);
   } else {
-    FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k,
-                            &out);
+    FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k, &out);
   }
   return out;
 }

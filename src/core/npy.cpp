@@ -136,7 +136,8 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
                    ") exceeds the limit of " + std::to_string(kMaxNpyElements) + " elements");
   }
   result.data_offset = header_start + header_len;
-  const uint64_t need = static_cast<uint64_t>(result.rows * result.cols) * NpyDtypeBytes(result.dtype);
+  const uint64_t need =
+      static_cast<uint64_t>(result.rows * result.cols) * NpyDtypeBytes(result.dtype);
   const uint64_t have = bytes.size() - result.data_offset;
   if (have < need) {
     Fail(path, "header announces " + std::to_string(need) + " bytes of data but the file holds " +

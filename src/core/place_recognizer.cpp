@@ -39,8 +39,8 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   }
   // The method as parsed (suffixes and all) says which set it needs by name.
   const Method method = ParseMethod(options_.method, map_.SetNames());
-  const bool single = method.kind == MethodKind::kNearestNeighbour ||
-                      method.kind == MethodKind::kBayesSingle;
+  const bool single =
+      method.kind == MethodKind::kNearestNeighbour || method.kind == MethodKind::kBayesSingle;
   if (single && method.set_name == name) {
     throw std::invalid_argument("reference set '" + name + "' is used by method '" +
                                 options_.method + "'; change the method first");

@@ -1,8 +1,8 @@
 #include "bsf_vpr/core/reference_set.h"
 
 #include <algorithm>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <stdexcept>
 
@@ -113,11 +113,10 @@ void ReferenceMap::Add(ReferenceSet set) {
   const int max_id = *std::max_element(set.place_ids.begin(), set.place_ids.end());
   const int64_t limit = std::max<int64_t>(num_places_, set.size()) * kMaxPlaceIdGrowth + 1000;
   if (max_id >= limit) {
-    throw std::invalid_argument("reference set '" + set.name + "' has place id " +
-                                std::to_string(max_id) + ", far beyond its " +
-                                std::to_string(set.size()) + " descriptors and the map's " +
-                                std::to_string(num_places_) + " places (at most " +
-                                std::to_string(limit - 1) + ")");
+    throw std::invalid_argument(
+        "reference set '" + set.name + "' has place id " + std::to_string(max_id) +
+        ", far beyond its " + std::to_string(set.size()) + " descriptors and the map's " +
+        std::to_string(num_places_) + " places (at most " + std::to_string(limit - 1) + ")");
   }
   // Everything that can throw happens on copies; the map changes only by moves below.
   set.store = MakeDescriptorStore(set.descriptors, storage_);

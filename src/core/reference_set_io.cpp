@@ -231,8 +231,7 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   const std::string stem = yaml.substr(0, yaml.size() - 5);
   const std::string bytes = EncodeNpyMatrix(set.descriptors);
   char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016llx",
-                static_cast<unsigned long long>(ContentHash(bytes)));
+  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ContentHash(bytes)));
   const std::string npy = stem + "." + std::string(hash, 12) + ".npy";
   std::string old_npy;
   if (dir.Exists(yaml)) {

@@ -48,7 +48,8 @@ double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
   const double mean = sum / n;
   double sq = 0;
   for (Eigen::Index i = 0; i < sequence_costs.size(); ++i) {
-    if (std::isfinite(sequence_costs(i))) sq += (sequence_costs(i) - mean) * (sequence_costs(i) - mean);
+    if (std::isfinite(sequence_costs(i)))
+      sq += (sequence_costs(i) - mean) * (sequence_costs(i) - mean);
   }
   const double sd = std::sqrt(sq / n);
   const double z = sd > 0 ? (mean - sequence_costs(best)) / sd : 0.0;

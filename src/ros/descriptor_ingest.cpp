@@ -78,8 +78,8 @@ IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
 
 std::string ImageProblem(const sensor_msgs::Image& m) {
   constexpr uint64_t kMaxSide = 1 << 15;
-  if (m.width == 0 || m.height == 0) return "empty image (" + std::to_string(m.width) + " x " +
-                                            std::to_string(m.height) + ")";
+  if (m.width == 0 || m.height == 0)
+    return "empty image (" + std::to_string(m.width) + " x " + std::to_string(m.height) + ")";
   if (m.width > kMaxSide || m.height > kMaxSide) {
     return "image of " + std::to_string(m.width) + " x " + std::to_string(m.height) +
            " pixels is larger than " + std::to_string(kMaxSide) + " a side";

@@ -75,9 +75,10 @@ void FusionNode::Start() {
   const Method& method = recognizer_.method();
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
-    ROS_WARN("bsf_vpr: method %s is gated by max_match_distance, which is 0: only a query "
-             "identical to a reference is accepted; set it to the largest distance to accept",
-             params_.recognizer.method.c_str());
+    ROS_WARN(
+        "bsf_vpr: method %s is gated by max_match_distance, which is 0: only a query "
+        "identical to a reference is accepted; set it to the largest distance to accept",
+        params_.recognizer.method.c_str());
   }
 
   belief_pub_ = nh_.advertise<Belief>(names::kBeliefTopic, 10);
@@ -88,13 +89,12 @@ void FusionNode::Start() {
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {
     // Its own queue and thread: reading a large set must not hold up the descriptors.
-    ros::AdvertiseServiceOptions load =
-        ros::AdvertiseServiceOptions::create<LoadReferenceSet>(
-            names::kLoadReferenceSetService,
-            [this](LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
-              return OnLoad(req, res);
-            },
-            ros::VoidConstPtr(), &load_queue_);
+    ros::AdvertiseServiceOptions load = ros::AdvertiseServiceOptions::create<LoadReferenceSet>(
+        names::kLoadReferenceSetService,
+        [this](LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
+          return OnLoad(req, res);
+        },
+        ros::VoidConstPtr(), &load_queue_);
     services_.push_back(nh_.advertiseService(load));
     load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
     load_spinner_->start();

@@ -20,7 +20,7 @@ struct ReferenceSetEntry {
 struct FusionParams {
   RecognizerOptions recognizer;
   std::vector<ReferenceSetEntry> reference_sets;
-  std::string data_directory;  // services read and write files only below it (created)
+  std::string data_directory;   // services read and write files only below it (created)
   bool distance_given = false;  // "distance" was set (not ""); else the loaded sets' own
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
   std::string map_frame = "map";

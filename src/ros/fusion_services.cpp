@@ -193,10 +193,9 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     try {
       SaveReferenceSet(*data_dir_, set, path, recording_overwrite_);
     } catch (const std::exception& e) {
-      throw std::runtime_error(std::string("saving failed, the recording of ") +
-                               std::to_string(res.num_descriptors) +
-                               " descriptors is kept (call again to retry, or discard): " +
-                               e.what());
+      throw std::runtime_error(
+          std::string("saving failed, the recording of ") + std::to_string(res.num_descriptors) +
+          " descriptors is kept (call again to retry, or discard): " + e.what());
     }
     recorder_.Discard();
     res.path = data_dir_->path() + "/" + path;
@@ -204,14 +203,14 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
       recognizer_.AddReferenceSet(std::move(set));
     } catch (const std::exception& e) {
       res.success = true;
-      res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " +
-                    res.path + " but did not load them: " + e.what();
+      res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +
+                    " but did not load them: " + e.what();
       ROS_WARN("bsf_vpr: %s", res.message.c_str());
       return true;
     }
     res.success = true;
-    res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " +
-                  res.path + " and loaded them";
+    res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +
+                  " and loaded them";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

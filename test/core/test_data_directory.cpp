@@ -1,6 +1,4 @@
 // DataDirectory (confined reads and writes) and the atomic save of a reference set.
-#include "bsf_vpr/core/data_directory.h"
-
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -9,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
@@ -56,9 +55,9 @@ TEST_F(DataDir, RelativeNormalisesAndRefusesEscapes) {
   EXPECT_EQ(dir_->Relative("sets/a.yaml"), "sets/a.yaml");
   EXPECT_EQ(dir_->Relative("./sets//x/../a.yaml"), "sets/a.yaml");
   EXPECT_EQ(dir_->Relative(dir_->path() + "/sets/a.yaml"), "sets/a.yaml");
-  for (const std::string bad : {"", "..", "../outside/secret.txt", "sets/../../outside/o.npy",
-                                "/etc/passwd", ".", "sets/..", "a\nb.yaml", "bad\xff.yaml",
-                                "tab\t.yaml"}) {
+  for (const std::string bad :
+       {"", "..", "../outside/secret.txt", "sets/../../outside/o.npy", "/etc/passwd", ".",
+        "sets/..", "a\nb.yaml", "bad\xff.yaml", "tab\t.yaml"}) {
     EXPECT_THROW(dir_->Relative(bad), std::invalid_argument) << bad;
   }
   // Another folder whose name starts with the data directory's.
@@ -180,9 +179,9 @@ TEST(QuotedForMessage, CutsLongInputAndEscapesControlCharacters) {
   EXPECT_LT(q.size(), 250u);
   EXPECT_NE(q.find("10000000 characters"), std::string::npos);
   EXPECT_TRUE(IsPrintableUtf8("nacht_\xc3\xa9t\xc3\xa9"));
-  EXPECT_FALSE(IsPrintableUtf8("\xc0\xaf"));  // overlong '/'
+  EXPECT_FALSE(IsPrintableUtf8("\xc0\xaf"));      // overlong '/'
   EXPECT_FALSE(IsPrintableUtf8("\xed\xa0\x80"));  // surrogate
-  EXPECT_FALSE(IsPrintableUtf8("abc\xe2\x82"));  // cut short
+  EXPECT_FALSE(IsPrintableUtf8("abc\xe2\x82"));   // cut short
 }
 
 }  // namespace

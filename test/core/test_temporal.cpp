@@ -117,7 +117,7 @@ TEST(SequenceMatcher, MatchLogOddsIsScaleFreeAndRewardsAClearerBest) {
   const double clearer = SequenceMatchLogOdds(c, 100);
   EXPECT_GT(clearer, base);
   EXPECT_GT(clearer, std::log(0.99 / 0.01));  // six standard deviations among 500 places
-  c(100) = -2.0;  // no better than chance among 500 places
+  c(100) = -2.0;                              // no better than chance among 500 places
   EXPECT_LT(SequenceMatchLogOdds(c, 100), 0.0);
   c(100) = -60.0;  // Q(z) underflows: still finite and ordered
   EXPECT_TRUE(std::isfinite(SequenceMatchLogOdds(c, 100)));
@@ -143,7 +143,8 @@ TEST(SequenceMatcher, SeqMethodsAreGatedByTheThreshold) {
         for (float& x : set) x = u(rng);
         if (t >= 30) set[static_cast<size_t>(100 + t)] = 0.05f;  // then a clear route
       }
-      const std::vector<SetDistances> v = {{d[0].data(), nullptr, 400}, {d[1].data(), nullptr, 400}};
+      const std::vector<SetDistances> v = {{d[0].data(), nullptr, 400},
+                                           {d[1].data(), nullptr, 400}};
       const PlaceBelief b = runner.Step(v, 400, nullptr, std::nullopt, true);
       EXPECT_TRUE(std::isfinite(b.confidence) || !b.accepted);
       if (t < 30) accepted_noise += b.accepted;

@@ -1,0 +1,112 @@
+// Regression tests on the real multi-traversal data shipped in data/: several reference sets
+// fused. The figures are pinned (measured on 2026-11-22, with the paper's selection rule and
+// the one-sided likelihood given explicitly, so that a change of the defaults does not move
+// them): a change in selection, likelihood or fusion that moves any AUC by more than
+// kTolerance fails here.
+//
+//   Nordland-100 (data/nordland_subset100/64x32): 100 places in three seasons; each season
+//   in turn is the query traversal, the other two the reference sets; patch-normalised and
+//   HOG descriptors, cosine distance, +-2 places.
+//   VPR-Bench Corridor (data/vprbench_corridor): 10 techniques' similarity matrices as 10
+//   sources of evidence, with their ground truth.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tool_test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::Evaluate;
+using testing::Summary;
+
+const std::string kData = std::string(BSF_SOURCE_DIR) + "/data/";
+constexpr double kTolerance = 0.002;
+// The paper's selection and today's likelihood, spelled out.
+const std::string kPaperMode = " --selection relative --gamma 0.04 --likelihood one_sided";
+
+struct Case {
+  std::string query, descriptor;
+  std::map<std::string, double> auc;  // method -> AUC
+};
+
+class RealData : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_real_XXXXXX";
+    dir_ = mkdtemp(tmpl);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  void ExpectAucs(const std::string& args, const std::map<std::string, double>& expected,
+                  const std::string& what, const std::string& mode = kPaperMode) {
+    const std::string out = dir_ + "/" + std::to_string(runs_++);
+    const testing::Result r = Evaluate(args + mode + " --no-progress --out " + out);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto summary = Summary(out);
+    for (const auto& [method, auc] : expected) {
+      ASSERT_TRUE(summary.count(method)) << what << ": no row for " << method;
+      EXPECT_NEAR(summary.at(method).at("auc"), auc, kTolerance) << what << " " << method;
+    }
+  }
+  std::string dir_;
+  int runs_ = 0;
+};
+
+TEST_F(RealData, NordlandHundredFusesTwoSeasonsForTheThird) {
+  const std::vector<Case> cases = {
+      {"winter", "patchnorm",
+       {{"bsf", 0.4284}, {"bayes_full", 0.4458}, {"med", 0.4003}, {"med_selective", 0.4820},
+        {"bayes:fall", 0.4676}, {"nn:fall", 0.4663}, {"bayes:summer", 0.3762}}},
+      {"winter", "hog",
+       {{"bsf", 0.8864}, {"bayes_full", 0.8920}, {"med", 0.7737}, {"med_selective", 0.7955},
+        {"bayes:fall", 0.8889}, {"nn:fall", 0.8006}}},
+      {"summer", "patchnorm",
+       {{"bsf", 1.0}, {"bayes_full", 0.9783}, {"med", 0.9772}, {"med_selective", 1.0},
+        {"bayes:winter", 0.4689}}},
+      {"summer", "hog",
+       {{"bsf", 1.0}, {"bayes_full", 0.9692}, {"med", 0.9849}, {"bayes:winter", 0.8197}}},
+      {"fall", "patchnorm",
+       {{"bsf", 1.0}, {"bayes_full", 1.0}, {"med", 0.9770}, {"bayes:winter", 0.4406}}},
+      {"fall", "hog",
+       {{"bsf", 1.0}, {"bayes_full", 0.9372}, {"med", 0.9886}, {"bayes:winter", 0.8583}}},
+  };
+  const std::string n100 = kData + "nordland_subset100/64x32/";
+  for (const Case& c : cases) {
+    std::string refs;
+    for (const std::string season : {"summer", "fall", "winter"}) {
+      if (season != c.query) refs += " --reference " + season + "=" + n100 + season;
+    }
+    ExpectAucs(refs + " --query " + n100 + c.query + " --descriptor " + c.descriptor +
+                   " --distance cosine --tolerance 2",
+               c.auc, c.query + "/" + c.descriptor);
+  }
+}
+
+TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
+  const std::string corridor = kData + "vprbench_corridor/";
+  std::string sources;
+  for (const std::string t : {"AMOSNet", "AlexNet_VPR", "CALC", "CoHOG", "HOG", "HybridNet",
+                              "NetVLAD", "RegionVLAD", "ap-gem-r101", "denseVLAD"}) {
+    sources += " --similarities " + t + "=" + corridor + t + ".npy";
+  }
+  const std::string args = sources + " --ground-truth " + corridor + "ground_truth.csv" +
+                           " --methods bsf,bayes_full,med,med_selective,nn:HybridNet,nn:NetVLAD";
+  // The paper's relative rule compares raw minimum distances: across techniques whose
+  // scales differ it selects by scale, not by evidence (bsf 0.222).
+  ExpectAucs(args,
+             {{"bsf", 0.2222}, {"bayes_full", 0.9013}, {"med", 0.9094},
+              {"med_selective", 0.2680}, {"nn:HybridNet", 0.8441}, {"nn:NetVLAD", 0.5553}},
+             "corridor, relative selection");
+  // The scale-free rule.
+  ExpectAucs(args, {{"bsf", 0.7493}, {"med_selective", 0.7068}}, "corridor, standardized",
+             " --selection standardized --gamma 0.04 --likelihood one_sided");
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -79,6 +79,32 @@ std::vector<int64_t> ParseShape(const std::string& value, const std::string& pat
   return shape;
 }
 
+template <typename T>
+T Load(const char* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return v;
+}
+
+// Decodes every element of the data with `decode(pointer to its bytes)` into `out`, the
+// header's rows x cols in row-major order. The file's k-th element is (k / cols, k % cols)
+// in C order and (k % rows, k / rows) in Fortran order, which is transposed here.
+template <typename T, typename Decode>
+void DecodeRowMajor(const char* data, const NpyHeader& h, Decode decode, T* out) {
+  const size_t bytes = NpyDtypeBytes(h.dtype);
+  if (!h.fortran_order) {
+    const int64_t n = h.rows * h.cols;
+    for (int64_t k = 0; k < n; ++k) out[k] = decode(data + static_cast<size_t>(k) * bytes);
+    return;
+  }
+  for (int64_t c = 0; c < h.cols; ++c) {
+    const char* column = data + static_cast<size_t>(c * h.rows) * bytes;
+    for (int64_t r = 0; r < h.rows; ++r) {
+      out[r * h.cols + c] = decode(column + static_cast<size_t>(r) * bytes);
+    }
+  }
+}
+
 }  // namespace
 
 size_t NpyDtypeBytes(NpyDtype dtype) {
@@ -120,11 +146,10 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
   result.dtype = ParseDescr(ValueAfterKey(header, "descr", path), path);
   const std::string fortran = ValueAfterKey(header, "fortran_order", path);
   if (fortran.rfind("True", 0) == 0) {
-    Fail(path,
-         "Fortran (column-major) order is not supported; save it in C order, e.g. "
-         "numpy.save(path, numpy.ascontiguousarray(a))");
+    result.fortran_order = true;
+  } else if (fortran.rfind("False", 0) != 0) {
+    Fail(path, "'fortran_order' is neither True nor False");
   }
-  if (fortran.rfind("False", 0) != 0) Fail(path, "'fortran_order' is neither True nor False");
   const std::vector<int64_t> shape = ParseShape(ValueAfterKey(header, "shape", path), path);
   if (shape.size() != 2) {
     Fail(path, "expected a 2-D matrix, got " + std::to_string(shape.size()) + " dimension(s)");
@@ -151,26 +176,27 @@ RowMatrixXf ReadNpyMatrix(const std::string& path) { return DecodeNpyMatrix(Read
 RowMatrixXf DecodeNpyMatrix(const std::string& bytes, const std::string& path) {
   const NpyHeader h = ParseNpyHeader(bytes, path);
   RowMatrixXf m(h.rows, h.cols);
-  const int64_t n = h.rows * h.cols;
-  if (n == 0) return m;  // no data to copy (and m.data() may be null)
+  if (m.size() == 0) return m;  // no data to copy (and m.data() may be null)
   const char* data = bytes.data() + h.data_offset;
   switch (h.dtype) {
     case NpyDtype::kFloat32:
-      std::memcpy(m.data(), data, static_cast<size_t>(n) * 4);
+      if (!h.fortran_order) {
+        std::memcpy(m.data(), data, static_cast<size_t>(m.size()) * 4);
+      } else {
+        DecodeRowMajor(data, h, Load<float>, m.data());
+      }
       break;
     case NpyDtype::kFloat64:
-      for (int64_t i = 0; i < n; ++i) {
-        double v;
-        std::memcpy(&v, data + 8 * i, 8);
-        m.data()[i] = static_cast<float>(v);
-      }
+      DecodeRowMajor(
+          data, h, [](const char* p) { return static_cast<float>(Load<double>(p)); }, m.data());
       break;
     case NpyDtype::kFloat16:
-      for (int64_t i = 0; i < n; ++i) {
-        uint16_t bits;
-        std::memcpy(&bits, data + 2 * i, 2);
-        m.data()[i] = static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(bits));
-      }
+      DecodeRowMajor(
+          data, h,
+          [](const char* p) {
+            return static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(Load<uint16_t>(p)));
+          },
+          m.data());
       break;
   }
   return m;

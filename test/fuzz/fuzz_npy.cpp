@@ -5,8 +5,9 @@
 // they accept is then
 //  - decoded again here, independently, from libFuzzer's own buffer, which is exactly the
 //    input's size, so that AddressSanitizer reports any read that the header's promise ("the
-//    data fits") would not cover; both decodings must agree bit for bit;
-//  - re-encoded as float32 (EncodeNpyMatrix) and parsed again: same shape;
+//    data fits") would not cover; both decodings must agree bit for bit (a Fortran-order
+//    input is transposed by both);
+//  - re-encoded as float32 (EncodeNpyMatrix, always C order) and parsed again: same shape;
 //  - loaded as a reference set through the file path (LoadReferenceSetNpy: its size limits,
 //    the place ids, the validation), from a file in a private temporary folder. Only accepted
 //    inputs pay for the file; most inputs are refused.
@@ -52,24 +53,27 @@ size_t ElementBytes(NpyDtype dtype) {
 }
 
 // Decodes the elements the header describes, reading only
-// data[h.data_offset, h.data_offset + rows * cols * element bytes).
+// data[h.data_offset, h.data_offset + rows * cols * element bytes). Element (r, c) is the
+// (r * cols + c)-th of the file in C order and the (c * rows + r)-th in Fortran order.
 RowMatrixXf Decode(const uint8_t* data, const NpyHeader& h) {
   RowMatrixXf m(h.rows, h.cols);
-  const uint8_t* p = data + h.data_offset;
   for (Eigen::Index i = 0; i < m.size(); ++i) {
+    const Eigen::Index r = i / m.cols(), c = i % m.cols();
+    const Eigen::Index k = h.fortran_order ? c * m.rows() + r : i;
+    const uint8_t* p = data + h.data_offset + k * ElementBytes(h.dtype);
     switch (h.dtype) {
       case NpyDtype::kFloat16: {
         uint16_t bits;
-        std::memcpy(&bits, p + 2 * i, 2);
+        std::memcpy(&bits, p, 2);
         m.data()[i] = static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(bits));
         break;
       }
       case NpyDtype::kFloat32:
-        std::memcpy(m.data() + i, p + 4 * i, 4);
+        std::memcpy(m.data() + i, p, 4);
         break;
       case NpyDtype::kFloat64: {
         double v;
-        std::memcpy(&v, p + 8 * i, 8);
+        std::memcpy(&v, p, 8);
         m.data()[i] = static_cast<float>(v);
         break;
       }
@@ -146,6 +150,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string encoded = EncodeNpyMatrix(*decoded);
     const NpyHeader back = ParseNpyHeader(encoded, "re-encoded");
     if (back.rows != h.rows || back.cols != h.cols || back.dtype != NpyDtype::kFloat32 ||
+        back.fortran_order ||
         back.data_offset + 4 * static_cast<size_t>(decoded->size()) != encoded.size()) {
       Finding("EncodeNpyMatrix of shape " + Shape(h.rows, h.cols) + " parses back as " +
               Shape(back.rows, back.cols));

@@ -3,9 +3,9 @@
 //
 //   make_fuzz_seeds <repository folder> <npy seed folder> <yaml seed folder>
 //
-// .npy seeds: small valid matrices in every dtype and format version, the shipped
-// data/gardens_point_hdc_delf/day_left.npy cut short at several points, and headers that
-// must be refused (Fortran order, 1-D and 3-D shapes, other dtypes). YAML seeds: valid
+// .npy seeds: small valid matrices in every dtype and format version and in Fortran order,
+// the shipped data/gardens_point_hdc_delf/day_left.npy cut short at several points, and
+// headers that must be refused (1-D and 3-D shapes, other dtypes). YAML seeds: valid
 // sidecars naming the fixture files of fuzz_fixture.h, and the shipped day_left.yaml
 // pointed at one of them.
 #include <cstdio>
@@ -72,9 +72,12 @@ void WriteNpySeeds(const std::string& repo, const std::string& dir) {
   for (int version : {2, 3}) {
     Write(dir + "/version" + std::to_string(version) + ".npy", MakeNpy(dict, data_2x3, version));
   }
-  std::string refused = dict;
-  ReplaceAll(refused, "False", "True");
-  Write(dir + "/fortran.npy", MakeNpy(refused, data_2x3, 1));
+  std::string fortran = dict;
+  ReplaceAll(fortran, "False", "True");
+  Write(dir + "/fortran_2x3.npy", MakeNpy(fortran, data_2x3, 1));
+  ReplaceAll(fortran, "(2, 3)", "(3, 2)");
+  Write(dir + "/fortran_3x2.npy", MakeNpy(fortran, data_2x3, 1));
+  std::string refused;
   const char* kBadShapes[] = {"(6,)", "(1, 2, 3)", "()", "(2, -3)"};
   for (size_t i = 0; i < sizeof(kBadShapes) / sizeof(kBadShapes[0]); ++i) {
     refused = dict;

@@ -307,7 +307,7 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
   WriteNpyMatrix(dir_ + "/neg.npy", RowMatrixXf::Constant(5, 7, -1.0f));
   std::ofstream(dir_ + "/fortran.npy")
       << std::string("\x93NUMPY\x01\x00\x76\x00", 10)
-      << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }" << std::string(58, ' ')
+      << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }" << std::string(59, ' ')
       << "\n"
       << std::string(4, '\0');
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -321,7 +321,9 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
       {"--reference day=" + day + " --query " + night + " --tolerance-m 2", "query poses"},
       {"--distances a=" + day + " --tolerance-m 2", "--tolerance-m needs poses"},
       {"--reference day=/nonexistent.npy --query " + night + " --tolerance 2", "/nonexistent.npy"},
-      {"--reference day=" + dir_ + "/fortran.npy --query " + night + " --tolerance 2", "Fortran"},
+      // A Fortran-order file is read (1 x 1 here), so it reaches the dimension check.
+      {"--reference day=" + day + " --query " + dir_ + "/fortran.npy --tolerance 2",
+       "has dimension 1, the reference sets have 4096"},
       {"--reference day=" + day + " --query " + dir_ + "/short.npy --tolerance 2", "dimension 7"},
       {"--reference day=" + day + " --reference day=" + day + " --query " + night +
            " --tolerance 2",

@@ -1,9 +1,12 @@
 // Reading and writing 2-D NumPy .npy matrices (format versions 1.0, 2.0 and 3.0).
 //
-// Supported: little-endian float16 ('<f2'), float32 ('<f4') and float64 ('<f8'), C order,
-// exactly two dimensions. Anything else (Fortran order, other dtypes, big-endian data,
-// 1-D or 3-D arrays, a header that claims more data than the file holds, sizes beyond
-// kMaxNpyElements) is refused with std::runtime_error naming the file and the problem.
+// Supported: little-endian float16 ('<f2'), float32 ('<f4') and float64 ('<f8'), exactly
+// two dimensions, in C (row-major) or Fortran (column-major) order. NumPy writes Fortran
+// order for a transposed array; such a file is transposed on decoding, so the result is
+// always the row-major matrix of the header's shape. Anything else (other dtypes,
+// big-endian data, 1-D or 3-D arrays, a header that claims more data than the file holds,
+// sizes beyond kMaxNpyElements) is refused with std::runtime_error naming the file and the
+// problem, before anything is allocated for the data.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +28,9 @@ struct NpyHeader {
   NpyDtype dtype = NpyDtype::kFloat32;
   int64_t rows = 0;
   int64_t cols = 0;
+  // Element (r, c) is the (r * cols + c)-th of the data in C order, the (c * rows + r)-th in
+  // Fortran order.
+  bool fortran_order = false;
   size_t data_offset = 0;  // bytes from the start of the file to the first element
 };
 
@@ -32,7 +38,8 @@ struct NpyHeader {
 // messages). Also checks that `bytes` holds all the data the header announces.
 NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path);
 
-// Reads a 2-D .npy matrix and converts it to float32. Throws std::runtime_error.
+// Reads a 2-D .npy matrix (C or Fortran order) and converts it to float32. Throws
+// std::runtime_error.
 RowMatrixXf ReadNpyMatrix(const std::string& path);
 
 // The same for a file's bytes already in memory (`path` only names it in messages).

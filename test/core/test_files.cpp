@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
@@ -152,7 +153,13 @@ TEST_F(Files, SharedFortranOrderDescriptorsEqualTheShippedCOrderCopy) {
 }
 
 TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
-  ExpectNpyError(Npy("{'descr': '<i4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'<i4'");
+  // Integers and bools are truth matrices (ReadNpyBoolMatrix), not float matrices.
+  ExpectNpyError(Npy("{'descr': '<i4', 'fortran_order': False, 'shape': (2, 2), }", 16),
+                 "int32 ('<i4')");
+  ExpectNpyError(Npy("{'descr': '|b1', 'fortran_order': False, 'shape': (2, 2), }", 4),
+                 "bool ('|b1')");
+  ExpectNpyError(Npy("{'descr': '<c8', 'fortran_order': False, 'shape': (2, 2), }", 32), "'<c8'");
+  ExpectNpyError(Npy("{'descr': '>i4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'>i4'");
   ExpectNpyError(Npy("{'descr': '>f4', 'fortran_order': False, 'shape': (2, 2), }", 16), "'>f4'");
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (4,), }", 16), "2-D");
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), }", 32), "2-D");
@@ -167,6 +174,94 @@ TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
   ExpectNpyError("not an npy file at all", "magic");
   ExpectNpyError(std::string("\x93NUMPY\x01\x00\xff\x00{'descr'", 17), "truncated header");
   EXPECT_THROW(ReadNpyMatrix(Path("missing.npy")), std::runtime_error);
+}
+
+// `v` stored as the dtype `descr` names, written out by hand (little-endian).
+std::string BytesAs(double v, const std::string& descr) {
+  std::string out;
+  auto put = [&out](auto x) {
+    out.resize(sizeof(x));
+    std::memcpy(out.data(), &x, sizeof(x));
+  };
+  const std::string type = descr.substr(1);
+  if (type == "f2") put(Eigen::numext::bit_cast<uint16_t>(Eigen::half(static_cast<float>(v))));
+  if (type == "f4") put(static_cast<float>(v));
+  if (type == "f8") put(v);
+  if (type == "b1" || type == "u1") put(static_cast<uint8_t>(v));
+  if (type == "i1") put(static_cast<int8_t>(v));
+  if (type == "i2") put(static_cast<int16_t>(v));
+  if (type == "u2") put(static_cast<uint16_t>(v));
+  if (type == "i4") put(static_cast<int32_t>(v));
+  if (type == "u4") put(static_cast<uint32_t>(v));
+  if (type == "i8") put(static_cast<int64_t>(v));
+  if (type == "u8") put(static_cast<uint64_t>(v));
+  if (out.empty()) ADD_FAILURE() << "BytesAs: unknown dtype " << descr;
+  return out;
+}
+
+const char* const kTruthDtypes[] = {"|b1", "<b1", "|i1", "<i1", "|u1", "<u1", "<i2", "<u2",
+                                    "<i4", "<u4", "<i8", "<u8", "<f2", "<f4", "<f8"};
+
+TEST_F(Files, TruthMatricesAreReadFromEveryDtypeInBothOrders) {
+  std::mt19937 rng(7);
+  RowMatrixXb expected(4, 6);
+  for (Eigen::Index i = 0; i < expected.size(); ++i) expected.data()[i] = rng() % 3 == 0;
+  expected.row(2).setZero();  // a query without a true match
+  for (const char* descr : kTruthDtypes) {
+    for (const bool fortran : {false, true}) {
+      std::string data;
+      for (int k = 0; k < 24; ++k) {
+        const int r = fortran ? k % 4 : k / 6, c = fortran ? k / 4 : k % 6;
+        data += BytesAs(expected(r, c) ? 1.0 : 0.0, descr);
+      }
+      const std::string dict = std::string("{'descr': '") + descr +
+                               "', 'fortran_order': " + (fortran ? "True" : "False") +
+                               ", 'shape': (4, 6), }";
+      WriteRaw("t.npy", NpyWithData(dict, data));
+      EXPECT_EQ(ReadNpyBoolMatrix(Path("t.npy")), expected) << descr << " fortran " << fortran;
+      WriteRaw("short.npy", NpyWithData(dict, data.substr(0, data.size() - 1)));
+      EXPECT_THROW(ReadNpyBoolMatrix(Path("short.npy")), std::runtime_error) << descr;
+    }
+  }
+  // -0.0 is 0.
+  WriteRaw("z.npy", NpyWithData("{'descr': '<f4', 'fortran_order': False, 'shape': (1, 2), }",
+                                BytesAs(-0.0, "<f4") + BytesAs(1.0, "<f4")));
+  EXPECT_EQ(ReadNpyBoolMatrix(Path("z.npy")), (RowMatrixXb(1, 2) << false, true).finished());
+  WriteRaw("e.npy", Npy("{'descr': '|b1', 'fortran_order': False, 'shape': (0, 3), }", 0));
+  EXPECT_EQ(ReadNpyBoolMatrix(Path("e.npy")).cols(), 3);
+}
+
+TEST_F(Files, TruthMatricesRefuseOtherValuesNamingTheFirstInRowOrder) {
+  // Other values at (1, 4) and (2, 0): (1, 4) comes first in row order, (2, 0) first in a
+  // Fortran-order file.
+  const std::vector<std::pair<std::string, std::pair<double, std::string>>> cases = {
+      {"|b1", {2, "holds the byte 2"}}, {"|u1", {255, "holds 255"}},
+      {"|i1", {-1, "holds -1"}},        {"<i8", {-5, "holds -5"}},
+      {"<u8", {7, "holds 7"}},          {"<f2", {0.5, "holds 0.5"}},
+      {"<f4", {1.5, "holds 1.5"}},      {"<f8", {std::nan(""), "holds nan"}},
+  };
+  for (const auto& [descr, bad] : cases) {
+    for (const bool fortran : {false, true}) {
+      std::string data;
+      for (int k = 0; k < 15; ++k) {
+        const int r = fortran ? k % 3 : k / 5, c = fortran ? k / 3 : k % 5;
+        const bool is_bad = (r == 1 && c == 4) || (r == 2 && c == 0);
+        data += BytesAs(is_bad ? bad.first : (r == c ? 1.0 : 0.0), descr);
+      }
+      WriteRaw("bad.npy", NpyWithData(std::string("{'descr': '") + descr + "', 'fortran_order': " +
+                                          (fortran ? "True" : "False") + ", 'shape': (3, 5), }",
+                                      data));
+      try {
+        ReadNpyBoolMatrix(Path("bad.npy"));
+        ADD_FAILURE() << descr << " accepted";
+      } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("bad.npy"), std::string::npos) << what;
+        EXPECT_NE(what.find("row 1, column 4 " + bad.second), std::string::npos) << what;
+      }
+    }
+  }
+  EXPECT_THROW(EncodeNpyMatrix(RowMatrixXf(1, 1), NpyDtype::kBool), std::invalid_argument);
 }
 
 TEST_F(Files, AtomicWriteReplacesAndLeavesNoTemporaryFile) {

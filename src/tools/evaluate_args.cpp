@@ -36,7 +36,10 @@ Inputs (either descriptors, or precomputed per-source matrices):
 
 Ground truth (one of):
   --tolerance K           query q shows place q; a match within K places is correct
-  --ground-truth CSV      lines 'query,place place ...' listing the correct places
+  --ground-truth PATH     a CSV of lines 'query,place place ...' listing the correct
+                          places, or a Q x N .npy of 0/1 (bool, integer or float): entry
+                          (q, i) is 1 when place i is correct for query q (the VPR
+                          tutorial's GThard is N x Q: save GThard.T)
   --tolerance-m R         a match is correct when its place pose lies within R metres of
                           the query's pose (poses from the query and reference YAMLs)
 
@@ -222,7 +225,7 @@ void CheckCombination(const EvaluateArgs& a) {
     if (a.tolerance_m >= 0)
       throw std::invalid_argument("--tolerance-m is not available with --results-bag");
     if (a.tolerance_frames >= 0 && !a.ground_truth.empty()) {
-      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth CSV");
+      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth PATH");
     }
     a.options.Validate();
     return;
@@ -241,7 +244,7 @@ void CheckCombination(const EvaluateArgs& a) {
   const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   if (truths != 1) {
     throw std::invalid_argument(
-        "give exactly one of --tolerance K, --tolerance-m R and --ground-truth CSV");
+        "give exactly one of --tolerance K, --tolerance-m R and --ground-truth PATH");
   }
   if (a.tolerance_m >= 0 && !descriptor_mode) {
     throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");

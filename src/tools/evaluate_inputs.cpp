@@ -188,7 +188,7 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
         GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
   } else {
     data->truth =
-        ReadGroundTruthCsv(args.ground_truth, data->input.num_queries, data->input.num_places);
+        ReadGroundTruthFile(args.ground_truth, data->input.num_queries, data->input.num_places);
   }
   return data;
 }

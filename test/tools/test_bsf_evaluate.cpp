@@ -153,6 +153,95 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
       << clash.output;
 }
 
+// An .npy file from its header dictionary and data, as numpy.save writes it (version 1.0).
+std::string NpyFile(const std::string& dict, const std::string& data) {
+  std::string h = dict;
+  while ((10 + h.size() + 1) % 64) h.push_back(' ');
+  h.push_back('\n');
+  std::string out("\x93NUMPY\x01\x00", 8);
+  out.push_back(static_cast<char>(h.size() & 0xff));
+  out.push_back(static_cast<char>(h.size() >> 8));
+  return out + h + data;
+}
+
+TEST_F(EvaluateTool, GroundTruthNpyGivesTheSameMetricsAsTheEquivalentCsv) {
+  // 200 night queries against 200 day places. Query q is correct at q-3 .. q+3, except that
+  // queries 40..59 have no true match and query 100 is correct only at place 7.
+  const int n = 200;
+  std::vector<std::vector<bool>> truth(n, std::vector<bool>(n, false));
+  for (int q = 0; q < n; ++q) {
+    if (q >= 40 && q < 60) continue;
+    for (int i = std::max(0, q - 3); i <= std::min(n - 1, q + 3); ++i) truth[q][i] = true;
+  }
+  truth[100].assign(n, false);
+  truth[100][7] = true;
+  std::ofstream csv(dir_ + "/gt.csv");
+  csv << "query,correct_places\n";
+  for (int q = 0; q < n; ++q) {
+    std::string places;
+    for (int i = 0; i < n; ++i)
+      if (truth[q][i]) places += (places.empty() ? "" : " ") + std::to_string(i);
+    if (!places.empty()) csv << q << ',' << places << '\n';
+  }
+  csv.close();
+  // The same matrix as bool in C order, and as int64 in Fortran order (numpy.save of a
+  // transposed array writes that).
+  std::string bools, int64_column_major;
+  for (int q = 0; q < n; ++q)
+    for (int i = 0; i < n; ++i) bools.push_back(truth[q][i] ? 1 : 0);
+  for (int i = 0; i < n; ++i) {
+    for (int q = 0; q < n; ++q) {
+      const int64_t v = truth[q][i] ? 1 : 0;
+      int64_column_major.append(reinterpret_cast<const char*>(&v), 8);
+    }
+  }
+  std::ofstream(dir_ + "/gt_bool.npy", std::ios::binary)
+      << NpyFile("{'descr': '|b1', 'fortran_order': False, 'shape': (200, 200), }", bools);
+  std::ofstream(dir_ + "/gt_int.npy", std::ios::binary) << NpyFile(
+      "{'descr': '<i8', 'fortran_order': True, 'shape': (200, 200), }", int64_column_major);
+
+  const std::string in = "--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                         "night_right.npy --distance cosine --methods bsf,nn:day,bsf+filter "
+                         "--no-progress --ground-truth ";
+  for (const std::string name : {"gt.csv", "gt_bool.npy", "gt_int.npy"}) {
+    const Result r = Evaluate(in + dir_ + "/" + name + " --out " + dir_ + "/out_" + name);
+    ASSERT_EQ(r.exit_code, 0) << name << "\n" << r.output;
+  }
+  const std::vector<std::string> from_csv = Lines(dir_ + "/out_gt.csv/summary.csv");
+  ASSERT_EQ(from_csv.size(), 4u);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_bool.npy/summary.csv"), from_csv);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_int.npy/summary.csv"), from_csv);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_bool.npy/pr/bsf.csv"), Lines(dir_ + "/out_gt.csv/pr/bsf.csv"));
+  // The ground truth matters: +-3 frames for every query scores otherwise.
+  ASSERT_EQ(Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                     "night_right.npy --distance cosine --methods bsf,nn:day,bsf+filter "
+                     "--no-progress --tolerance 3 --out " +
+                     dir_ + "/tol")
+                .exit_code,
+            0);
+  EXPECT_NE(Lines(dir_ + "/tol/summary.csv"), from_csv);
+
+  // A matrix of another shape, or with a value other than 0 and 1: one line, exit 2.
+  std::ofstream(dir_ + "/gt_short.npy", std::ios::binary)
+      << NpyFile("{'descr': '|b1', 'fortran_order': False, 'shape': (100, 200), }",
+                 bools.substr(0, 100 * 200));
+  std::string with_two = bools;
+  with_two[5 * 200 + 9] = 2;
+  std::ofstream(dir_ + "/gt_two.npy", std::ios::binary)
+      << NpyFile("{'descr': '|u1', 'fortran_order': False, 'shape': (200, 200), }", with_two);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"gt_short.npy", "is 100 x 200 but the evaluation has 200 queries and 200 places"},
+      {"gt_two.npy", "row 5, column 9 holds 2"},
+  };
+  for (const auto& [name, fragment] : bad) {
+    const Result r = Evaluate(in + dir_ + "/" + name);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(dir_ + "/" + name), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+}
+
 TEST_F(EvaluateTool, TheDistanceTheSetsDeclareIsTheDefault) {
   ReferenceSet day = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
   day.distance = "cosine";

@@ -55,7 +55,7 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   const tools::EvaluateArgs args = tools::ParseEvaluateArgs(argc, argv);
   if (args.help) {
-    std::cout << tools::kEvaluateUsage;
+    std::cout << tools::EvaluateUsage();
     return 0;
   }
   if (!args.results_bag.empty()) return RunResultsBag(args);

@@ -48,7 +48,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv);
 // ground truth) and validates the options. Throws std::invalid_argument.
 void CheckCombination(const EvaluateArgs& args);
 
-extern const char kEvaluateUsage[];
+// The --help text (the image-descriptor lines from DescriberUsage()).
+std::string EvaluateUsage();
 
 }  // namespace tools
 }  // namespace bsf_vpr

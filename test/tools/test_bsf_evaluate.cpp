@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -523,6 +524,92 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   const Result bad = Evaluate(in + dir_ + "/x --descriptor sift");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
+}
+
+// The first `count` images of a shipped Nordland season, copied into dir/season.
+std::string CopyImages(const std::string& season, int count, const std::string& dir) {
+  const std::string from = kSource + "/data/nordland_64x32/" + season;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(from)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  const std::string to = dir + "/" + season;
+  fs::create_directories(to);
+  for (int k = 0; k < count && k < static_cast<int>(files.size()); ++k) {
+    fs::copy_file(files[static_cast<size_t>(k)], to + "/" + files[k].filename().string());
+  }
+  return to;
+}
+
+TEST_F(EvaluateTool, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
+  // 100 winter images as the reference, 100 summer images as queries. A set made with
+  // HOG or an ONNX network (flags away from their defaults, a switch among them) must
+  // give exactly the evaluator's own results for the image folder with the same flags.
+  const std::string winter = CopyImages("winter", 100, dir_);
+  const std::string summer = CopyImages("summer", 100, dir_);
+  const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
+  const struct {
+    std::string name, flags, distance, type;
+    int dimension;
+  } kDescribers[] = {
+      {"hog", "--descriptor hog --hog-width 32 --hog-height 32 --hog-cell 8 --hog-bins 6", "cosine",
+       "hog_32x32_c8_b6", 3 * 3 * 4 * 6},
+      // Without L2 normalisation Euclidean distances depend on the norm: --onnx-no-l2 counts.
+      {"onnx", "--descriptor onnx --onnx-model " + model + " --onnx-input 7x7 --onnx-no-l2",
+       "euclidean", "onnx_model_48", 48},
+      {"patchnorm", "--patch-width 32 --patch-height 16 --patch-size 4", "cosine",
+       "patchnorm_32x16_p4", 32 * 16},
+  };
+  for (const auto& d : kDescribers) {
+    const std::string yaml = dir_ + "/sets/" + d.name + ".yaml";
+    const Result made =
+        RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --images " + winter +
+                   " --name winter --distance " + d.distance + " " + d.flags + " --out " + yaml);
+    ASSERT_EQ(made.exit_code, 0) << made.output;
+    EXPECT_NE(made.output.find(d.type), std::string::npos) << made.output;
+    const ReferenceSet set = LoadReferenceSetYaml(yaml);
+    EXPECT_EQ(set.descriptor_type, d.type);
+    EXPECT_EQ(set.distance, d.distance);
+    EXPECT_EQ(set.size(), 100);
+    EXPECT_EQ(set.dimension(), d.dimension);
+
+    const std::string common = " --query " + summer + " --distance " + d.distance + " " + d.flags +
+                               " --tolerance 2 --methods bsf,nn:winter --no-progress --out ";
+    const Result from_set = Evaluate("--reference winter=" + yaml + common + dir_ + "/a_" + d.name);
+    ASSERT_EQ(from_set.exit_code, 0) << from_set.output;
+    const Result from_images =
+        Evaluate("--reference winter=" + winter + common + dir_ + "/b_" + d.name);
+    ASSERT_EQ(from_images.exit_code, 0) << from_images.output;
+    const std::vector<std::string> summary = Lines(dir_ + "/a_" + d.name + "/summary.csv");
+    ASSERT_EQ(summary.size(), 3u) << d.name;
+    EXPECT_EQ(summary, Lines(dir_ + "/b_" + d.name + "/summary.csv")) << d.name;
+    for (const char* m : {"bsf", "nn_winter"}) {
+      const std::string matches = std::string("/matches/") + m + ".csv";
+      EXPECT_EQ(Lines(dir_ + "/a_" + d.name + matches), Lines(dir_ + "/b_" + d.name + matches))
+          << d.name << " " << m;
+    }
+  }
+  // The flags are the evaluator's: the same checks, and descriptor flags need images.
+  const std::string mk_ref =
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --name x --out " + dir_ + "/x/x.yaml ";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"--images " + winter + " --descriptor sift", "unknown --descriptor 'sift'"},
+      {"--images " + winter + " --descriptor hog --hog-cell 7", "multiples of cell_px"},
+      {"--images " + winter + " --descriptor onnx", "model_path"},
+      {"--images " + winter + " --descriptor onnx --onnx-model /nonexistent.onnx",
+       "/nonexistent.onnx"},
+      {"--images " + winter + " --descriptor onnx --onnx-model " + model + " --onnx-input 7",
+       "--onnx-input expects WxH"},
+      {"--descriptors " + kGardens + "day_left.npy --onnx-bgr", "--onnx-bgr describes images"},
+      {"--descriptors " + kGardens + "day_left.npy --descriptor hog",
+       "--descriptor describes images: it goes with --images"},
+  };
+  for (const auto& [args, fragment] : bad) {
+    const Result r = RunCommand(mk_ref + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/x"));
 }
 
 TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {

@@ -118,6 +118,7 @@ T Load(const char* p) {
 // in C order and (k % rows, k / rows) in Fortran order, which is transposed here.
 template <typename T, typename Decode>
 void DecodeRowMajor(const char* data, const NpyHeader& h, Decode decode, T* out) {
+  if (h.rows == 0 || h.cols == 0) return;  // not a loop over 4e9 empty columns
   const size_t bytes = NpyDtypeBytes(h.dtype);
   if (!h.fortran_order) {
     const int64_t n = h.rows * h.cols;

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/npy.h"
 
 namespace bsf_vpr {
 namespace {
@@ -56,6 +57,40 @@ GroundTruth ReadGroundTruthCsv(const std::string& path, int num_queries, int num
     }
   }
   return GroundTruth(std::move(correct));
+}
+
+GroundTruth ReadGroundTruthNpy(const std::string& path, int num_queries, int num_places) {
+  const std::string bytes = ReadFile(path);
+  const NpyHeader h = ParseNpyHeader(bytes, path);
+  if (h.rows != num_queries || h.cols != num_places) {
+    const std::string shape = std::to_string(h.rows) + " x " + std::to_string(h.cols);
+    std::string message = "ground truth '" + path + "' is " + shape + " but the evaluation has " +
+                          std::to_string(num_queries) + " queries and " +
+                          std::to_string(num_places) +
+                          " places: expected a queries x places matrix";
+    if (h.rows == num_places && h.cols == num_queries) {
+      message +=
+          " (this one looks transposed: the VPR tutorial's GThard is places x queries, "
+          "save GThard.T)";
+    }
+    throw std::runtime_error(message);
+  }
+  const RowMatrixXb truth = DecodeNpyBoolMatrix(bytes, path);
+  std::vector<std::vector<int>> correct(static_cast<size_t>(num_queries));
+  for (int q = 0; q < num_queries; ++q) {
+    for (int i = 0; i < num_places; ++i) {
+      if (truth(q, i)) correct[static_cast<size_t>(q)].push_back(i);
+    }
+  }
+  return GroundTruth(std::move(correct));
+}
+
+GroundTruth ReadGroundTruthFile(const std::string& path, int num_queries, int num_places) {
+  const std::string npy = ".npy";
+  if (path.size() >= npy.size() && path.compare(path.size() - npy.size(), npy.size(), npy) == 0) {
+    return ReadGroundTruthNpy(path, num_queries, num_places);
+  }
+  return ReadGroundTruthCsv(path, num_queries, num_places);
 }
 
 void WriteGroundTruthCsv(const std::string& path, const GroundTruth& truth) {

@@ -32,7 +32,7 @@ int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
   if (args.tolerance_frames >= 0) {
     truth = GroundTruth::FromFrameTolerance(q, bag.num_places, args.tolerance_frames);
   } else if (!args.ground_truth.empty()) {
-    truth = ReadGroundTruthCsv(args.ground_truth, q, bag.num_places);
+    truth = ReadGroundTruthFile(args.ground_truth, q, bag.num_places);
   } else if (bag.truth) {
     truth = *bag.truth;
   } else {
@@ -55,7 +55,7 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   const tools::EvaluateArgs args = tools::ParseEvaluateArgs(argc, argv);
   if (args.help) {
-    std::cout << tools::kEvaluateUsage;
+    std::cout << tools::EvaluateUsage();
     return 0;
   }
   if (!args.results_bag.empty()) return RunResultsBag(args);

@@ -1,60 +1,66 @@
-// bsf_make_reference: describes a folder of images (or takes a descriptor .npy) and saves it
-// as a reference set (.yaml sidecar + .npy) that the fusion node can load (see --help).
+// bsf_make_reference: describes a folder of images with any of the evaluator's image
+// descriptors (or takes a descriptor .npy) and saves it as a reference set (.yaml sidecar +
+// .npy) that the fusion node and bsf_evaluate can load (see --help).
 #include <cmath>
 #include <iostream>
 
 #include "bsf_vpr/core/distances.h"
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "cli_util.h"
+#include "describer_flags.h"
 
 namespace {
 
-const char kUsage[] =
-    R"(usage: bsf_make_reference (--images DIR | --descriptors PATH.npy) --name NAME --out PATH.yaml [options]
+std::string Usage() {
+  return R"(usage: bsf_make_reference (--images DIR | --descriptors PATH.npy) --name NAME --out PATH.yaml [options]
 
-Writes PATH.yaml and PATH.npy (atomically): row k is place k (images sorted by name).
-  --images DIR           describe the images with the patch-normalised image descriptor
-  --descriptors PATH     or take the rows of a descriptor .npy as they are
-  --name NAME            name of the reference set
-  --out PATH.yaml        the sidecar to write; the .npy goes next to it (missing
-                         folders are created)
-  --condition TEXT       optional condition label (e.g. winter, night)
+Writes the reference set PATH.yaml and its descriptors beside it as
+<stem>.<content hash>.npy (float32), which the YAML names: row k is place k (images
+sorted by name). The .npy is written first and the YAML replaced last, in one step: a set
+that existed at PATH.yaml stays whole until the new one is; its old .npy is then removed.
+  --images DIR            describe the images with --descriptor (below)
+  --descriptors PATH      or take the rows of a descriptor .npy as they are
+  --name NAME             name of the reference set
+  --out PATH.yaml         the YAML to write (missing folders are created)
+  --condition TEXT        optional condition label (e.g. winter, night)
   --distance euclidean|cosine   the distance the set is meant for (recorded in the YAML)
-  --patch-width W, --patch-height H, --patch-size P   image descriptor (default 64 32 8)
-  -h, --help             this help
+Image descriptor (with --images; the same flags as bsf_evaluate; the descriptor type, e.g.
+hog_64x32_c8_b9, is recorded in the YAML):
+)" + bsf_vpr::tools::DescriberUsage() +
+         R"(  -h, --help              this help
 Exit status 2 with one line naming the problem on bad arguments or input.
 )";
+}
 
 int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   std::string images, descriptors, name, out, condition, distance;
-  PatchNormOptions patch;
-  tools::FlagReader flags(argc, argv);
+  ImageDescriberOptions describer;
+  std::string describer_flag;  // the first image-descriptor flag given, if any
+  tools::FlagReader flags(argc, argv, tools::DescriberSwitches());
   for (std::string f, v; flags.Next(&f, &v);) {
-    if (f == "--images")
+    if (f == "--images") {
       images = v;
-    else if (f == "--descriptors")
+    } else if (f == "--descriptors") {
       descriptors = v;
-    else if (f == "--name")
+    } else if (f == "--name") {
       name = v;
-    else if (f == "--out")
+    } else if (f == "--out") {
       out = v;
-    else if (f == "--condition")
+    } else if (f == "--condition") {
       condition = v;
-    else if (f == "--distance")
+    } else if (f == "--distance") {
       distance = ToString(ParseDistanceMetric(v));
-    else if (f == "--patch-width")
-      patch.width_px = tools::ParseInteger(f, v);
-    else if (f == "--patch-height")
-      patch.height_px = tools::ParseInteger(f, v);
-    else if (f == "--patch-size")
-      patch.patch_size_px = tools::ParseInteger(f, v);
-    else
+    } else if (tools::ParseDescriberSwitch(f, &describer) ||
+               tools::ParseDescriberFlag(f, v, &describer)) {
+      if (describer_flag.empty()) describer_flag = f;
+    } else {
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
+    }
   }
   if (flags.help()) {
-    std::cout << kUsage;
+    std::cout << Usage();
     return 0;
   }
   if (images.empty() == descriptors.empty()) {
@@ -64,20 +70,25 @@ int Run(int argc, char** argv) {
   if (out.size() < 5 || out.compare(out.size() - 5, 5, ".yaml") != 0) {
     throw std::invalid_argument("--out must name a .yaml file, got '" + out + "'");
   }
+  if (!descriptors.empty() && !describer_flag.empty()) {
+    throw std::invalid_argument(describer_flag +
+                                " describes images: it goes with --images, not --descriptors");
+  }
   ReferenceSet set;
   if (!images.empty()) {
-    patch.Validate();
-    set = MakeReferenceSet(name, DescribeImageFolder(images, patch), condition);
-    set.descriptor_type = patch.DescriptorType();
+    tools::ValidateDescriberOptions(describer);
+    set = tools::DescribeImageFolderAsSet(images, name, *MakeImageDescriber(describer));
   } else {
     set = LoadReferenceSetNpy(descriptors, name);
-    set.condition = condition;
   }
+  set.condition = condition;
   set.distance = distance;
   tools::CreateParentFolders(out);
   SaveReferenceSet(set, out);
   std::cout << "bsf_make_reference: wrote " << out << " (" << set.size() << " places, dimension "
-            << set.dimension() << ")\n";
+            << set.dimension();
+  if (!set.descriptor_type.empty()) std::cout << ", " << set.descriptor_type;
+  std::cout << ")\n";
   return 0;
 }
 

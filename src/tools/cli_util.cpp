@@ -1,5 +1,6 @@
 #include "cli_util.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -47,6 +48,11 @@ bool FlagReader::Next(std::string* flag, std::string* value) {
   if (*flag == "-h" || *flag == "--help") {
     help_ = true;
     return false;
+  }
+  if (std::find(switches_.begin(), switches_.end(), *flag) != switches_.end()) {
+    value->clear();
+    ++i_;
+    return true;
   }
   if (i_ + 1 >= argc_) throw std::invalid_argument(*flag + " needs a value");
   *value = argv_[i_ + 1];

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace bsf_vpr {
 namespace tools {
@@ -18,17 +20,20 @@ int ParseInteger(const std::string& flag, const std::string& value);
 void CreateFolders(const std::string& dir);
 void CreateParentFolders(const std::string& file);
 
-// Reads the "--flag value" pairs of argv in order. Next() returns false at the end or at
-// -h/--help (then help() is true); it throws std::invalid_argument for a flag without value.
+// Reads the "--flag value" pairs of argv in order; a flag among `switches` stands alone (its
+// value is ""). Next() returns false at the end or at -h/--help (then help() is true); it
+// throws std::invalid_argument for a flag without value.
 class FlagReader {
  public:
-  FlagReader(int argc, char** argv) : argc_(argc), argv_(argv) {}
+  FlagReader(int argc, char** argv, std::vector<std::string> switches = {})
+      : argc_(argc), argv_(argv), switches_(std::move(switches)) {}
   bool Next(std::string* flag, std::string* value);
   bool help() const { return help_; }
 
  private:
   int argc_;
   char** argv_;
+  std::vector<std::string> switches_;
   int i_ = 1;
   bool help_ = false;
 };

@@ -1,22 +1,23 @@
 #include "evaluate_args.h"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 #include "cli_util.h"
+#include "describer_flags.h"
 
 namespace bsf_vpr {
 namespace tools {
 
-const char kEvaluateUsage[] = R"(usage: bsf_evaluate [options]
+std::string EvaluateUsage() {
+  return R"(usage: bsf_evaluate [options]
 
 Evaluates place recognition methods offline: no ROS master needed.
 
 Inputs (either descriptors, or precomputed per-source matrices):
   --reference NAME=PATH   a reference set: descriptor .npy (N x D), reference-set .yaml,
-                          or a folder of images (described with the patch-normalised
-                          image descriptor). Repeat for M sets.
+                          or a folder of images (described with --descriptor, below).
+                          Repeat for M sets.
   --query PATH            the query traversal, of the same kinds (Q x D)
   --distances NAME=PATH   a Q x N .npy of distances from every query to every place for
                           one source (lower is better). Repeatable.
@@ -36,7 +37,10 @@ Inputs (either descriptors, or precomputed per-source matrices):
 
 Ground truth (one of):
   --tolerance K           query q shows place q; a match within K places is correct
-  --ground-truth CSV      lines 'query,place place ...' listing the correct places
+  --ground-truth PATH     a CSV of lines 'query,place place ...' listing the correct
+                          places, or a Q x N .npy of 0/1 (bool, integer or float): entry
+                          (q, i) is 1 when place i is correct for query q (the VPR
+                          tutorial's GThard is N x Q: save GThard.T)
   --tolerance-m R         a match is correct when its place pose lies within R metres of
                           the query's pose (poses from the query and reference YAMLs)
 
@@ -60,20 +64,8 @@ Methods and parameters:
   --filter-step S, --filter-std S   +filter: mean and standard deviation of the progress
                           per query, in places (default 1 1)
   --relocalization R      +filter: probability of re-localising anywhere (default 0.01)
-  --descriptor NAME       image descriptor for image folders: patchnorm (default), hog, onnx
-  --patch-width W, --patch-height H, --patch-size P
-                          patchnorm: resize and patch size (default 64 32 8)
-  --hog-width W, --hog-height H, --hog-cell C, --hog-bins B
-                          hog: resize, cell size and orientation bins (default 64 32 8 9)
-  --onnx-model PATH       onnx: the network (e.g. NetVLAD exported to ONNX)
-  --onnx-input WxH        onnx: input size (default 224x224)
-  --onnx-mean R,G,B, --onnx-std R,G,B   onnx: per-channel normalisation of [0, 1] pixels
-                          (default ImageNet 0.485,0.456,0.406 and 0.229,0.224,0.225)
-  --onnx-output NAME      onnx: output layer (default: the network's output)
-  --onnx-pca PATH         onnx: K x D projection .npy applied to the output
-  --onnx-bgr              onnx: feed B, G, R instead of R, G, B
-  --onnx-no-l2            onnx: do not L2-normalise the output
-
+)" + DescriberUsage() +
+         R"(
 Output:
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
   --no-progress           do not report progress on stderr
@@ -81,6 +73,7 @@ Output:
 
 Exit status: 0 on success, 2 on bad arguments or unreadable/invalid input.
 )";
+}
 
 namespace {
 
@@ -106,10 +99,7 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.progress = false;
       continue;
     }
-    if (flag == "--onnx-bgr" || flag == "--onnx-no-l2") {
-      (flag == "--onnx-bgr" ? a.describer.onnx.rgb : a.describer.onnx.l2_normalize) = false;
-      continue;
-    }
+    if (ParseDescriberSwitch(flag, &a.describer)) continue;
     if (flag.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + flag + "'");
     if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
     const std::string value = argv[++i];
@@ -168,40 +158,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.options.filter.step_std_places = ParseNumber(flag, value);
     } else if (flag == "--relocalization") {
       a.options.filter.relocalization_probability = ParseNumber(flag, value);
-    } else if (flag == "--descriptor") {
-      a.describer.kind = value;
-    } else if (flag == "--hog-width") {
-      a.describer.hog.width_px = ParseInteger(flag, value);
-    } else if (flag == "--hog-height") {
-      a.describer.hog.height_px = ParseInteger(flag, value);
-    } else if (flag == "--hog-cell") {
-      a.describer.hog.cell_px = ParseInteger(flag, value);
-    } else if (flag == "--hog-bins") {
-      a.describer.hog.bins = ParseInteger(flag, value);
-    } else if (flag == "--onnx-model") {
-      a.describer.onnx.model_path = value;
-    } else if (flag == "--onnx-input") {
-      const size_t x = value.find('x');
-      if (x == std::string::npos)
-        throw std::invalid_argument("--onnx-input expects WxH, got '" + value + "'");
-      a.describer.onnx.input_width_px = ParseInteger(flag, value.substr(0, x));
-      a.describer.onnx.input_height_px = ParseInteger(flag, value.substr(x + 1));
-    } else if (flag == "--onnx-mean" || flag == "--onnx-std") {
-      std::vector<float> v;
-      std::stringstream ss(value);
-      for (std::string item; std::getline(ss, item, ',');)
-        v.push_back(static_cast<float>(ParseNumber(flag, item)));
-      (flag == "--onnx-mean" ? a.describer.onnx.mean : a.describer.onnx.std) = v;
-    } else if (flag == "--onnx-output") {
-      a.describer.onnx.output_layer = value;
-    } else if (flag == "--onnx-pca") {
-      a.describer.onnx.pca_path = value;
-    } else if (flag == "--patch-width") {
-      a.describer.patch_norm.width_px = ParseInteger(flag, value);
-    } else if (flag == "--patch-height") {
-      a.describer.patch_norm.height_px = ParseInteger(flag, value);
-    } else if (flag == "--patch-size") {
-      a.describer.patch_norm.patch_size_px = ParseInteger(flag, value);
+    } else if (ParseDescriberFlag(flag, value, &a.describer)) {
+      // --descriptor, --patch-*, --hog-*, --onnx-*: parsed into a.describer
     } else if (flag == "--out") {
       a.out_dir = value;
     } else {
@@ -222,7 +180,7 @@ void CheckCombination(const EvaluateArgs& a) {
     if (a.tolerance_m >= 0)
       throw std::invalid_argument("--tolerance-m is not available with --results-bag");
     if (a.tolerance_frames >= 0 && !a.ground_truth.empty()) {
-      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth CSV");
+      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth PATH");
     }
     a.options.Validate();
     return;
@@ -241,19 +199,13 @@ void CheckCombination(const EvaluateArgs& a) {
   const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   if (truths != 1) {
     throw std::invalid_argument(
-        "give exactly one of --tolerance K, --tolerance-m R and --ground-truth CSV");
+        "give exactly one of --tolerance K, --tolerance-m R and --ground-truth PATH");
   }
   if (a.tolerance_m >= 0 && !descriptor_mode) {
     throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
   }
   a.options.Validate();
-  if (a.describer.kind != "patchnorm" && a.describer.kind != "hog" && a.describer.kind != "onnx") {
-    throw std::invalid_argument("unknown --descriptor '" + a.describer.kind +
-                                "' (expected patchnorm, hog or onnx)");
-  }
-  a.describer.patch_norm.Validate();
-  if (a.describer.kind == "hog") a.describer.hog.Validate();
-  if (a.describer.kind == "onnx") a.describer.onnx.Validate();
+  ValidateDescriberOptions(a.describer);
 }
 
 }  // namespace tools

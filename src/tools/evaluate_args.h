@@ -32,7 +32,7 @@ struct EvaluateArgs {
   StoragePrecision storage = StoragePrecision::kFloat32;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
-  std::string ground_truth;   // --ground-truth CSV
+  std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;
   ImageDescriberOptions describer;  // for image folders
@@ -48,7 +48,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv);
 // ground truth) and validates the options. Throws std::invalid_argument.
 void CheckCombination(const EvaluateArgs& args);
 
-extern const char kEvaluateUsage[];
+// The --help text (the image-descriptor lines from DescriberUsage()).
+std::string EvaluateUsage();
 
 }  // namespace tools
 }  // namespace bsf_vpr

@@ -9,6 +9,7 @@
 #include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
+#include "describer_flags.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -26,9 +27,7 @@ ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
                         std::unique_ptr<ImageDescriber>* describer) {
   if (IsFolder(path)) {
     if (!*describer) *describer = MakeImageDescriber(options);
-    ReferenceSet set = MakeReferenceSet(name, DescribeImageFolder(path, **describer));
-    set.descriptor_type = (*describer)->descriptor_type();
-    return set;
+    return DescribeImageFolderAsSet(path, name, **describer);
   }
   return LoadReferenceSetFile(path, name);
 }
@@ -188,7 +187,7 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
         GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
   } else {
     data->truth =
-        ReadGroundTruthCsv(args.ground_truth, data->input.num_queries, data->input.num_places);
+        ReadGroundTruthFile(args.ground_truth, data->input.num_queries, data->input.num_places);
   }
   return data;
 }

@@ -3,9 +3,10 @@
 //
 //   make_fuzz_seeds <repository folder> <npy seed folder> <yaml seed folder>
 //
-// .npy seeds: small valid matrices in every dtype and format version, the shipped
+// .npy seeds: small valid matrices in every float dtype and format version and in Fortran
+// order, truth matrices (0 and 1) in bool and integer dtypes, the shipped
 // data/gardens_point_hdc_delf/day_left.npy cut short at several points, and headers that
-// must be refused (Fortran order, 1-D and 3-D shapes, other dtypes). YAML seeds: valid
+// must be refused (1-D and 3-D shapes, other dtypes). YAML seeds: valid
 // sidecars naming the fixture files of fuzz_fixture.h, and the shipped day_left.yaml
 // pointed at one of them.
 #include <cstdio>
@@ -72,19 +73,42 @@ void WriteNpySeeds(const std::string& repo, const std::string& dir) {
   for (int version : {2, 3}) {
     Write(dir + "/version" + std::to_string(version) + ".npy", MakeNpy(dict, data_2x3, version));
   }
-  std::string refused = dict;
-  ReplaceAll(refused, "False", "True");
-  Write(dir + "/fortran.npy", MakeNpy(refused, data_2x3, 1));
+  std::string fortran = dict;
+  ReplaceAll(fortran, "False", "True");
+  Write(dir + "/fortran_2x3.npy", MakeNpy(fortran, data_2x3, 1));
+  ReplaceAll(fortran, "(2, 3)", "(3, 2)");
+  Write(dir + "/fortran_3x2.npy", MakeNpy(fortran, data_2x3, 1));
+  std::string refused;
   const char* kBadShapes[] = {"(6,)", "(1, 2, 3)", "()", "(2, -3)"};
   for (size_t i = 0; i < sizeof(kBadShapes) / sizeof(kBadShapes[0]); ++i) {
     refused = dict;
     ReplaceAll(refused, "(2, 3)", kBadShapes[i]);
     Write(dir + "/shape" + std::to_string(i) + ".npy", MakeNpy(refused, data_2x3, 1));
   }
-  for (const char* descr : {">f4", "<i4", "|u1"}) {
+  for (const char* descr : {">f4", "<c8", ">i4"}) {
     refused = dict;
     ReplaceAll(refused, "<f4", descr);
     Write(dir + "/descr_" + std::string(descr + 1) + ".npy", MakeNpy(refused, data_2x3, 1));
+  }
+  // Truth matrices (0 and 1) in the bool and integer dtypes, in both orders.
+  const struct {
+    const char* descr;
+    size_t bytes;
+  } kTruthDtypes[] = {{"|b1", 1}, {"<b1", 1}, {"|u1", 1}, {"|i1", 1},
+                      {"<i2", 2}, {"<u4", 4}, {"<i8", 8}, {"<u8", 8}};
+  const int pattern_2x3[] = {1, 0, 0, 0, 1, 1};
+  for (const auto& d : kTruthDtypes) {
+    std::string data;
+    for (int v : pattern_2x3) {
+      data.push_back(static_cast<char>(v));
+      data.append(d.bytes - 1, '\0');  // little-endian
+    }
+    std::string truth = dict;
+    ReplaceAll(truth, "<f4", d.descr);
+    const std::string name = dir + "/truth_" + std::string(d.descr + 1);
+    Write(name + (d.descr[0] == '<' ? "_le" : "") + ".npy", MakeNpy(truth, data, 1));
+    ReplaceAll(truth, "False", "True");
+    Write(name + (d.descr[0] == '<' ? "_le" : "") + "_fortran.npy", MakeNpy(truth, data, 1));
   }
 
   // The shipped 200 x 4096 float32 matrix: cut short, and its corner re-encoded.

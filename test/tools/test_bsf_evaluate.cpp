@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -151,6 +152,95 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
   EXPECT_NE(clash.output.find("meant for cosine distance but --distance is euclidean"),
             std::string::npos)
       << clash.output;
+}
+
+// An .npy file from its header dictionary and data, as numpy.save writes it (version 1.0).
+std::string NpyFile(const std::string& dict, const std::string& data) {
+  std::string h = dict;
+  while ((10 + h.size() + 1) % 64) h.push_back(' ');
+  h.push_back('\n');
+  std::string out("\x93NUMPY\x01\x00", 8);
+  out.push_back(static_cast<char>(h.size() & 0xff));
+  out.push_back(static_cast<char>(h.size() >> 8));
+  return out + h + data;
+}
+
+TEST_F(EvaluateTool, GroundTruthNpyGivesTheSameMetricsAsTheEquivalentCsv) {
+  // 200 night queries against 200 day places. Query q is correct at q-3 .. q+3, except that
+  // queries 40..59 have no true match and query 100 is correct only at place 7.
+  const int n = 200;
+  std::vector<std::vector<bool>> truth(n, std::vector<bool>(n, false));
+  for (int q = 0; q < n; ++q) {
+    if (q >= 40 && q < 60) continue;
+    for (int i = std::max(0, q - 3); i <= std::min(n - 1, q + 3); ++i) truth[q][i] = true;
+  }
+  truth[100].assign(n, false);
+  truth[100][7] = true;
+  std::ofstream csv(dir_ + "/gt.csv");
+  csv << "query,correct_places\n";
+  for (int q = 0; q < n; ++q) {
+    std::string places;
+    for (int i = 0; i < n; ++i)
+      if (truth[q][i]) places += (places.empty() ? "" : " ") + std::to_string(i);
+    if (!places.empty()) csv << q << ',' << places << '\n';
+  }
+  csv.close();
+  // The same matrix as bool in C order, and as int64 in Fortran order (numpy.save of a
+  // transposed array writes that).
+  std::string bools, int64_column_major;
+  for (int q = 0; q < n; ++q)
+    for (int i = 0; i < n; ++i) bools.push_back(truth[q][i] ? 1 : 0);
+  for (int i = 0; i < n; ++i) {
+    for (int q = 0; q < n; ++q) {
+      const int64_t v = truth[q][i] ? 1 : 0;
+      int64_column_major.append(reinterpret_cast<const char*>(&v), 8);
+    }
+  }
+  std::ofstream(dir_ + "/gt_bool.npy", std::ios::binary)
+      << NpyFile("{'descr': '|b1', 'fortran_order': False, 'shape': (200, 200), }", bools);
+  std::ofstream(dir_ + "/gt_int.npy", std::ios::binary) << NpyFile(
+      "{'descr': '<i8', 'fortran_order': True, 'shape': (200, 200), }", int64_column_major);
+
+  const std::string in = "--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                         "night_right.npy --distance cosine --methods bsf,nn:day,bsf+filter "
+                         "--no-progress --ground-truth ";
+  for (const std::string name : {"gt.csv", "gt_bool.npy", "gt_int.npy"}) {
+    const Result r = Evaluate(in + dir_ + "/" + name + " --out " + dir_ + "/out_" + name);
+    ASSERT_EQ(r.exit_code, 0) << name << "\n" << r.output;
+  }
+  const std::vector<std::string> from_csv = Lines(dir_ + "/out_gt.csv/summary.csv");
+  ASSERT_EQ(from_csv.size(), 4u);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_bool.npy/summary.csv"), from_csv);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_int.npy/summary.csv"), from_csv);
+  EXPECT_EQ(Lines(dir_ + "/out_gt_bool.npy/pr/bsf.csv"), Lines(dir_ + "/out_gt.csv/pr/bsf.csv"));
+  // The ground truth matters: +-3 frames for every query scores otherwise.
+  ASSERT_EQ(Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
+                     "night_right.npy --distance cosine --methods bsf,nn:day,bsf+filter "
+                     "--no-progress --tolerance 3 --out " +
+                     dir_ + "/tol")
+                .exit_code,
+            0);
+  EXPECT_NE(Lines(dir_ + "/tol/summary.csv"), from_csv);
+
+  // A matrix of another shape, or with a value other than 0 and 1: one line, exit 2.
+  std::ofstream(dir_ + "/gt_short.npy", std::ios::binary)
+      << NpyFile("{'descr': '|b1', 'fortran_order': False, 'shape': (100, 200), }",
+                 bools.substr(0, 100 * 200));
+  std::string with_two = bools;
+  with_two[5 * 200 + 9] = 2;
+  std::ofstream(dir_ + "/gt_two.npy", std::ios::binary)
+      << NpyFile("{'descr': '|u1', 'fortran_order': False, 'shape': (200, 200), }", with_two);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"gt_short.npy", "is 100 x 200 but the evaluation has 200 queries and 200 places"},
+      {"gt_two.npy", "row 5, column 9 holds 2"},
+  };
+  for (const auto& [name, fragment] : bad) {
+    const Result r = Evaluate(in + dir_ + "/" + name);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(dir_ + "/" + name), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
 }
 
 TEST_F(EvaluateTool, TheDistanceTheSetsDeclareIsTheDefault) {
@@ -307,7 +397,7 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
   WriteNpyMatrix(dir_ + "/neg.npy", RowMatrixXf::Constant(5, 7, -1.0f));
   std::ofstream(dir_ + "/fortran.npy")
       << std::string("\x93NUMPY\x01\x00\x76\x00", 10)
-      << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }" << std::string(58, ' ')
+      << "{'descr': '<f4', 'fortran_order': True, 'shape': (1, 1), }" << std::string(59, ' ')
       << "\n"
       << std::string(4, '\0');
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -321,7 +411,9 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
       {"--reference day=" + day + " --query " + night + " --tolerance-m 2", "query poses"},
       {"--distances a=" + day + " --tolerance-m 2", "--tolerance-m needs poses"},
       {"--reference day=/nonexistent.npy --query " + night + " --tolerance 2", "/nonexistent.npy"},
-      {"--reference day=" + dir_ + "/fortran.npy --query " + night + " --tolerance 2", "Fortran"},
+      // A Fortran-order file is read (1 x 1 here), so it reaches the dimension check.
+      {"--reference day=" + day + " --query " + dir_ + "/fortran.npy --tolerance 2",
+       "has dimension 1, the reference sets have 4096"},
       {"--reference day=" + day + " --query " + dir_ + "/short.npy --tolerance 2", "dimension 7"},
       {"--reference day=" + day + " --reference day=" + day + " --query " + night +
            " --tolerance 2",
@@ -432,6 +524,92 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   const Result bad = Evaluate(in + dir_ + "/x --descriptor sift");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
+}
+
+// The first `count` images of a shipped Nordland season, copied into dir/season.
+std::string CopyImages(const std::string& season, int count, const std::string& dir) {
+  const std::string from = kSource + "/data/nordland_64x32/" + season;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(from)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  const std::string to = dir + "/" + season;
+  fs::create_directories(to);
+  for (int k = 0; k < count && k < static_cast<int>(files.size()); ++k) {
+    fs::copy_file(files[static_cast<size_t>(k)], to + "/" + files[k].filename().string());
+  }
+  return to;
+}
+
+TEST_F(EvaluateTool, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
+  // 100 winter images as the reference, 100 summer images as queries. A set made with
+  // HOG or an ONNX network (flags away from their defaults, a switch among them) must
+  // give exactly the evaluator's own results for the image folder with the same flags.
+  const std::string winter = CopyImages("winter", 100, dir_);
+  const std::string summer = CopyImages("summer", 100, dir_);
+  const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
+  const struct {
+    std::string name, flags, distance, type;
+    int dimension;
+  } kDescribers[] = {
+      {"hog", "--descriptor hog --hog-width 32 --hog-height 32 --hog-cell 8 --hog-bins 6", "cosine",
+       "hog_32x32_c8_b6", 3 * 3 * 4 * 6},
+      // Without L2 normalisation Euclidean distances depend on the norm: --onnx-no-l2 counts.
+      {"onnx", "--descriptor onnx --onnx-model " + model + " --onnx-input 7x7 --onnx-no-l2",
+       "euclidean", "onnx_model_48", 48},
+      {"patchnorm", "--patch-width 32 --patch-height 16 --patch-size 4", "cosine",
+       "patchnorm_32x16_p4", 32 * 16},
+  };
+  for (const auto& d : kDescribers) {
+    const std::string yaml = dir_ + "/sets/" + d.name + ".yaml";
+    const Result made =
+        RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --images " + winter +
+                   " --name winter --distance " + d.distance + " " + d.flags + " --out " + yaml);
+    ASSERT_EQ(made.exit_code, 0) << made.output;
+    EXPECT_NE(made.output.find(d.type), std::string::npos) << made.output;
+    const ReferenceSet set = LoadReferenceSetYaml(yaml);
+    EXPECT_EQ(set.descriptor_type, d.type);
+    EXPECT_EQ(set.distance, d.distance);
+    EXPECT_EQ(set.size(), 100);
+    EXPECT_EQ(set.dimension(), d.dimension);
+
+    const std::string common = " --query " + summer + " --distance " + d.distance + " " + d.flags +
+                               " --tolerance 2 --methods bsf,nn:winter --no-progress --out ";
+    const Result from_set = Evaluate("--reference winter=" + yaml + common + dir_ + "/a_" + d.name);
+    ASSERT_EQ(from_set.exit_code, 0) << from_set.output;
+    const Result from_images =
+        Evaluate("--reference winter=" + winter + common + dir_ + "/b_" + d.name);
+    ASSERT_EQ(from_images.exit_code, 0) << from_images.output;
+    const std::vector<std::string> summary = Lines(dir_ + "/a_" + d.name + "/summary.csv");
+    ASSERT_EQ(summary.size(), 3u) << d.name;
+    EXPECT_EQ(summary, Lines(dir_ + "/b_" + d.name + "/summary.csv")) << d.name;
+    for (const char* m : {"bsf", "nn_winter"}) {
+      const std::string matches = std::string("/matches/") + m + ".csv";
+      EXPECT_EQ(Lines(dir_ + "/a_" + d.name + matches), Lines(dir_ + "/b_" + d.name + matches))
+          << d.name << " " << m;
+    }
+  }
+  // The flags are the evaluator's: the same checks, and descriptor flags need images.
+  const std::string mk_ref =
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --name x --out " + dir_ + "/x/x.yaml ";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"--images " + winter + " --descriptor sift", "unknown --descriptor 'sift'"},
+      {"--images " + winter + " --descriptor hog --hog-cell 7", "multiples of cell_px"},
+      {"--images " + winter + " --descriptor onnx", "model_path"},
+      {"--images " + winter + " --descriptor onnx --onnx-model /nonexistent.onnx",
+       "/nonexistent.onnx"},
+      {"--images " + winter + " --descriptor onnx --onnx-model " + model + " --onnx-input 7",
+       "--onnx-input expects WxH"},
+      {"--descriptors " + kGardens + "day_left.npy --onnx-bgr", "--onnx-bgr describes images"},
+      {"--descriptors " + kGardens + "day_left.npy --descriptor hog",
+       "--descriptor describes images: it goes with --images"},
+  };
+  for (const auto& [args, fragment] : bad) {
+    const Result r = RunCommand(mk_ref + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/x"));
 }
 
 TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {

@@ -35,13 +35,7 @@ class Files : public ::testing::Test {
     return NpyWithData(dict, std::string(data_bytes, '\0'));
   }
   std::string NpyWithData(const std::string& dict, const std::string& data) const {
-    std::string h = dict;
-    while ((10 + h.size() + 1) % 64) h.push_back(' ');
-    h.push_back('\n');
-    std::string out("\x93NUMPY\x01\x00", 8);
-    out.push_back(static_cast<char>(h.size() & 0xff));
-    out.push_back(static_cast<char>(h.size() >> 8));
-    return out + h + data;
+    return testing::NpyFile(dict, data);
   }
   void ExpectNpyError(const std::string& bytes, const std::string& fragment) {
     WriteRaw("bad.npy", bytes);

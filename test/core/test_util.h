@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "bsf_vpr/core/synthetic.h"
@@ -11,6 +12,18 @@
 
 namespace bsf_vpr {
 namespace testing {
+
+// An .npy file from its header dictionary and data, as numpy.save writes it (version 1.0:
+// the header padded with spaces so that the data starts at a multiple of 64 bytes).
+inline std::string NpyFile(const std::string& dict, const std::string& data) {
+  std::string h = dict;
+  while ((10 + h.size() + 1) % 64) h.push_back(' ');
+  h.push_back('\n');
+  std::string out("\x93NUMPY\x01\x00", 8);
+  out.push_back(static_cast<char>(h.size() & 0xff));
+  out.push_back(static_cast<char>(h.size() >> 8));
+  return out + h + data;
+}
 
 inline RowMatrixXf RandomMatrix(int rows, int cols, uint64_t seed, float scale = 1.0f) {
   std::mt19937_64 rng(seed);

@@ -13,6 +13,7 @@
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
+#include "../core/test_util.h"
 #include "tool_test_util.h"
 
 namespace bsf_vpr {
@@ -115,16 +116,7 @@ TEST_F(EvaluateTool, ReferenceSetYamlAndGroundTruthCsvAreAccepted) {
       << clash.output;
 }
 
-// An .npy file from its header dictionary and data, as numpy.save writes it (version 1.0).
-std::string NpyFile(const std::string& dict, const std::string& data) {
-  std::string h = dict;
-  while ((10 + h.size() + 1) % 64) h.push_back(' ');
-  h.push_back('\n');
-  std::string out("\x93NUMPY\x01\x00", 8);
-  out.push_back(static_cast<char>(h.size() & 0xff));
-  out.push_back(static_cast<char>(h.size() >> 8));
-  return out + h + data;
-}
+using testing::NpyFile;
 
 TEST_F(EvaluateTool, GroundTruthNpyGivesTheSameMetricsAsTheEquivalentCsv) {
   // 200 night queries against 200 day places. Query q is correct at q-3 .. q+3, except that

@@ -115,7 +115,12 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places) {
 
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-               const Threshold& threshold, int top_k, PlaceBelief* out) {
+               const Threshold& threshold, int top_k, PlaceBelief* out,
+               const std::vector<DistanceStats>* set_stats) {
+  if (set_stats != nullptr && set_stats->size() != sets.size()) {
+    throw std::invalid_argument("FuseBayes: " + std::to_string(set_stats->size()) +
+                                " set statistics for " + std::to_string(sets.size()) + " sets");
+  }
   if (log_prior) {
     ValidateLogPrior(*log_prior, num_places);
     out->log_posterior = *log_prior;
@@ -124,16 +129,14 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
   }
   // Each used set's log-likelihoods, computed in parallel when there is enough work, then
   // added in set order (so the sum is the same on any number of threads).
-  const bool have_stats = out->selection.set_stats.size() == sets.size();
   std::vector<std::vector<double>> ll(use.size());
   const auto likelihood_of = [&](int i) {
     const int u = use[static_cast<size_t>(i)];
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     std::vector<double>& l = ll[static_cast<size_t>(i)];
     l.resize(static_cast<size_t>(d.count));
-    // RunMethod has already computed every set's statistics for selection.
     const DistanceStats stats =
-        have_stats ? out->selection.set_stats[static_cast<size_t>(u)] : ComputeDistanceStats(d);
+        set_stats ? (*set_stats)[static_cast<size_t>(u)] : ComputeDistanceStats(d);
     if (d.count == num_places && CoversEachPlaceInOrder(d)) {
       // Covers every place once: the per-set shift cancels in the normalisation below.
       UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, l.data());

@@ -9,6 +9,19 @@ MethodRunner::MethodRunner(Method method, MethodOptions options)
   options_.Validate();
 }
 
+void MethodRunner::SetOptions(const MethodOptions& options) {
+  options.Validate();
+  const SequenceOptions& a = options.sequence;
+  const SequenceOptions& b = options_.sequence;
+  const bool same_sequence = a.length == b.length && a.min_velocity == b.min_velocity &&
+                             a.max_velocity == b.max_velocity &&
+                             a.velocity_step == b.velocity_step &&
+                             a.standardize == b.standardize &&
+                             a.use_partial_sequences == b.use_partial_sequences;
+  if (!same_sequence) sequence_ = SequenceMatcher(options.sequence);
+  options_ = options;
+}
+
 void MethodRunner::Reset() {
   sequence_.Reset();
   last_log_posterior_.resize(0);

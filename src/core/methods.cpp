@@ -162,10 +162,11 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
       use = out.selection.selected;
       break;
   }
-  out.selection.selected = use;
+  out.used_sets = use;
   if (method.IsBayesian()) {
+    // The statistics selection computed for every set are the likelihood's too.
     FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
-              options.top_k, &out);
+              options.top_k, &out, &out.selection.set_stats);
   } else {
     FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k, &out);
   }

@@ -5,13 +5,7 @@
 
 namespace bsf_vpr {
 
-void RecognizerOptions::Validate() const {
-  method_options.Validate();
-  if (!(prior_uniform_fraction > 0 && prior_uniform_fraction <= 1)) {
-    throw std::invalid_argument("prior_uniform_fraction must lie in (0, 1], got " +
-                                std::to_string(prior_uniform_fraction));
-  }
-}
+void RecognizerOptions::Validate() const { method_options.Validate(); }
 
 PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move(options)) {
   options_.Validate();
@@ -21,10 +15,14 @@ PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move
 void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
   options.Validate();
   Method method = ParseMethod(options.method, map_.SetNames());
+  const bool restart = options.method != options_.method || options.metric != options_.metric;
   options_ = options;
   method_ = method;
-  runner_.reset();
-  ResetPrior();
+  if (restart || !runner_) {
+    runner_.reset();  // rebuilt, with no history, at the next query
+  } else {
+    runner_->SetOptions(options_.method_options);  // keeps what the change leaves valid
+  }
 }
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
@@ -51,7 +49,6 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
 }
 
 void PlaceRecognizer::ResetPrior() {
-  carried_log_prior_.resize(0);
   if (runner_) runner_->Reset();
 }
 
@@ -81,13 +78,11 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);
 
   const int n = map_.num_places();
-  const bool use_prior = options_.carry_prior && carried_log_prior_.size() == n;
   Recognition out;
-  out.belief =
-      Runner().Step(views, n, use_prior ? &carried_log_prior_ : nullptr, step_places, update_state);
+  out.belief = Runner().Step(views, n, nullptr, step_places, update_state);
 
   float best = INFINITY;
-  for (int u : out.belief.selection.selected) {
+  for (int u : out.belief.used_sets) {
     const SetDistances& d = views[static_cast<size_t>(u)];
     for (int k = 0; k < d.count; ++k) {
       if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {
@@ -97,11 +92,6 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
     }
   }
 
-  if (update_state && options_.carry_prior && out.belief.log_posterior.size() == n) {
-    const double eps = options_.prior_uniform_fraction;
-    carried_log_prior_ =
-        ((1.0 - eps) * out.belief.log_posterior.array().exp() + eps / n).log().matrix();
-  }
   return out;
 }
 

@@ -38,6 +38,8 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   }
   out->selected_sets.clear();
   for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name);
+  out->used_sets.clear();
+  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name);
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;

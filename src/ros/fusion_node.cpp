@@ -274,8 +274,9 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
     o.method_options.likelihood.variant = ParseLikelihoodVariant(config.likelihood);
     o.method_options.threshold = MakeThreshold(config.threshold, config.threshold_kind);
     o.method_options.max_match_distance = config.max_match_distance;
-    o.carry_prior = config.carry_prior;
-    o.prior_uniform_fraction = config.prior_uniform_fraction;
+    o.method_options.filter.step_mean_places = config.filter_step_mean_places;
+    o.method_options.filter.step_std_places = config.filter_step_std_places;
+    o.method_options.filter.relocalization_probability = config.relocalization_probability;
     recognizer_.SetOptions(o);
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
              o.method.c_str(), o.method_options.selection.gamma_fraction, config.selection.c_str(),
@@ -294,8 +295,9 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
                               ? "probability"
                               : "log_odds";
   config.max_match_distance = now.method_options.max_match_distance;
-  config.carry_prior = now.carry_prior;
-  config.prior_uniform_fraction = now.prior_uniform_fraction;
+  config.filter_step_mean_places = now.method_options.filter.step_mean_places;
+  config.filter_step_std_places = now.method_options.filter.step_std_places;
+  config.relocalization_probability = now.method_options.filter.relocalization_probability;
 }
 
 void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {

@@ -67,8 +67,6 @@ const std::vector<std::string>& FusionParamNames() {
                                                   "threshold",
                                                   "threshold_kind",
                                                   "max_match_distance",
-                                                  "carry_prior",
-                                                  "prior_uniform_fraction",
                                                   "top_k",
                                                   "belief_top_k",
                                                   "map_frame",
@@ -130,6 +128,14 @@ Threshold MakeThreshold(double value, const std::string& kind) {
 }
 
 FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
+  for (const char* retired : {"carry_prior", "prior_uniform_fraction"}) {
+    if (pnh.hasParam(retired)) {
+      throw std::invalid_argument(
+          std::string("parameter ") + retired +
+          " was removed: the +filter suffix carries the belief between queries (e.g. method: "
+          "bsf+filter, with filter_step_mean_places 0 for the former carry_prior)");
+    }
+  }
   RefuseUnknownParams(pnh, FusionParamNames());
   FusionParams p;
   RecognizerOptions& r = p.recognizer;
@@ -152,9 +158,6 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   r.method_options.max_match_distance =
       GetParam<double>(pnh, "max_match_distance", r.method_options.max_match_distance);
   r.method_options.top_k = GetParam<int>(pnh, "top_k", r.method_options.top_k);
-  r.carry_prior = GetParam<bool>(pnh, "carry_prior", r.carry_prior);
-  r.prior_uniform_fraction =
-      GetParam<double>(pnh, "prior_uniform_fraction", r.prior_uniform_fraction);
   SequenceOptions& seq = r.method_options.sequence;
   seq.length = GetParam<int>(pnh, "sequence_length", seq.length);
   seq.use_partial_sequences =

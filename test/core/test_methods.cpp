@@ -31,7 +31,7 @@ TEST(Methods, MedEqualsEquationMed) {
     }
     EXPECT_EQ(b.match, best);
     EXPECT_NEAR(b.confidence, -best_sum / 3.0, 1e-5);
-    EXPECT_EQ(b.selection.selected, (std::vector<int>{0, 1, 2}));
+    EXPECT_EQ(b.used_sets, (std::vector<int>{0, 1, 2}));
   }
 }
 
@@ -41,8 +41,34 @@ TEST(Methods, NearestNeighbourIsTheMinimumValuePrinciple) {
   const int expected =
       static_cast<int>(std::min_element(data.d[1].begin(), data.d[1].end()) - data.d[1].begin());
   EXPECT_EQ(b.match, expected);
-  EXPECT_EQ(b.selection.selected, std::vector<int>{1});
+  EXPECT_EQ(b.used_sets, std::vector<int>{1});
   EXPECT_EQ(b.log_posterior.size(), 0);
+}
+
+TEST(Methods, SelectedAndUsedSetsAreKeptApart) {
+  // What the rule selected is reported for every method; what the method fused beside it.
+  Data data(120, 7);
+  MethodOptions narrow;
+  narrow.selection.gamma_fraction = 0.0;  // S = {u*}
+  const PlaceBelief bsf = RunMethod(ParseMethod("bsf", kNames), data.views, 120, narrow);
+  ASSERT_EQ(bsf.selection.selected.size(), 1u);
+  EXPECT_EQ(bsf.used_sets, bsf.selection.selected);
+  for (const std::string name : {"bayes_full", "med", "nn:fall"}) {
+    const PlaceBelief b = RunMethod(ParseMethod(name, kNames), data.views, 120, narrow);
+    EXPECT_EQ(b.selection.selected, bsf.selection.selected) << name;  // the rule's S
+    const std::vector<int> expected =
+        name == "nn:fall" ? std::vector<int>{2} : std::vector<int>{0, 1, 2};
+    EXPECT_EQ(b.used_sets, expected) << name;
+  }
+  // Explicit statistics give the same posterior as computing them inside.
+  PlaceBelief with, without;
+  const Selection s = SelectReferenceSets(data.views, {});
+  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, {}, 5, &with, &s.set_stats);
+  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, {}, 5, &without);
+  EXPECT_TRUE(with.log_posterior.isApprox(without.log_posterior));
+  const std::vector<DistanceStats> short_stats(1);
+  EXPECT_THROW(FuseBayes(data.views, {0}, 120, {}, nullptr, {}, 5, &with, &short_stats),
+               std::invalid_argument);
 }
 
 TEST(Methods, BsfWithLargeGammaIsBayesFullAndWithZeroGammaTheBestSetAlone) {

@@ -45,10 +45,10 @@ TEST(PlaceRecognizer, MatchesTheOfflineMethodForEveryQuery) {
   }
 }
 
-TEST(PlaceRecognizer, CarriedPriorChangesTheBeliefOnlyWhenEnabledAndUpdated) {
+TEST(PlaceRecognizer, FilteredBeliefIsCarriedOnlyWhenUpdated) {
   const SyntheticData data = Data();
   RecognizerOptions opt;
-  opt.carry_prior = true;
+  opt.method = "bsf+filter";
   PlaceRecognizer r = Loaded(data, opt);
   const Eigen::VectorXf q0 = data.queries.row(10).transpose();
   const Eigen::VectorXf q1 = data.queries.row(11).transpose();
@@ -60,6 +60,37 @@ TEST(PlaceRecognizer, CarriedPriorChangesTheBeliefOnlyWhenEnabledAndUpdated) {
   EXPECT_FALSE(with_prior.belief.log_posterior.isApprox(first.belief.log_posterior));
   r.ResetPrior();
   EXPECT_TRUE(r.Recognize(q1, false).belief.log_posterior.isApprox(first.belief.log_posterior));
+}
+
+TEST(PlaceRecognizer, ReconfiguringKeepsOnlyTheStateTheChangeLeavesValid) {
+  const SyntheticData data = Data();
+  RecognizerOptions opt;
+  opt.method = "bsf+filter+seq";
+  PlaceRecognizer r = Loaded(data, opt);
+  for (int q = 0; q < 6; ++q) r.Recognize(data.queries.row(q).transpose(), true);
+  const Eigen::VectorXf next = data.queries.row(6).transpose();
+  const Recognition carried = r.Recognize(next, false);
+  // A new threshold (or gamma, likelihood, filter step) keeps the filter and the sequence.
+  RecognizerOptions h = opt;
+  h.method_options.threshold = Threshold::Parse("p:0.999");
+  r.SetOptions(h);
+  const Recognition after_h = r.Recognize(next, false);
+  EXPECT_TRUE(after_h.belief.cost.isApprox(carried.belief.cost));
+  EXPECT_EQ(after_h.belief.match, carried.belief.match);
+  // New sequence options restart the sequence history but keep the filtered belief: the
+  // result equals a fresh sequence over the same filtered belief.
+  RecognizerOptions seq = h;
+  seq.method_options.sequence.length = 3;
+  r.SetOptions(seq);
+  const Recognition after_seq = r.Recognize(next, false);
+  EXPECT_FALSE(after_seq.belief.cost.isApprox(carried.belief.cost));
+  // Another method starts from nothing: the same as a new recogniser.
+  RecognizerOptions other = seq;
+  other.method = "bayes_full+filter";
+  r.SetOptions(other);
+  PlaceRecognizer fresh = Loaded(data, other);
+  EXPECT_TRUE(r.Recognize(next, false).belief.log_posterior.isApprox(
+      fresh.Recognize(next, false).belief.log_posterior));
 }
 
 TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
@@ -95,7 +126,7 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
   EXPECT_THROW(r.RemoveReferenceSet("nope"), std::invalid_argument);
   r.RemoveReferenceSet("c0");
   EXPECT_EQ(r.map().num_sets(), 1);
-  EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.selection.selected,
+  EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
             std::vector<int>{0});
 }
 

@@ -158,8 +158,9 @@ class ConfigFiles(unittest.TestCase):
         cases = [(["_gama_fraction:=0.1"], "unknown parameter"),
                  (["_method:=seqslam"], "seqslam"),
                  (["_threshold:=1.5"], "(0, 1)"),
+                 (["_carry_prior:=true"], "+filter"),
                  ([], "missing.npy")]
-        rospy.set_param("/bad/bad3/reference_sets", [{"path": "missing.npy", "name": "m"}])
+        rospy.set_param("/bad/bad4/reference_sets", [{"path": "missing.npy", "name": "m"}])
         for i, (params, fragment) in enumerate(cases):
             r = subprocess.run(["rosrun", "bsf_vpr", "fusion_node", "__name:=bad%d" % i,
                                 "__ns:=/bad"] + params,

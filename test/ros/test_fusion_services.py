@@ -160,6 +160,26 @@ class FusionServices(unittest.TestCase):
         self.assertEqual(b.method, "bsf")
         self.assertEqual(len(b.posterior), 200)
 
+    def test_reconfiguring_the_threshold_keeps_the_filtered_belief(self):
+        self.ensure_day_loaded()
+        client = Client(NS + "fusion", timeout=30)
+        try:
+            client.update_configuration({"method": "bsf+filter"})
+            stamps = [self.send(self.night[i]) for i in range(90, 96)]
+            self.belief_for(stamps[-1])
+            probe = Descriptor()
+            probe.data = list(map(float, self.night[96]))
+            before = self.query(descriptor=probe).belief.posterior
+            client.update_configuration({"threshold": 0.95, "gamma_fraction": 0.05})
+            after = self.query(descriptor=probe).belief.posterior
+            np.testing.assert_allclose(after, before, rtol=1e-5)  # history kept
+            client.update_configuration({"method": "bayes_full+filter"})
+            fresh = self.query(descriptor=probe).belief.posterior
+            self.assertFalse(np.allclose(fresh, before, rtol=1e-5))  # a new method: afresh
+        finally:
+            client.update_configuration({"method": "bsf", "threshold": 0.9,
+                                         "gamma_fraction": 0.04})
+
     def test_tf_frame_for_an_accepted_match_with_a_pose(self):
         self.ensure_day_loaded()
         buffer = tf2_ros.Buffer()

@@ -126,7 +126,8 @@ class LaunchFiles(unittest.TestCase):
         finally:
             client.close()
         for key in ("method", "gamma_fraction", "selection", "likelihood", "threshold",
-                    "threshold_kind", "carry_prior", "prior_uniform_fraction"):
+                    "threshold_kind", "max_match_distance", "filter_step_mean_places",
+                    "filter_step_std_places", "relocalization_probability"):
             expected = live.get(key, self.defaults[key])
             self.assertEqual(config[key], expected, "%s: %s" % (key, launch.describe()))
         self.assertIsNone(launch.proc.poll(), launch.describe())  # nothing refused to start

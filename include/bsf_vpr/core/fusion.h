@@ -47,7 +47,9 @@ struct PlaceBelief {
   // Per place, lower is better: -log posterior (Bayesian) or the mean distance (distance
   // methods; +infinity where no used set covers the place). Input of sequence matching.
   Eigen::VectorXd cost;
-  Selection selection;  // sets used (selected), u*, min D^u of every set
+  Selection selection;         // what the selection rule chose (S, u*), min D^u of every set
+  std::vector<int> used_sets;  // the sets the method fused, ascending: S for bsf and
+                               // med_selective, all for bayes_full and med, one for nn:/bayes:
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against
@@ -64,11 +66,14 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places);
 
 // Bayesian fusion of the sets `use` (indices into `sets`): unnormalised log posterior
 // sum_{u in use} log P(D^u | X = i) + log P(X = i). `log_prior` null means uniform.
-// Fills match, confidence, accepted, top_places and log_posterior of `out`. Reuses
-// out->selection.set_stats when it holds one entry per set (RunMethod fills it).
+// Fills match, confidence, accepted, top_places, log_posterior and cost of `out` (nothing
+// else of `out` is read or written). `set_stats`, if given, holds every set's
+// ComputeDistanceStats, already computed for selection (one entry per set of `sets`);
+// null computes them for the used sets.
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-               const Threshold& threshold, int top_k, PlaceBelief* out);
+               const Threshold& threshold, int top_k, PlaceBelief* out,
+               const std::vector<DistanceStats>* set_stats = nullptr);
 
 // Minimum ensemble distance over the sets `use`: the place with the smallest mean distance
 // over the used sets that cover it (with full coverage exactly Eq. MED: argmin of the sum).

@@ -29,6 +29,9 @@ class MethodRunner {
 
   // Forgets the history (call when the map or the traversal changes).
   void Reset();
+  // Replaces the options (validated; throws std::invalid_argument and keeps the old ones).
+  // The history is kept, except the sequence history when the sequence options change.
+  void SetOptions(const MethodOptions& options);
   const Method& method() const { return method_; }
 
  private:

@@ -66,7 +66,9 @@ struct MethodOptions {
 
 // Runs `method` on one query's distances to every set of the map (`sets[u]` for set u,
 // each with count > 0). `log_prior` (N entries, may be unnormalised) or null for uniform;
-// only the Bayesian methods use it. The returned selection always lists the sets used.
+// only the Bayesian methods use it. The returned belief keeps apart what the selection rule
+// chose (selection.selected, computed for every method) and the sets the method fused
+// (used_sets).
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
                       const MethodOptions& options, const Eigen::VectorXd* log_prior = nullptr);
 

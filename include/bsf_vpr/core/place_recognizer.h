@@ -1,5 +1,6 @@
-// The online place recogniser: M reference sets in memory, one method, and optionally a prior
-// carried from one query to the next. This is what the fusion node wraps.
+// The online place recogniser: M reference sets in memory and one method, which may carry
+// state from one query to the next (+filter: the previous posterior; +seq: the last L cost
+// vectors). This is what the fusion node wraps.
 //
 // Not thread-safe: callers serialise access (the fusion node holds a mutex).
 #pragma once
@@ -18,13 +19,9 @@ namespace bsf_vpr {
 struct RecognizerOptions {
   std::string method = "bsf";  // a method name, see methods.h (with +filter / +seq)
   DistanceMetric metric = DistanceMetric::kEuclidean;
+  // The belief is carried between queries by the +filter suffix (method_options.filter);
+  // without it every query has a uniform prior, the paper's single-image setting.
   MethodOptions method_options;
-  // Carry the belief from query to query: the prior of query t is
-  // (1 - prior_uniform_fraction) * P(X | query t-1) + prior_uniform_fraction / N.
-  // Off reproduces the paper's single-image setting (uniform prior). A +filter method uses
-  // the temporal filter instead (method_options.filter).
-  bool carry_prior = false;
-  double prior_uniform_fraction = 0.1;  // in (0, 1]; keeps every place reachable
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -41,7 +38,10 @@ class PlaceRecognizer {
   explicit PlaceRecognizer(RecognizerOptions options = {});
 
   // Replaces the options. Throws std::invalid_argument (and keeps the old options) if they are
-  // invalid or the method names a set that is not loaded. Resets the carried prior.
+  // invalid or the method names a set that is not loaded. The state carried between queries
+  // is kept unless what it depends on changes: the method or the distance (all of it), the
+  // sequence options (the sequence history). Threshold, selection, likelihood, top_k and
+  // the filter's step options apply from the next query on.
   void SetOptions(const RecognizerOptions& options);
   const RecognizerOptions& options() const { return options_; }
   const Method& method() const { return method_; }
@@ -49,10 +49,10 @@ class PlaceRecognizer {
   // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
   void SetStoragePrecision(StoragePrecision precision) { map_.SetStoragePrecision(precision); }
 
-  // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried prior.
+  // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried state.
   void AddReferenceSet(ReferenceSet set);
   // Removes a set. Throws std::invalid_argument if it is not loaded or the current method
-  // needs it (nn:<set>, bayes:<set>). Resets the carried prior.
+  // needs it (nn:<set>, bayes:<set>, with any suffix). Resets the carried state.
   void RemoveReferenceSet(const std::string& name);
   const ReferenceMap& map() const { return map_; }
 
@@ -75,7 +75,6 @@ class PlaceRecognizer {
   Method method_;
   ReferenceMap map_;
   std::unique_ptr<MethodRunner> runner_;  // null: to be rebuilt
-  Eigen::VectorXd carried_log_prior_;     // empty: uniform
 };
 
 }  // namespace bsf_vpr

@@ -36,9 +36,13 @@ IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
                             "diagnostic_period",
                             "image_transport"});
   IngestParams p;
-  p.input = GetParam<std::string>(pnh, "input", p.input);
-  if (p.input != "image" && p.input != "descriptor") {
-    throw std::invalid_argument("input must be image or descriptor, got '" + p.input + "'");
+  const std::string input = GetParam<std::string>(pnh, "input", "image");
+  if (input == "image") {
+    p.input = IngestInput::kImage;
+  } else if (input == "descriptor") {
+    p.input = IngestInput::kDescriptor;
+  } else {
+    throw std::invalid_argument("input must be image or descriptor, got '" + input + "'");
   }
   p.expected_dimension = GetParam<int>(pnh, "expected_dimension", p.expected_dimension);
   if (p.expected_dimension < 0) throw std::invalid_argument("expected_dimension must be >= 0");
@@ -129,7 +133,7 @@ DescriptorIngest::DescriptorIngest(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 void DescriptorIngest::Start() {
   params_ = LoadIngestParams(pnh_);
-  if (params_.input == "image") {
+  if (params_.input == IngestInput::kImage) {
     describer_ = MakeImageDescriber(params_.describer);  // a bad ONNX model fails here
     if (params_.expected_dimension != 0 && params_.expected_dimension != describer_->dimension()) {
       throw std::invalid_argument(
@@ -155,7 +159,7 @@ void DescriptorIngest::UpdateSubscription() {
   const bool subscribed = image_sub_ || descriptor_sub_;
   if (wanted && !subscribed) {
     const uint32_t q = static_cast<uint32_t>(params_.queue_size);
-    if (params_.input == "image") {
+    if (params_.input == IngestInput::kImage) {
       image_sub_ = it_.subscribe(names::kImageTopic, q, &DescriptorIngest::OnImage, this);
     } else {
       // Any type: bsf_vpr/Descriptor and std_msgs/Float32MultiArray are told apart per
@@ -271,7 +275,7 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   // A publisher whose type differs from the image input's never connects (roscpp refuses
   // the connection), so it is looked up on the master.
   std::string image_type_problem;
-  if (params_.input == "image") {
+  if (params_.input == IngestInput::kImage) {
     ros::master::V_TopicInfo topics;
     const std::string topic = nh_.resolveName(names::kImageTopic);
     if (ros::master::getTopics(topics)) {
@@ -296,7 +300,7 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
   }
-  status.add("input", params_.input);
+  status.add("input", params_.input == IngestInput::kImage ? "image" : "descriptor");
   status.add("published", published_);
   status.add("dropped", rejected_);
   status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));

@@ -24,8 +24,11 @@
 
 namespace bsf_vpr {
 
+// What the ingest takes: images to describe, or descriptors computed elsewhere.
+enum class IngestInput { kImage, kDescriptor };
+
 struct IngestParams {
-  std::string input = "image";  // "image" (sensor_msgs/Image) or "descriptor"
+  IngestInput input = IngestInput::kImage;  // parameter input: image | descriptor
   int expected_dimension = 0;   // 0: any non-empty dimension
   bool l2_normalize = false;
   std::string descriptor_type;      // stamped on the output; default: the image descriptor's name

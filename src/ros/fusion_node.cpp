@@ -121,12 +121,9 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
-  if (params_.odometry_source == "topic") {
-    odometry_sub_ = nh_.subscribe(params_.odometry_topic, 50, &FusionNode::OnOdometry, this);
-  } else if (params_.odometry_source == "tf") {
-    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
-  }
+  odometry_ = std::make_unique<OdometryTracker>(nh_, params_.odometry_source,
+                                               params_.odometry_topic, params_.odom_frame,
+                                               params_.base_frame);
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -183,55 +180,17 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ++processed_;
-  ++total_processed_;
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
-  const ReferenceMap& map = recognizer_.map();
-  for (int u : r.belief.selection.selected) ++selected_count_[map.set(u).name];
-  if (r.belief.selection.best >= 0) ++best_count_[map.set(r.belief.selection.best).name];
-  if (r.closest_set >= 0) ++supplied_count_[map.set(r.closest_set).name];
+  counters_.Count(r, recognizer_.map());
   Publish(*msg, r, seconds);
 }
 
-void FusionNode::OnOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto& p = msg->pose.pose.position;
-  latest_odometry_ = Eigen::Vector3d(p.x, p.y, p.z);
-}
-
 std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
-  if (params_.odometry_source == "none") return std::nullopt;
-  std::optional<Eigen::Vector3d> now = latest_odometry_;
-  if (params_.odometry_source == "tf") {
-    now.reset();
-    for (const ros::Time& t : {stamp, ros::Time(0)}) {  // at the image's time, else the latest
-      try {
-        const auto tr = tf_buffer_->lookupTransform(params_.odom_frame, params_.base_frame, t);
-        now = Eigen::Vector3d(tr.transform.translation.x, tr.transform.translation.y,
-                              tr.transform.translation.z);
-        break;
-      } catch (const tf2::TransformException&) {
-      }
-    }
-  }
-  if (!now) {
-    ROS_WARN_THROTTLE(5.0, "bsf_vpr: no odometry yet (%s); the filter uses its step distribution",
-                      params_.odometry_source.c_str());
-    return std::nullopt;
-  }
   const double spacing = params_.place_spacing_m > 0
                              ? params_.place_spacing_m
                              : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
-  std::optional<double> step;
-  if (spacing <= 0) {
-    ROS_WARN_THROTTLE(5.0,
-                      "bsf_vpr: odometry without place spacing: set place_spacing_m or "
-                      "load reference sets with poses");
-  } else if (position_at_last_query_) {
-    step = (*now - *position_at_last_query_).norm() / spacing;
-  }
-  position_at_last_query_ = now;
-  return step;
+  return odometry_->StepPlaces(stamp, spacing);
 }
 
 void FusionNode::Publish(const Descriptor& msg, const Recognition& r, double seconds) {
@@ -325,10 +284,8 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
   for (const ReferenceSet& s : map.sets()) {
-    const auto it = selected_count_.find(s.name);
-    const long n = it == selected_count_.end() ? 0 : it->second;
     status.addf("selected: " + s.name, "%.1f%% of %ld queries",
-                total_processed_ ? 100.0 * n / total_processed_ : 0.0, total_processed_);
+                100.0 * counters_.Usage(s.name).selected_fraction, counters_.queries());
   }
   if (recorder_.recording()) {
     status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());

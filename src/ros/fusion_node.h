@@ -20,13 +20,10 @@
 #include <bsf_vpr/UnloadReferenceSet.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
-#include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <ros/spinner.h>
-#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <Eigen/Core>
 #include <map>
@@ -39,6 +36,8 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/reference_recorder.h"
 #include "fusion_params.h"
+#include "odometry_tracker.h"
+#include "selection_counters.h"
 
 namespace bsf_vpr {
 
@@ -53,9 +52,8 @@ class FusionNode {
 
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
-  void OnOdometry(const nav_msgs::Odometry::ConstPtr& msg);
-  // The progress since the previous query in places, from odometry (nullopt without
-  // odometry or place spacing). Caller holds mutex_; moves the reference position on.
+  // The progress since the previous query in places, from odometry (nullopt without).
+  // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
   void Publish(const Descriptor& msg, const Recognition& r, double seconds);
   void OnReconfigure(FusionConfig& config, uint32_t level);
@@ -91,11 +89,7 @@ class FusionNode {
   ros::Publisher belief_pub_, match_pub_, marker_pub_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
-  ros::Subscriber odometry_sub_;
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::optional<Eigen::Vector3d> latest_odometry_;  // from the odometry topic
-  std::optional<Eigen::Vector3d> position_at_last_query_;
+  std::unique_ptr<OdometryTracker> odometry_;
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
@@ -105,9 +99,7 @@ class FusionNode {
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string last_rejection_;
   std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
-  // Per set name, since start or the last statistics reset.
-  std::map<std::string, long> selected_count_, best_count_, supplied_count_;
-  long total_processed_ = 0;
+  SelectionCounters counters_;  // since start or the last statistics reset
   ros::WallTime last_diagnostics_;
 };
 

@@ -171,11 +171,8 @@ FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   f.relocalization_probability =
       GetParam<double>(pnh, "relocalization_probability", f.relocalization_probability);
   r.Validate();
-  p.odometry_source = GetParam<std::string>(pnh, "odometry_source", p.odometry_source);
-  if (p.odometry_source != "none" && p.odometry_source != "topic" && p.odometry_source != "tf") {
-    throw std::invalid_argument("odometry_source must be none, topic or tf, got '" +
-                                p.odometry_source + "'");
-  }
+  p.odometry_source =
+      ParseOdometrySource(GetParam<std::string>(pnh, "odometry_source", "none"));
   p.odometry_topic = GetParam<std::string>(pnh, "odometry_topic", p.odometry_topic);
   p.odom_frame = GetParam<std::string>(pnh, "odom_frame", p.odom_frame);
   p.base_frame = GetParam<std::string>(pnh, "base_frame", p.base_frame);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/place_recognizer.h"
+#include "odometry_tracker.h"
 
 namespace bsf_vpr {
 
@@ -33,7 +34,7 @@ struct FusionParams {
   // "tf" (odom_frame -> base_frame). The distance travelled between two queries divided by
   // the place spacing (place_spacing_m, or the median spacing of the place poses when 0) is
   // the filter's step for that query.
-  std::string odometry_source = "none";
+  OdometrySource odometry_source = OdometrySource::kNone;
   std::string odometry_topic = "odom";
   std::string odom_frame = "odom";
   std::string base_frame = "base_link";

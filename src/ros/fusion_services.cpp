@@ -63,9 +63,7 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
                                   " is loaded");
     }
     recognizer_.RemoveReferenceSet(req.name);
-    selected_count_.erase(req.name);
-    best_count_.erase(req.name);
-    supplied_count_.erase(req.name);
+    counters_.Forget(req.name);
     res.success = true;
     res.message = "unloaded '" + req.name + "'";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -97,27 +95,9 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
 bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
                               GetSelectionStatistics::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  res.queries = total_processed_;
-  auto count = [](const std::map<std::string, long>& m, const std::string& k) {
-    const auto it = m.find(k);
-    return it == m.end() ? 0L : it->second;
-  };
-  for (const ReferenceSet& s : recognizer_.map().sets()) {
-    ReferenceSetUsage u;
-    u.name = s.name;
-    u.selected = count(selected_count_, s.name);
-    u.best = count(best_count_, s.name);
-    u.supplied_match = count(supplied_count_, s.name);
-    u.selected_fraction =
-        total_processed_ ? static_cast<double>(u.selected) / total_processed_ : 0.0;
-    res.sets.push_back(u);
-  }
-  if (req.reset) {
-    selected_count_.clear();
-    best_count_.clear();
-    supplied_count_.clear();
-    total_processed_ = 0;
-  }
+  res.queries = counters_.queries();
+  for (const ReferenceSet& s : recognizer_.map().sets()) res.sets.push_back(counters_.Usage(s.name));
+  if (req.reset) counters_.Reset();
   return true;
 }
 

@@ -101,16 +101,15 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
       ReferenceMap map;
       map.SetStoragePrecision(p);
       map.Add(MakeReferenceSet("a", r));
-      SetDistanceThreads(1);
+      const testing::ScopedDistanceThreads threads(1);
       const RowMatrixXf batch = ComputeDistances(DistanceMetric::kEuclidean, q, map.set(0));
-      SetDistanceThreads(3);
+      threads.Set(3);
       for (int i = 0; i < q.rows(); ++i) {
         const RowMatrixXf one =
             ComputeDistances(DistanceMetric::kEuclidean, RowMatrixXf(q.row(i)), map.set(0));
         ASSERT_TRUE((one.row(0).array() == batch.row(i).array()).all())
             << kernel << " " << ToString(p) << " query " << i;
       }
-      SetDistanceThreads(0);
     }
   }
   SetDistanceKernel("auto");

@@ -37,17 +37,18 @@ TEST(Distances, AQueryAloneGetsBitwiseTheSameDistancesAsInABatch) {
 TEST(Distances, AnyThreadCountGivesBitwiseTheSameDistances) {
   const RowMatrixXf q = testing::RandomMatrix(9, 777, 21);
   const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(1001, 777, 22));
+  const testing::ScopedDistanceThreads guard(1);
   for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
-    SetDistanceThreads(1);
+    guard.Set(1);
     const RowMatrixXf one = ComputeDistances(m, q, set);
     for (int threads : {2, 3, 8}) {
-      SetDistanceThreads(threads);
+      guard.Set(threads);
       EXPECT_EQ(DistanceThreads(), threads);
       const RowMatrixXf many = ComputeDistances(m, q, set);
       ASSERT_TRUE((many.array() == one.array()).all()) << threads << " threads";
     }
   }
-  SetDistanceThreads(0);
+  guard.Set(0);
   EXPECT_GE(DistanceThreads(), 1);
 }
 

@@ -132,11 +132,10 @@ TEST(Fusion, FastPathForDenseSetsAgreesWithTheGeneralPath) {
 // the one a single thread computes.
 TEST(Fusion, ParallelLikelihoodsGiveBitwiseTheSameBelief) {
   Fixture f(3, 20000, 21);  // 60000 distances: above the parallel threshold
-  SetDistanceThreads(1);
+  const testing::ScopedDistanceThreads threads(1);
   const PlaceBelief one = Fuse(f.views, 20000);
-  SetDistanceThreads(3);
+  threads.Set(3);
   const PlaceBelief many = Fuse(f.views, 20000);
-  SetDistanceThreads(0);
   EXPECT_EQ(one.match, many.match);
   EXPECT_EQ(one.confidence, many.confidence);
   EXPECT_TRUE((one.log_posterior.array() == many.log_posterior.array()).all());

@@ -46,9 +46,11 @@ TEST(Synthetic, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErrorsOn) {
     for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
   };
   const Method bsf = ParseMethod("bsf", in.set_names);
-  SetDistanceThreads(3);
-  const std::vector<MethodResults> r = EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50);
-  SetDistanceThreads(0);
+  std::vector<MethodResults> r;
+  {
+    const testing::ScopedDistanceThreads threads(3);
+    r = EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50);
+  }
   MethodRunner sequential(bsf, {});
   for (int q = 0; q < in.num_queries; ++q) {
     const PlaceBelief b =
@@ -83,11 +85,10 @@ TEST(Synthetic, NestedParallelFusionInTheEvaluatorMatchesOneThread) {
   };
   const GroundTruth truth = GroundTruth::FromFrameTolerance(q, n, 2);
   const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
-  SetDistanceThreads(1);
+  const testing::ScopedDistanceThreads threads(1);
   const std::vector<MethodResults> one = EvaluateMethods(in, bsf, {}, truth, {}, 4);
-  SetDistanceThreads(2);
+  threads.Set(2);
   const std::vector<MethodResults> two = EvaluateMethods(in, bsf, {}, truth, {}, 4);
-  SetDistanceThreads(0);
   for (int k = 0; k < q; ++k) {
     EXPECT_EQ(one[0].outcomes[static_cast<size_t>(k)].match,
               two[0].outcomes[static_cast<size_t>(k)].match);

@@ -7,11 +7,23 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/synthetic.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
 namespace testing {
+
+// Sets the global number of distance threads for a scope and restores the default (0: every
+// core) when the scope ends, also when a failed assertion returns early.
+class ScopedDistanceThreads {
+ public:
+  explicit ScopedDistanceThreads(int threads) { SetDistanceThreads(threads); }
+  ~ScopedDistanceThreads() { SetDistanceThreads(0); }
+  ScopedDistanceThreads(const ScopedDistanceThreads&) = delete;
+  ScopedDistanceThreads& operator=(const ScopedDistanceThreads&) = delete;
+  void Set(int threads) const { SetDistanceThreads(threads); }
+};
 
 // An .npy file from its header dictionary and data, as numpy.save writes it (version 1.0:
 // the header padded with spaces so that the data starts at a multiple of 64 bytes).

@@ -160,12 +160,36 @@ class OnnxDescriber : public ImageDescriber {
 
 }  // namespace
 
-std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options) {
-  if (options.kind == "patchnorm") return std::make_unique<PatchNormDescriber>(options.patch_norm);
-  if (options.kind == "hog") return std::make_unique<HogDescriber>(options.hog);
-  if (options.kind == "onnx") return std::make_unique<OnnxDescriber>(options.onnx);
-  throw std::invalid_argument("unknown image descriptor '" + options.kind +
+ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
+  if (name == "patchnorm") return ImageDescriberKind::kPatchNorm;
+  if (name == "hog") return ImageDescriberKind::kHog;
+  if (name == "onnx") return ImageDescriberKind::kOnnx;
+  throw std::invalid_argument("unknown image descriptor '" + name +
                               "' (expected patchnorm, hog or onnx)");
+}
+
+std::string ToString(ImageDescriberKind kind) {
+  switch (kind) {
+    case ImageDescriberKind::kHog:
+      return "hog";
+    case ImageDescriberKind::kOnnx:
+      return "onnx";
+    case ImageDescriberKind::kPatchNorm:
+      break;
+  }
+  return "patchnorm";
+}
+
+std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options) {
+  switch (options.kind) {
+    case ImageDescriberKind::kPatchNorm:
+      return std::make_unique<PatchNormDescriber>(options.patch_norm);
+    case ImageDescriberKind::kHog:
+      return std::make_unique<HogDescriber>(options.hog);
+    case ImageDescriberKind::kOnnx:
+      return std::make_unique<OnnxDescriber>(options.onnx);
+  }
+  throw std::invalid_argument("unknown image descriptor kind");
 }
 
 RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer) {

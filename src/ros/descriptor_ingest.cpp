@@ -54,7 +54,8 @@ IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
   p.describer.patch_norm.patch_size_px =
       GetParam<int>(pnh, "patch_size_px", p.describer.patch_norm.patch_size_px);
   ImageDescriberOptions& d = p.describer;
-  d.kind = GetParam<std::string>(pnh, "image_descriptor", d.kind);
+  d.kind = ParseImageDescriberKind(
+      GetParam<std::string>(pnh, "image_descriptor", ToString(d.kind)));
   d.hog.width_px = GetParam<int>(pnh, "hog_width_px", d.hog.width_px);
   d.hog.height_px = GetParam<int>(pnh, "hog_height_px", d.hog.height_px);
   d.hog.cell_px = GetParam<int>(pnh, "hog_cell_px", d.hog.cell_px);

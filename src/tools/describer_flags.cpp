@@ -45,7 +45,12 @@ bool ParseDescriberFlag(const std::string& flag, const std::string& value,
                         ImageDescriberOptions* options) {
   ImageDescriberOptions& d = *options;
   if (flag == "--descriptor") {
-    d.kind = value;
+    try {
+      d.kind = ParseImageDescriberKind(value);
+    } catch (const std::invalid_argument&) {
+      throw std::invalid_argument("unknown --descriptor '" + value +
+                                  "' (expected patchnorm, hog or onnx)");
+    }
   } else if (flag == "--patch-width") {
     d.patch_norm.width_px = ParseInteger(flag, value);
   } else if (flag == "--patch-height") {
@@ -83,13 +88,9 @@ bool ParseDescriberFlag(const std::string& flag, const std::string& value,
 }
 
 void ValidateDescriberOptions(const ImageDescriberOptions& options) {
-  if (options.kind != "patchnorm" && options.kind != "hog" && options.kind != "onnx") {
-    throw std::invalid_argument("unknown --descriptor '" + options.kind +
-                                "' (expected patchnorm, hog or onnx)");
-  }
   options.patch_norm.Validate();
-  if (options.kind == "hog") options.hog.Validate();
-  if (options.kind == "onnx") options.onnx.Validate();
+  if (options.kind == ImageDescriberKind::kHog) options.hog.Validate();
+  if (options.kind == ImageDescriberKind::kOnnx) options.onnx.Validate();
 }
 
 std::string DescriberUsage() {
@@ -99,7 +100,7 @@ std::string DescriberUsage() {
   const OnnxOptions& o = d.onnx;
   std::ostringstream u;
   u << "  --descriptor NAME       image descriptor for image folders: patchnorm, hog or onnx\n"
-    << "                          (default " << d.kind << ")\n"
+    << "                          (default " << ToString(d.kind) << ")\n"
     << "  --patch-width W, --patch-height H, --patch-size P\n"
     << "                          patchnorm: resize and patch size (default " << p.width_px << " "
     << p.height_px << " " << p.patch_size_px << ")\n"

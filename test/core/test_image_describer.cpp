@@ -80,7 +80,7 @@ TEST(Onnx, CnnsDescribeRealImagesThroughThePreprocessingPath) {
   ASSERT_FALSE(img.empty());
   for (const std::string model : {"resnet50_light", "squeezenet_light"}) {
     ImageDescriberOptions o;
-    o.kind = "onnx";
+    o.kind = ImageDescriberKind::kOnnx;
     o.onnx.model_path = kModels + model + "/model.onnx";
     const auto d = MakeImageDescriber(o);
     EXPECT_EQ(d->dimension(), 1000) << model;  // [1,1000] and [1,1000,1,1] both flatten
@@ -94,7 +94,7 @@ TEST(Onnx, CnnsDescribeRealImagesThroughThePreprocessingPath) {
 
 TEST(Onnx, PcaProjectsTheNetworkOutput) {
   ImageDescriberOptions o;
-  o.kind = "onnx";
+  o.kind = ImageDescriberKind::kOnnx;
   o.onnx.model_path = kModels + "maxpool2d/model.onnx";
   o.onnx.input_width_px = o.onnx.input_height_px = 7;
   o.onnx.l2_normalize = false;
@@ -124,7 +124,7 @@ TEST(Onnx, PcaProjectsTheNetworkOutput) {
 
 TEST(Onnx, AMissingOrBrokenModelFailsAtStartUpNamingTheFile) {
   ImageDescriberOptions o;
-  o.kind = "onnx";
+  o.kind = ImageDescriberKind::kOnnx;
   o.onnx.model_path = "/nonexistent/netvlad.onnx";
   try {
     MakeImageDescriber(o);
@@ -142,13 +142,15 @@ TEST(Onnx, AMissingOrBrokenModelFailsAtStartUpNamingTheFile) {
   o.onnx.model_path = kModels + "conv2d/model.onnx";
   o.onnx.mean = {0.5f};
   EXPECT_THROW(MakeImageDescriber(o), std::invalid_argument);
-  o.kind = "netvlad";
-  EXPECT_THROW(MakeImageDescriber(o), std::invalid_argument);
+  EXPECT_THROW(ParseImageDescriberKind("netvlad"), std::invalid_argument);
+  for (const char* name : {"patchnorm", "hog", "onnx"}) {
+    EXPECT_EQ(ToString(ParseImageDescriberKind(name)), name);
+  }
 }
 
 TEST(Hog, DescribesImagesWithTheDocumentedDimension) {
   ImageDescriberOptions o;
-  o.kind = "hog";
+  o.kind = ImageDescriberKind::kHog;
   const auto d = MakeImageDescriber(o);
   EXPECT_EQ(d->dimension(), 7 * 3 * 36);
   const cv::Mat img = cv::imread(kNordland + "summer/images-01000.png", cv::IMREAD_COLOR);

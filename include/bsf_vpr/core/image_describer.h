@@ -45,8 +45,14 @@ struct OnnxOptions {
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
 
+enum class ImageDescriberKind { kPatchNorm, kHog, kOnnx };
+
+// "patchnorm", "hog" or "onnx"; throws std::invalid_argument naming the choices otherwise.
+ImageDescriberKind ParseImageDescriberKind(const std::string& name);
+std::string ToString(ImageDescriberKind kind);
+
 struct ImageDescriberOptions {
-  std::string kind = "patchnorm";  // patchnorm | hog | onnx
+  ImageDescriberKind kind = ImageDescriberKind::kPatchNorm;
   PatchNormOptions patch_norm;
   HogOptions hog;
   OnnxOptions onnx;

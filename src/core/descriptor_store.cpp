@@ -1,11 +1,8 @@
 #include "bsf_vpr/core/descriptor_store.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
-
-#include "distance_kernels.h"
 
 namespace bsf_vpr {
 
@@ -70,49 +67,6 @@ float HalfToFloat(uint16_t half) {
   float out;
   std::memcpy(&out, &bits, sizeof out);
   return out;
-}
-
-size_t DescriptorStore::MemoryBytes() const {
-  return half.size() * sizeof(uint16_t) + int8.size() + squared_norms.size() * sizeof(float);
-}
-
-void DescriptorStore::DecodeRow(int r, float* out) const {
-  const size_t base = static_cast<size_t>(r) * static_cast<size_t>(cols);
-  for (int k = 0; k < cols; ++k) {
-    out[k] = precision == StoragePrecision::kFloat16 ? HalfToFloat(half[base + k])
-                                                     : scale * static_cast<float>(int8[base + k]);
-  }
-}
-
-DescriptorStore MakeDescriptorStore(const RowMatrixXf& descriptors, StoragePrecision precision) {
-  DescriptorStore store;
-  store.precision = precision;
-  store.rows = static_cast<int>(descriptors.rows());
-  store.cols = static_cast<int>(descriptors.cols());
-  const size_t n = static_cast<size_t>(descriptors.size());
-  if (precision == StoragePrecision::kFloat16) {
-    store.half.resize(n);
-    for (size_t i = 0; i < n; ++i) store.half[i] = FloatToHalf(descriptors.data()[i]);
-  } else if (precision == StoragePrecision::kInt8) {
-    const float max_abs = n ? descriptors.cwiseAbs().maxCoeff() : 0.0f;
-    store.scale = max_abs > 0 ? max_abs / 127.0f : 1.0f;
-    store.int8.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      const float q = std::nearbyint(descriptors.data()[i] / store.scale);
-      store.int8[i] = static_cast<int8_t>(std::clamp(q, -127.0f, 127.0f));
-    }
-  }
-  store.squared_norms.resize(store.rows);
-  std::vector<float> row(static_cast<size_t>(store.cols));
-  for (int r = 0; r < store.rows; ++r) {
-    const float* values = descriptors.row(r).data();
-    if (precision != StoragePrecision::kFloat32) {
-      store.DecodeRow(r, row.data());
-      values = row.data();
-    }
-    store.squared_norms(r) = kernels::SelfDot(values, store.cols);
-  }
-  return store;
 }
 
 }  // namespace bsf_vpr

@@ -24,11 +24,11 @@ std::string ToString(DistanceMetric metric) {
 
 namespace {
 
-void CheckDimension(const RowMatrixXf& queries, const ReferenceSet& set) {
-  if (queries.cols() != set.descriptors.cols()) {
+void CheckDimension(const RowMatrixXf& queries, const std::string& set_name, int dimension) {
+  if (queries.cols() != dimension) {
     throw std::invalid_argument("query descriptors have dimension " +
-                                std::to_string(queries.cols()) + ", reference set '" + set.name +
-                                "' has dimension " + std::to_string(set.descriptors.cols()));
+                                std::to_string(queries.cols()) + ", reference set '" + set_name +
+                                "' has dimension " + std::to_string(dimension));
   }
 }
 
@@ -84,43 +84,55 @@ void SetDistanceKernel(const std::string& name) { kernels::Force(name); }
 
 namespace {
 
-// One set's part of a distance computation: its store, its output, its row ranges.
-struct SetJob {
-  DescriptorStore local;  // for a set outside a map (no store yet): float32 norms
+// One set's rows as the kernels read them, with their squared norms.
+struct SetRows {
+  const std::string* name = nullptr;
   kernels::RefRows refs;
-  const float* norms = nullptr;
+  int rows = 0;
+  const float* norms = nullptr;  // `rows` entries
+};
+
+SetRows RowsOf(const StoredReferenceSet& set) {
+  SetRows out;
+  out.name = &set.name();
+  out.refs.precision = set.precision();
+  out.refs.data = set.data();
+  out.refs.cols = set.dimension();
+  out.refs.scale = set.scale();
+  out.rows = set.size();
+  out.norms = set.squared_norms().data();
+  return out;
+}
+
+// One set's part of a distance computation: its rows, its output, its row ranges.
+struct SetJob {
+  SetRows set;
   RowMatrixXf out;
   int parts = 1;  // row ranges, one task each
 };
 
-void PrepareJob(const RowMatrixXf& queries, const ReferenceSet& set, int threads, SetJob* job) {
-  if (!set.store.built()) job->local = MakeDescriptorStore(set.descriptors, StoragePrecision::kFloat32);
-  const DescriptorStore& store = set.store.built() ? set.store : job->local;
-  job->refs.precision = store.precision;
-  job->refs.cols = store.cols;
-  job->refs.scale = store.scale;
-  job->refs.data = set.StoredData();  // the float32 matrix while the store is not built
-  job->norms = store.squared_norms.data();
-  job->out.resize(queries.rows(), store.rows);
+void PrepareJob(const RowMatrixXf& queries, const SetRows& set, int threads, SetJob* job) {
+  job->set = set;
+  job->out.resize(queries.rows(), set.rows);
   // Threads only pay off beyond about a million multiply-adds.
-  const double work = static_cast<double>(queries.rows()) * store.rows * store.cols;
-  job->parts = work < 1e6 ? 1 : std::max(1, std::min(threads, store.rows));
+  const double work = static_cast<double>(queries.rows()) * set.rows * set.refs.cols;
+  job->parts = work < 1e6 ? 1 : std::max(1, std::min(threads, set.rows));
 }
 
 // Distances from `queries` to every set: all sets' row ranges as tasks of one parallel run
 // on the worker pool.
 std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& queries,
-                                    const std::vector<const ReferenceSet*>& sets) {
-  for (const ReferenceSet* set : sets) CheckDimension(queries, *set);
+                                    const std::vector<SetRows>& sets) {
+  for (const SetRows& set : sets) CheckDimension(queries, *set.name, set.refs.cols);
   CheckFinite(queries);  // once, not per set
   const int threads = DistanceThreads();
   std::vector<SetJob> jobs(sets.size());
   std::vector<std::pair<size_t, int>> tasks;  // (set, part)
   bool int8_rows = false;
   for (size_t u = 0; u < sets.size(); ++u) {
-    PrepareJob(queries, *sets[u], threads, &jobs[u]);
+    PrepareJob(queries, sets[u], threads, &jobs[u]);
     for (int t = 0; t < jobs[u].parts; ++t) tasks.emplace_back(u, t);
-    int8_rows = int8_rows || jobs[u].refs.precision == StoragePrecision::kInt8;
+    int8_rows = int8_rows || sets[u].refs.precision == StoragePrecision::kInt8;
   }
   // Once for every set and thread.
   const kernels::Queries prepared = kernels::PrepareQueries(
@@ -136,7 +148,7 @@ std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& qu
     const int nr = static_cast<int>(job.out.cols());
     const int r0 = static_cast<int>(static_cast<int64_t>(nr) * t / job.parts);
     const int r1 = static_cast<int>(static_cast<int64_t>(nr) * (t + 1) / job.parts);
-    DistanceRows(metric, prepared, job.refs, job.norms, qn, r0, r1, &job.out);
+    DistanceRows(metric, prepared, job.set.refs, job.set.norms, qn, r0, r1, &job.out);
   });
   std::vector<RowMatrixXf> out;
   out.reserve(jobs.size());
@@ -147,14 +159,30 @@ std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& qu
 }  // namespace
 
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
+                             const StoredReferenceSet& set) {
+  return std::move(ComputeAll(metric, queries, {RowsOf(set)}).front());
+}
+
+RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set) {
-  return std::move(ComputeAll(metric, queries, {&set}).front());
+  // The float32 rows as given, with their squared norms computed as a map computes them.
+  const int rows = set.size(), cols = set.dimension();
+  Eigen::VectorXf norms(rows);
+  for (int r = 0; r < rows; ++r) norms(r) = kernels::SelfDot(set.descriptors.row(r).data(), cols);
+  SetRows in;
+  in.name = &set.name;
+  in.refs.precision = StoragePrecision::kFloat32;
+  in.refs.data = set.descriptors.data();
+  in.refs.cols = cols;
+  in.rows = rows;
+  in.norms = norms.data();
+  return std::move(ComputeAll(metric, queries, {in}).front());
 }
 
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                                           const ReferenceMap& map) {
-  std::vector<const ReferenceSet*> sets;
-  for (const ReferenceSet& set : map.sets()) sets.push_back(&set);
+  std::vector<SetRows> sets;
+  for (const StoredReferenceSet& set : map.sets()) sets.push_back(RowsOf(set));
   return ComputeAll(metric, queries, sets);
 }
 

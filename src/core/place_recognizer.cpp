@@ -74,7 +74,7 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const RowMatrixXf query = descriptor.transpose();
   const std::vector<RowMatrixXf> distances = ComputeDistances(options_.metric, query, map_);
   std::vector<const std::vector<int>*> ids;
-  for (const ReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids);
+  for (const StoredReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids());
   const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);
 
   const int n = map_.num_places();

@@ -5,29 +5,9 @@
 #include <cstdint>
 #include <numeric>
 #include <stdexcept>
+#include <type_traits>
 
 namespace bsf_vpr {
-
-size_t ReferenceSet::MemoryBytes() const {
-  return static_cast<size_t>(descriptors.size()) * sizeof(float) + store.MemoryBytes() +
-         place_ids.size() * sizeof(int) + poses.size() * sizeof(PlacePose);
-}
-
-const void* ReferenceSet::StoredData() const {
-  switch (store.precision) {
-    case StoragePrecision::kFloat16:
-      return store.half.data();
-    case StoragePrecision::kInt8:
-      return store.int8.data();
-    default:
-      return descriptors.data();
-  }
-}
-
-size_t ReferenceSet::StoredBytes() const {
-  return static_cast<size_t>(size()) * static_cast<size_t>(dimension()) *
-         static_cast<size_t>(BytesPerElement(store.precision));
-}
 
 void ReferenceSet::Validate() const {
   const std::string who = "reference set '" + name + "'";
@@ -118,27 +98,28 @@ void ReferenceMap::Add(ReferenceSet set) {
         ", far beyond its " + std::to_string(set.size()) + " descriptors and the map's " +
         std::to_string(num_places_) + " places (at most " + std::to_string(limit - 1) + ")");
   }
-  // Everything that can throw happens on copies; the map changes only by moves below.
-  set.store = MakeDescriptorStore(set.descriptors, storage_);
-  if (storage_ != StoragePrecision::kFloat32) set.descriptors.resize(0, set.descriptors.cols());
+  // Everything that can throw happens aside (encoding, copies); the map changes only by
+  // moves below.
+  StoredReferenceSet stored(std::move(set), storage_);
   const int num_places = std::max(num_places_, max_id + 1);
   std::vector<std::optional<PlacePose>> poses = place_poses_;
   poses.resize(static_cast<size_t>(num_places));
-  IndexPoses(set, &poses);
+  IndexPoses(stored, &poses);
   const std::optional<double> spacing = MedianSpacing(poses);
   sets_.reserve(sets_.size() + 1);
-  sets_.push_back(std::move(set));  // cannot throw after the reserve
+  static_assert(std::is_nothrow_move_constructible_v<StoredReferenceSet>);
+  sets_.push_back(std::move(stored));  // cannot throw after the reserve
   dimension_ = sets_.back().dimension();
   num_places_ = num_places;
   place_poses_ = std::move(poses);
   median_spacing_ = spacing;
 }
 
-void ReferenceMap::IndexPoses(const ReferenceSet& set,
+void ReferenceMap::IndexPoses(const StoredReferenceSet& set,
                               std::vector<std::optional<PlacePose>>* poses) {
-  for (size_t k = 0; k < set.poses.size(); ++k) {
-    std::optional<PlacePose>& slot = (*poses)[static_cast<size_t>(set.place_ids[k])];
-    if (!slot) slot = set.poses[k];  // the first set with a pose for the place wins
+  for (size_t k = 0; k < set.poses().size(); ++k) {
+    std::optional<PlacePose>& slot = (*poses)[static_cast<size_t>(set.place_ids()[k])];
+    if (!slot) slot = set.poses()[k];  // the first set with a pose for the place wins
   }
 }
 
@@ -149,7 +130,7 @@ bool ReferenceMap::Remove(const std::string& name) {
   int num_places = 0;
   for (size_t k = 0; k < sets_.size(); ++k) {
     if (static_cast<int>(k) == u) continue;
-    const std::vector<int>& ids = sets_[k].place_ids;
+    const std::vector<int>& ids = sets_[k].place_ids();
     num_places = std::max(num_places, 1 + *std::max_element(ids.begin(), ids.end()));
   }
   std::vector<std::optional<PlacePose>> poses(static_cast<size_t>(num_places));
@@ -167,14 +148,14 @@ bool ReferenceMap::Remove(const std::string& name) {
 
 int ReferenceMap::IndexOf(const std::string& name) const {
   for (size_t u = 0; u < sets_.size(); ++u) {
-    if (sets_[u].name == name) return static_cast<int>(u);
+    if (sets_[u].name() == name) return static_cast<int>(u);
   }
   return -1;
 }
 
 std::vector<std::string> ReferenceMap::SetNames() const {
   std::vector<std::string> names;
-  for (const ReferenceSet& s : sets_) names.push_back(s.name);
+  for (const StoredReferenceSet& s : sets_) names.push_back(s.name());
   return names;
 }
 

@@ -211,11 +211,6 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace) {
   set.Validate();
-  if (set.descriptors.rows() != set.size()) {
-    throw std::invalid_argument("reference set '" + set.name + "' is held at " +
-                                ToString(set.store.precision) +
-                                " precision only; save it from its float32 source");
-  }
   const std::string yaml = dir.Relative(yaml_request);
   if (!EndsWith(yaml, ".yaml")) {
     throw std::invalid_argument("a reference set is saved as a .yaml, got " +

@@ -33,13 +33,13 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   out->set_names.clear();
   out->set_min_distances.clear();
   for (int u = 0; u < map.num_sets(); ++u) {
-    out->set_names.push_back(map.set(u).name);
+    out->set_names.push_back(map.set(u).name());
     out->set_min_distances.push_back(b.selection.set_stats.at(static_cast<size_t>(u)).min);
   }
   out->selected_sets.clear();
-  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name);
+  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name());
   out->used_sets.clear();
-  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name);
+  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name());
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;
@@ -58,22 +58,22 @@ geometry_msgs::Pose ToPoseMsg(const PlacePose& pose) {
 void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out) {
   out->place_id = r.belief.match;
   out->confidence = r.belief.confidence;
-  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name : "";
+  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name() : "";
   const std::optional<PlacePose> pose = map.PoseOf(r.belief.match);
   out->has_pose = pose.has_value();
   out->pose = pose ? ToPoseMsg(*pose) : geometry_msgs::Pose();
   if (!pose) out->pose.orientation.w = 1;
 }
 
-ReferenceSetInfo ToInfoMsg(const ReferenceSet& set) {
+ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
   ReferenceSetInfo info;
-  info.name = set.name;
-  info.condition = set.condition;
-  info.descriptor_type = set.descriptor_type;
+  info.name = set.name();
+  info.condition = set.condition();
+  info.descriptor_type = set.descriptor_type();
   info.num_places = set.size();
   info.dimension = set.dimension();
   info.memory_bytes = set.MemoryBytes();
-  info.storage = ToString(set.store.precision);
+  info.storage = ToString(set.precision());
   return info;
 }
 

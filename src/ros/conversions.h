@@ -30,6 +30,6 @@ void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out);
 
 geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
 
-ReferenceSetInfo ToInfoMsg(const ReferenceSet& set);
+ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set);
 
 }  // namespace bsf_vpr

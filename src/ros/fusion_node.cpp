@@ -67,9 +67,9 @@ void FusionNode::Start() {
   for (auto& [set, path] : sets) {
     CheckDistance(set, path);
     recognizer_.AddReferenceSet(std::move(set));
-    const ReferenceSet& s = recognizer_.map().sets().back();
-    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name.c_str(),
-             s.size(), s.dimension(), ToString(s.store.precision).c_str());
+    const StoredReferenceSet& s = recognizer_.map().sets().back();
+    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name().c_str(),
+             s.size(), s.dimension(), ToString(s.precision()).c_str());
   }
   recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
   const Method& method = recognizer_.method();
@@ -141,10 +141,10 @@ void FusionNode::RejectMessage(const std::string& why) {
 
 void FusionNode::CheckDescriptorType(const std::string& type) {
   if (type.empty()) return;
-  for (const ReferenceSet& s : recognizer_.map().sets()) {
-    if (!s.descriptor_type.empty() && s.descriptor_type != type) {
+  for (const StoredReferenceSet& s : recognizer_.map().sets()) {
+    if (!s.descriptor_type().empty() && s.descriptor_type() != type) {
       type_mismatch_ = "descriptors of type " + QuotedForMessage(type, 60) + " meet set '" +
-                       s.name + "' of type '" + s.descriptor_type + "'";
+                       s.name() + "' of type '" + s.descriptor_type() + "'";
       ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
                         type_mismatch_.c_str());
       return;
@@ -283,9 +283,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
-  for (const ReferenceSet& s : map.sets()) {
-    status.addf("selected: " + s.name, "%.1f%% of %ld queries",
-                100.0 * counters_.Usage(s.name).selected_fraction, counters_.queries());
+  for (const StoredReferenceSet& s : map.sets()) {
+    status.addf("selected: " + s.name(), "%.1f%% of %ld queries",
+                100.0 * counters_.Usage(s.name()).selected_fraction, counters_.queries());
   }
   if (recorder_.recording()) {
     status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());

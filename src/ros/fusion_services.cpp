@@ -13,7 +13,7 @@ namespace bsf_vpr {
 
 bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const ReferenceSet& s : recognizer_.map().sets()) res.sets.push_back(ToInfoMsg(s));
+  for (const StoredReferenceSet& s : recognizer_.map().sets()) res.sets.push_back(ToInfoMsg(s));
   res.num_places = recognizer_.map().num_places();
   return true;
 }
@@ -96,7 +96,9 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
                               GetSelectionStatistics::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   res.queries = counters_.queries();
-  for (const ReferenceSet& s : recognizer_.map().sets()) res.sets.push_back(counters_.Usage(s.name));
+  for (const StoredReferenceSet& s : recognizer_.map().sets()) {
+    res.sets.push_back(counters_.Usage(s.name()));
+  }
   if (req.reset) counters_.Reset();
   return true;
 }

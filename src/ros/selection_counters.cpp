@@ -12,9 +12,9 @@ long CountOf(const std::map<std::string, long>& m, const std::string& key) {
 
 void SelectionCounters::Count(const Recognition& r, const ReferenceMap& map) {
   ++queries_;
-  for (int u : r.belief.selection.selected) ++selected_[map.set(u).name];
-  if (r.belief.selection.best >= 0) ++best_[map.set(r.belief.selection.best).name];
-  if (r.closest_set >= 0) ++supplied_[map.set(r.closest_set).name];
+  for (int u : r.belief.selection.selected) ++selected_[map.set(u).name()];
+  if (r.belief.selection.best >= 0) ++best_[map.set(r.belief.selection.best).name()];
+  if (r.closest_set >= 0) ++supplied_[map.set(r.closest_set).name()];
 }
 
 void SelectionCounters::Forget(const std::string& set_name) {

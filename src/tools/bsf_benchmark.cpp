@@ -12,6 +12,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include "bsf_vpr/core/evaluation_runner.h"
@@ -95,6 +96,14 @@ PlaceRecognizer MakeRecognizer(const Shape& s, uint64_t seed,
   return r;
 }
 
+// The rows of a set stored at float32 (what the float32 baselines read in place).
+const float* Float32Rows(const StoredReferenceSet& set) {
+  if (set.precision() != StoragePrecision::kFloat32) {
+    throw std::logic_error("the float32 baselines need a set stored at float32");
+  }
+  return static_cast<const float*>(set.data());
+}
+
 // XOR-folds 64-bit words [w0, w1) into independent accumulators: far more work per byte
 // than memory delivers, so memory is the limit. The AVX2 build reads 32 bytes a load, as
 // the distance kernel does; the portable one whatever the compiler vectorises.
@@ -144,9 +153,9 @@ uint64_t StreamOnce(const ReferenceMap& map, int threads) {
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {
-      for (const ReferenceSet& set : map.sets()) {
-        const size_t words = set.StoredBytes() / 8;
-        const auto* data = static_cast<const uint64_t*>(set.StoredData());
+      for (const StoredReferenceSet& set : map.sets()) {
+        const size_t words = set.data_bytes() / 8;
+        const auto* data = static_cast<const uint64_t*>(set.data());
         partial[static_cast<size_t>(t)] ^=
             FoldWords(data, words * t / threads, words * (t + 1) / threads);
       }
@@ -218,9 +227,9 @@ void Query(int repeats, int scale) {
       g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, r.map())[0](0, 0);
     });
     std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
-    for (const ReferenceSet& set : r.map().sets()) {
+    for (const StoredReferenceSet& set : r.map().sets()) {
       faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
-      faiss_sets.back()->add(set.size(), set.descriptors.data());
+      faiss_sets.back()->add(set.size(), Float32Rows(set));
     }
     std::vector<float> dist(static_cast<size_t>(s.n));
     std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
@@ -256,9 +265,9 @@ void Batch(int repeats, int scale) {
   openblas_set_num_threads(threads);
   RowMatrixXf product(nq, s.n);
   const double gemm = TimeMs(repeats, [&] {
-    for (const ReferenceSet& set : r.map().sets()) {
-      cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, nq, s.n, s.d, 1.0f, queries.data(),
-                  s.d, set.descriptors.data(), s.d, 0.0f, product.data(), s.n);
+    for (const StoredReferenceSet& set : r.map().sets()) {
+      cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, nq, s.n, s.d, 1.0f, queries.data(), s.d,
+                  Float32Rows(set), s.d, 0.0f, product.data(), s.n);
     }
     g_sink = product(0, 0);
   });

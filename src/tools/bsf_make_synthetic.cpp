@@ -67,8 +67,8 @@ int Run(int argc, char** argv) {
   if (out.empty()) throw std::invalid_argument("no --out DIR given");
   const SyntheticData d = GenerateMultiConditionData(o);
   tools::CreateFolders(out);
-  for (const ReferenceSet& s : d.map.sets())
-    WriteNpyMatrix(out + "/" + s.name + ".npy", s.descriptors);
+  for (const StoredReferenceSet& s : d.map.sets())
+    WriteNpyMatrix(out + "/" + s.name() + ".npy", s.ToReferenceSet().descriptors);
   WriteNpyMatrix(out + "/queries.npy", d.queries);
   WriteGroundTruthCsv(out + "/ground_truth.csv", d.truth);
   std::ostringstream conditions;

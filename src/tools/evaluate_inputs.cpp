@@ -93,9 +93,9 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   data->query_poses = std::move(query.poses);
   data->input.num_queries = static_cast<int>(data->queries.rows());
   data->input.num_places = data->map.num_places();
-  for (const ReferenceSet& s : data->map.sets()) {
-    data->input.set_names.push_back(s.name);
-    data->input.place_ids.push_back(s.place_ids);
+  for (const StoredReferenceSet& s : data->map.sets()) {
+    data->input.set_names.push_back(s.name());
+    data->input.place_ids.push_back(s.place_ids());
   }
   data->input.distances = [data, metric](int begin, int end, std::vector<RowMatrixXf>* block) {
     const RowMatrixXf q = data->queries.middleRows(begin, end - begin);

@@ -90,7 +90,7 @@ TEST(Distances, MapVersionGivesOneMatrixPerSetAndRowViews) {
   const std::vector<RowMatrixXf> all = ComputeDistances(DistanceMetric::kEuclidean, q, map);
   ASSERT_EQ(all.size(), 2u);
   EXPECT_EQ(all[1].cols(), 3);
-  const std::vector<SetDistances> views = QueryRowViews(all, 1, {nullptr, &map.set(1).place_ids});
+  const std::vector<SetDistances> views = QueryRowViews(all, 1, {nullptr, &map.set(1).place_ids()});
   EXPECT_EQ(views[0].count, 10);
   EXPECT_EQ(views[0].PlaceAt(4), 4);
   EXPECT_EQ(views[1].PlaceAt(0), 9);

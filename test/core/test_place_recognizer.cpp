@@ -24,7 +24,7 @@ SyntheticData Data() {
 
 PlaceRecognizer Loaded(const SyntheticData& data, RecognizerOptions opt = {}) {
   PlaceRecognizer r;
-  for (const ReferenceSet& s : data.map.sets()) r.AddReferenceSet(s);
+  for (const StoredReferenceSet& s : data.map.sets()) r.AddReferenceSet(s.ToReferenceSet());
   r.SetOptions(opt);
   return r;
 }

@@ -47,9 +47,12 @@ void SetDistanceKernel(const std::string& name);
 // Distances from each of the Q queries (rows of `queries`, Q x D) to each of the N_u
 // descriptors of `set`; returns Q x N_u. Euclidean is sqrt(max(||q||^2 + ||r||^2 - 2 q.r,
 // 0)) and cosine 1 - q.r / (||q|| ||r||), from inner products summed in one fixed order
-// (blocked over queries and rows, threads over rows) against the set's store: float32,
-// float16 or int8 as its map holds it.
+// (blocked over queries and rows, threads over rows) against the set's rows as stored:
+// float32, float16 or int8 as its map holds it. A ReferenceSet outside a map is read as
+// its float32 descriptors (bitwise what a float32 map gives).
 // Throws std::invalid_argument if the dimensions differ or a query holds NaN/infinity.
+RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
+                             const StoredReferenceSet& set);
 RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                              const ReferenceSet& set);
 

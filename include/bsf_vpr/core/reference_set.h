@@ -2,6 +2,10 @@
 //
 // Places are numbered 0..N-1 in a place index shared by all sets of a map. A set covers some
 // of those places, with at most one descriptor per place (paper, Sec. III-A).
+//
+// A ReferenceSet is the plain value that files, tools and the recorder produce and consume
+// (float32 descriptors and their metadata). ReferenceMap::Add turns it into the immutable
+// StoredReferenceSet the map keeps, encoded at the map's storage precision.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +14,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/stored_reference_set.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -25,30 +30,17 @@ constexpr int64_t kMaxPlaceIdGrowth = 1000;
 // stay finite (4 x this < FLT_MAX).
 constexpr double kMaxDescriptorSquaredNorm = 8.0e37;
 
-// Pose of a place in the map frame: metres and radians.
-struct PlacePose {
-  double x_m = 0, y_m = 0, z_m = 0, yaw_rad = 0;
-};
-
 struct ReferenceSet {
   std::string name;              // unique within a map, e.g. "winter"
   std::string condition;         // optional label, e.g. "snow", "night"
   std::string descriptor_type;   // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
   std::string distance;          // optional, the distance the descriptors are meant for
-  RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]; 0 x D once a
-                                 // map stores the set at reduced precision (see `store`)
+  RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
   std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
   std::vector<PlacePose> poses;  // empty, or N_u poses (poses[k] is the pose of row k)
 
-  DescriptorStore store;         // built by ReferenceMap::Add: row norms, reduced copies
-
-  int size() const { return store.built() ? store.rows : static_cast<int>(descriptors.rows()); }
+  int size() const { return static_cast<int>(descriptors.rows()); }
   int dimension() const { return static_cast<int>(descriptors.cols()); }
-  size_t MemoryBytes() const;
-  // The descriptor elements as the distance kernel reads them (row-major, size() x
-  // dimension(), of store.precision: the float32 matrix, or the reduced copy) and their bytes.
-  const void* StoredData() const;
-  size_t StoredBytes() const;
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
   // duplicated, negative or >= kMaxPlaces, poses of the wrong count, a descriptor that
@@ -68,15 +60,16 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
 // run-time values; N grows to cover the largest place id of any set.
 class ReferenceMap {
  public:
-  // Precision at which sets added from now on are held (default float32). A reduced
-  // precision keeps only the reduced copy: the set's float32 matrix is released.
+  // Precision at which sets added from now on are held (default float32). A set held at
+  // reduced precision keeps only its encoded rows: its float32 values are released.
   void SetStoragePrecision(StoragePrecision precision) { storage_ = precision; }
   StoragePrecision storage_precision() const { return storage_; }
 
-  // Adds a set after validating it and building its store. Throws std::invalid_argument if
-  // it is invalid, if its name is taken, if its dimension differs from the sets already
-  // held, or if a place id lies far beyond the set and the map (kMaxPlaceIdGrowth); the map
-  // is unchanged whenever it throws (std::bad_alloc included).
+  // Adds a set after validating it, held from now on as a StoredReferenceSet at
+  // storage_precision(). Throws std::invalid_argument if it is invalid, if its name is
+  // taken, if its dimension differs from the sets already held, if a place id lies far
+  // beyond the set and the map (kMaxPlaceIdGrowth), or if float16 cannot hold a value; the
+  // map is unchanged whenever it throws (std::bad_alloc included).
   void Add(ReferenceSet set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);
@@ -84,8 +77,8 @@ class ReferenceMap {
   int num_sets() const { return static_cast<int>(sets_.size()); }
   int num_places() const { return num_places_; }
   int dimension() const { return dimension_; }  // 0 while empty
-  const std::vector<ReferenceSet>& sets() const { return sets_; }
-  const ReferenceSet& set(int u) const { return sets_.at(static_cast<size_t>(u)); }
+  const std::vector<StoredReferenceSet>& sets() const { return sets_; }
+  const StoredReferenceSet& set(int u) const { return sets_.at(static_cast<size_t>(u)); }
   // Index of the named set, or -1.
   int IndexOf(const std::string& name) const;
   std::vector<std::string> SetNames() const;
@@ -97,10 +90,11 @@ class ReferenceMap {
   std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }
 
  private:
-  static void IndexPoses(const ReferenceSet& set, std::vector<std::optional<PlacePose>>* poses);
+  static void IndexPoses(const StoredReferenceSet& set,
+                         std::vector<std::optional<PlacePose>>* poses);
   static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses);
 
-  std::vector<ReferenceSet> sets_;
+  std::vector<StoredReferenceSet> sets_;
   std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries
   std::optional<double> median_spacing_;
   int num_places_ = 0;

@@ -43,8 +43,10 @@ ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& r
 // beside it, which the YAML names. The pair is replaced as one: the .npy is written first
 // under its new name, then the YAML is renamed into place, then the old .npy (if it was
 // this set's) is removed; an interruption leaves the old or the new pair whole. Missing
-// folders are created. Throws std::invalid_argument for a set held at reduced precision
-// only, std::runtime_error naming the file when writing fails (nothing is replaced then).
+// folders are created. Throws std::invalid_argument for an invalid set
+// (ReferenceSet::Validate), std::runtime_error naming the file when writing fails (nothing
+// is replaced then). A set a map holds is saved from StoredReferenceSet::ToReferenceSet(),
+// which refuses one held at reduced precision only.
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
 
 // The same below a data directory (`yaml_request` as for DataDirectory::Relative, ending

@@ -1,4 +1,4 @@
-// Basic matrix types shared by the core.
+// Basic types shared by the core: descriptor matrices and place poses.
 #pragma once
 
 #include <Eigen/Core>
@@ -8,5 +8,10 @@ namespace bsf_vpr {
 // Descriptors and distance matrices are stored one row per item (row-major), so a row is a
 // contiguous float array: one descriptor, or one query's distances to all places of a set.
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Pose of a place in the map frame: metres and radians.
+struct PlacePose {
+  double x_m = 0, y_m = 0, z_m = 0, yaw_rad = 0;
+};
 
 }  // namespace bsf_vpr

@@ -1,0 +1,73 @@
+// A reference set as a ReferenceMap holds it: immutable, its descriptors encoded at the
+// map's storage precision behind accessors (as faiss keeps an index's codes behind
+// IndexFlatCodes), with the squared norm of every row that the distances need. Nothing
+// changes it once made: any number of threads may read it at once.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+struct ReferenceSet;
+class ReferenceMap;
+
+class StoredReferenceSet {
+ public:
+  const std::string& name() const { return name_; }
+  const std::string& condition() const { return condition_; }
+  const std::string& descriptor_type() const { return descriptor_type_; }
+  const std::string& distance() const { return distance_; }
+  // N_u place indices (row k describes place place_ids()[k]), and empty or N_u poses.
+  const std::vector<int>& place_ids() const { return place_ids_; }
+  const std::vector<PlacePose>& poses() const { return poses_; }
+
+  int size() const { return static_cast<int>(place_ids_.size()); }  // N_u >= 1 rows
+  int dimension() const { return dimension_; }                      // D >= 1
+  StoragePrecision precision() const { return precision_; }
+  // The encoded rows as the distance kernels read them: size() x dimension() elements of
+  // precision() (float, uint16_t binary16 or int8_t), row-major, data_bytes() bytes. Owned
+  // by this set; valid while it lives.
+  const void* data() const;
+  size_t data_bytes() const;
+  // int8: an element stands for scale() x its value (scale = max |x| / 127 over the set);
+  // 1 for the other precisions.
+  float scale() const { return scale_; }
+  // Squared L2 norm of every row as decoded (after rounding), size() entries.
+  const Eigen::VectorXf& squared_norms() const { return squared_norms_; }
+  // Row r (0 <= r < size()) decoded to dimension() floats at `out`: the float32 values as
+  // given, float16 exactly, int8 as scale() x value.
+  void DecodeRow(int r, float* out) const;
+  // Bytes held: the encoded rows, their norms, place ids and poses.
+  size_t MemoryBytes() const;
+
+  // The ReferenceSet this set was made from, for saving it. Only a set held at float32 has
+  // it: at reduced precision the float32 values are gone, and this throws
+  // std::invalid_argument saying so.
+  ReferenceSet ToReferenceSet() const;
+
+ private:
+  friend class ReferenceMap;
+  // Made by ReferenceMap::Add from a set it has validated (ReferenceSet::Validate). Throws
+  // std::invalid_argument for values float16 cannot hold (std::bad_alloc when memory is
+  // short); a float32 set keeps the given matrix without copying it.
+  StoredReferenceSet(ReferenceSet set, StoragePrecision precision);
+
+  std::string name_, condition_, descriptor_type_, distance_;
+  std::vector<int> place_ids_;
+  std::vector<PlacePose> poses_;
+  int dimension_ = 0;
+  StoragePrecision precision_ = StoragePrecision::kFloat32;
+  // The one encoding of precision_: float32 as given, binary16 or int8 (row-major).
+  std::variant<RowMatrixXf, std::vector<uint16_t>, std::vector<int8_t>> rows_;
+  float scale_ = 1.0f;
+  Eigen::VectorXf squared_norms_;
+};
+
+}  // namespace bsf_vpr

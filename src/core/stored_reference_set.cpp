@@ -1,0 +1,95 @@
+#include "bsf_vpr/core/stored_reference_set.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "bsf_vpr/core/reference_set.h"
+#include "distance_kernels.h"
+
+namespace bsf_vpr {
+
+StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precision)
+    : name_(std::move(set.name)),
+      condition_(std::move(set.condition)),
+      descriptor_type_(std::move(set.descriptor_type)),
+      distance_(std::move(set.distance)),
+      place_ids_(std::move(set.place_ids)),
+      poses_(std::move(set.poses)),
+      dimension_(set.dimension()),
+      precision_(precision) {
+  const RowMatrixXf& x = set.descriptors;
+  const size_t n = static_cast<size_t>(x.size());
+  if (precision == StoragePrecision::kFloat16) {
+    std::vector<uint16_t> half(n);
+    for (size_t i = 0; i < n; ++i) half[i] = FloatToHalf(x.data()[i]);  // throws beyond 65504
+    rows_ = std::move(half);
+  } else if (precision == StoragePrecision::kInt8) {
+    const float max_abs = n ? x.cwiseAbs().maxCoeff() : 0.0f;
+    scale_ = max_abs > 0 ? max_abs / 127.0f : 1.0f;
+    std::vector<int8_t> levels(n);
+    for (size_t i = 0; i < n; ++i) {
+      const float q = std::nearbyint(x.data()[i] / scale_);
+      levels[i] = static_cast<int8_t>(std::clamp(q, -127.0f, 127.0f));
+    }
+    rows_ = std::move(levels);
+  }
+  // The norms of the values the kernels read, after rounding, in the kernels' own order.
+  squared_norms_.resize(static_cast<Eigen::Index>(x.rows()));
+  std::vector<float> row(static_cast<size_t>(dimension_));
+  for (int r = 0; r < static_cast<int>(x.rows()); ++r) {
+    const float* values = x.row(r).data();
+    if (precision != StoragePrecision::kFloat32) {
+      DecodeRow(r, row.data());
+      values = row.data();
+    }
+    squared_norms_(r) = kernels::SelfDot(values, dimension_);
+  }
+  // Last, once nothing can throw: float32 keeps the given matrix itself (no copy).
+  if (precision == StoragePrecision::kFloat32) rows_ = std::move(set.descriptors);
+}
+
+const void* StoredReferenceSet::data() const {
+  return std::visit([](const auto& rows) -> const void* { return rows.data(); }, rows_);
+}
+
+size_t StoredReferenceSet::data_bytes() const {
+  return static_cast<size_t>(size()) * static_cast<size_t>(dimension_) *
+         static_cast<size_t>(BytesPerElement(precision_));
+}
+
+void StoredReferenceSet::DecodeRow(int r, float* out) const {
+  const size_t base = static_cast<size_t>(r) * static_cast<size_t>(dimension_);
+  if (const auto* half = std::get_if<std::vector<uint16_t>>(&rows_)) {
+    for (int k = 0; k < dimension_; ++k) out[k] = HalfToFloat((*half)[base + k]);
+  } else if (const auto* levels = std::get_if<std::vector<int8_t>>(&rows_)) {
+    for (int k = 0; k < dimension_; ++k) out[k] = scale_ * static_cast<float>((*levels)[base + k]);
+  } else {
+    const float* row = std::get<RowMatrixXf>(rows_).data() + base;
+    std::copy(row, row + dimension_, out);
+  }
+}
+
+size_t StoredReferenceSet::MemoryBytes() const {
+  return data_bytes() + static_cast<size_t>(squared_norms_.size()) * sizeof(float) +
+         place_ids_.size() * sizeof(int) + poses_.size() * sizeof(PlacePose);
+}
+
+ReferenceSet StoredReferenceSet::ToReferenceSet() const {
+  const RowMatrixXf* descriptors = std::get_if<RowMatrixXf>(&rows_);
+  if (!descriptors) {
+    throw std::invalid_argument("reference set '" + name_ + "' is held at " + ToString(precision_) +
+                                " precision only; save it from its float32 source");
+  }
+  ReferenceSet set;
+  set.name = name_;
+  set.condition = condition_;
+  set.descriptor_type = descriptor_type_;
+  set.distance = distance_;
+  set.descriptors = *descriptors;
+  set.place_ids = place_ids_;
+  set.poses = poses_;
+  return set;
+}
+
+}  // namespace bsf_vpr

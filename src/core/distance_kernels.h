@@ -31,7 +31,15 @@ struct RefRows {
 // set and thread: the float32 rows (for a batch, a copy whose rows start on 64-byte
 // boundaries, so that no 32-byte load straddles a cache line) and, for int8 rows, each
 // query rounded to int16 levels with its own scale.
+// `data` may point into `aligned`: a copy would point into the original, so there is none.
+// A move keeps the pointer valid (a moved std::vector hands over its buffer).
 struct Queries {
+  Queries() = default;
+  Queries(const Queries&) = delete;
+  Queries& operator=(const Queries&) = delete;
+  Queries(Queries&&) = default;
+  Queries& operator=(Queries&&) = default;
+
   const float* data = nullptr;  // query q at data + q * stride
   int rows = 0, cols = 0, stride = 0;
   std::vector<float> aligned;    // holds `data` when copied

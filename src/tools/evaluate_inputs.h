@@ -13,12 +13,18 @@
 namespace bsf_vpr {
 namespace tools {
 
+// `input.distances` refers to this object's members: it is neither copied nor moved (it is
+// made in place, behind a unique_ptr).
 struct EvaluationData {
+  EvaluationData() = default;
+  EvaluationData(const EvaluationData&) = delete;  // no implicit move either
+  EvaluationData& operator=(const EvaluationData&) = delete;
+
   ReferenceMap map;                    // descriptor mode
   RowMatrixXf queries;                 // descriptor mode, Q x D
   std::vector<PlacePose> query_poses;  // descriptor mode, from a query YAML (else empty)
   std::vector<RowMatrixXf> matrices;   // matrix mode, one Q x N distance matrix per source
-  EvaluationInput input;               // refers to the members above: do not copy or move
+  EvaluationInput input;               // refers to the members above
   GroundTruth truth;
   std::string description;  // one line: what was loaded
 };

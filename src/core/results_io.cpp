@@ -1,11 +1,7 @@
 #include "bsf_vpr/core/results_io.h"
 
-#include <sys/stat.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -35,24 +31,6 @@ std::string MethodFileStem(const std::string& method_name) {
     if (c == ':' || c == '/') c = '_';
   }
   return stem;
-}
-
-void MakeDirectories(const std::string& dir) {
-  std::string partial;
-  std::stringstream ss(dir);
-  std::string part;
-  if (!dir.empty() && dir[0] == '/') partial = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    partial += part + "/";
-    if (mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) {
-      throw std::runtime_error("cannot create folder '" + partial + "': " + std::strerror(errno));
-    }
-  }
-  struct stat st;
-  if (stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
-    throw std::runtime_error("'" + dir + "' is not a folder");
-  }
 }
 
 void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResults>& results) {

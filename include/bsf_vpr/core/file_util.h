@@ -14,6 +14,10 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes);
 // Reads a whole file. Throws std::runtime_error naming the path if it cannot be read.
 std::string ReadFile(const std::string& path);
 
+// Creates `dir` and its missing parents (mode 0755). Throws std::runtime_error naming the
+// folder on failure, or when `dir` exists and is not a folder.
+void MakeDirectories(const std::string& dir);
+
 // The folder part of `path` ("." when it has none).
 std::string DirName(const std::string& path);
 

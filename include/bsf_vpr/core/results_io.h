@@ -15,9 +15,6 @@ namespace bsf_vpr {
 // "nn:winter" -> "nn_winter".
 std::string MethodFileStem(const std::string& method_name);
 
-// Creates `dir` (and parents). Throws std::runtime_error naming the folder on failure.
-void MakeDirectories(const std::string& dir);
-
 void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResults>& results);
 
 // A fixed-width table of the metrics, one row per method, for a terminal.

@@ -31,17 +31,13 @@ int BytesPerElement(StoragePrecision precision) {
                                                      : 1;
 }
 
-uint16_t FloatToHalf(float value) {
+uint16_t FloatToHalfOrInfinity(float value) {
   uint32_t bits;
   std::memcpy(&bits, &value, sizeof bits);
   const uint16_t sign = static_cast<uint16_t>((bits >> 16) & 0x8000u);
   const uint32_t magnitude = bits & 0x7fffffffu;
-  if (magnitude > 0x7f800000u) return sign | 0x7e00u;       // NaN
-  if (magnitude == 0x7f800000u) return sign | 0x7c00u;      // infinity
-  if (magnitude >= 0x477ff000u) {                           // rounds beyond 65504
-    throw std::invalid_argument("value " + std::to_string(value) +
-                                " is outside the float16 range (|x| <= 65504)");
-  }
+  if (magnitude > 0x7f800000u) return sign | 0x7e00u;   // NaN
+  if (magnitude >= 0x477ff000u) return sign | 0x7c00u;  // infinity, or rounds beyond 65504
   if (magnitude < 0x38800000u) {  // below 2^-14: a subnormal half, m * 2^-24
     const float m = std::nearbyint(std::fabs(value) * 16777216.0f);  // exact scaling, RNE
     return sign | static_cast<uint16_t>(m);
@@ -52,6 +48,15 @@ uint16_t FloatToHalf(float value) {
   const uint32_t rest = mantissa & 0x1fffu;
   if (rest > 0x1000u || (rest == 0x1000u && (half & 1u))) ++half;  // may carry into exponent
   return sign | static_cast<uint16_t>(half);
+}
+
+uint16_t FloatToHalf(float value) {
+  const uint16_t half = FloatToHalfOrInfinity(value);
+  if ((half & 0x7fffu) == 0x7c00u && std::isfinite(value)) {
+    throw std::invalid_argument("value " + std::to_string(value) +
+                                " is outside the float16 range (|x| <= 65504)");
+  }
+  return half;
 }
 
 float HalfToFloat(uint16_t half) {

@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
-#include <type_traits>
 #include <vector>
 
+#include "bsf_vpr/core/descriptor_store.h"  // the float16 conversions
 #include "bsf_vpr/core/file_util.h"
 
 namespace bsf_vpr {
@@ -133,18 +133,17 @@ void DecodeRowMajor(const char* data, const NpyHeader& h, Decode decode, T* out)
   }
 }
 
-// 0 or 1 for an element that is 0 or 1, 2 for any other value (NaN included). `Stored` is
-// the type of the bytes, `Value` the type they encode (Eigen::half for float16).
-template <typename Stored, typename Value = Stored>
+// 0 or 1 for an element that is 0 or 1, 2 for any other value (NaN included).
+template <typename Stored>
 uint8_t TruthOf(const char* p) {
-  const Stored stored = Load<Stored>(p);
-  Value v;
-  if constexpr (std::is_same_v<Value, Stored>) {
-    v = stored;
-  } else {
-    v = Eigen::numext::bit_cast<Value>(stored);
-  }
-  return v == Value(0) ? 0 : v == Value(1) ? 1 : 2;
+  const Stored v = Load<Stored>(p);
+  return v == Stored(0) ? 0 : v == Stored(1) ? 1 : 2;
+}
+
+// The same for float16 bits: every float16 value is exact in float32.
+uint8_t HalfTruthOf(const char* p) {
+  const float v = HalfToFloat(Load<uint16_t>(p));
+  return v == 0.0f ? 0 : v == 1.0f ? 1 : 2;
 }
 
 // The element at `p` as text, exactly for integers (bools as their byte).
@@ -152,8 +151,7 @@ std::string ElementText(const char* p, NpyDtype dtype) {
   char buf[32];
   switch (dtype) {
     case NpyDtype::kFloat16:
-      std::snprintf(buf, sizeof(buf), "%.9g",
-                    static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(Load<uint16_t>(p))));
+      std::snprintf(buf, sizeof(buf), "%.9g", HalfToFloat(Load<uint16_t>(p)));
       return buf;
     case NpyDtype::kFloat32:
       std::snprintf(buf, sizeof(buf), "%.9g", Load<float>(p));
@@ -272,11 +270,7 @@ RowMatrixXf DecodeNpyMatrix(const std::string& bytes, const std::string& path) {
       break;
     case NpyDtype::kFloat16:
       DecodeRowMajor(
-          data, h,
-          [](const char* p) {
-            return static_cast<float>(Eigen::numext::bit_cast<Eigen::half>(Load<uint16_t>(p)));
-          },
-          m.data());
+          data, h, [](const char* p) { return HalfToFloat(Load<uint16_t>(p)); }, m.data());
       break;
     default:
       break;  // refused above
@@ -296,7 +290,7 @@ RowMatrixXb DecodeNpyBoolMatrix(const std::string& bytes, const std::string& pat
   const char* data = bytes.data() + h.data_offset;
   switch (h.dtype) {
     case NpyDtype::kFloat16:
-      DecodeRowMajor(data, h, TruthOf<uint16_t, Eigen::half>, truth.data());
+      DecodeRowMajor(data, h, HalfTruthOf, truth.data());
       break;
     case NpyDtype::kFloat32:
       DecodeRowMajor(data, h, TruthOf<float>, truth.data());
@@ -373,7 +367,7 @@ std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
       const double d = v;
       std::memcpy(dst + 8 * i, &d, 8);
     } else {
-      const uint16_t bits = Eigen::numext::bit_cast<uint16_t>(Eigen::half(v));
+      const uint16_t bits = FloatToHalfOrInfinity(v);
       std::memcpy(dst + 2 * i, &bits, 2);
     }
   }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "bsf_vpr/core/distances.h"
 #include "test_util.h"
@@ -20,6 +21,7 @@ TEST(DescriptorStore, HalfConversionRoundTripsEveryHalfAndRoundsToNearestEven) {
     const uint16_t half = static_cast<uint16_t>(h);
     if ((half & 0x7c00u) == 0x7c00u && (half & 0x3ffu)) continue;  // NaN payloads
     ASSERT_EQ(FloatToHalf(HalfToFloat(half)), half) << std::hex << h;
+    ASSERT_EQ(FloatToHalfOrInfinity(HalfToFloat(half)), half) << std::hex << h;
   }
   EXPECT_EQ(HalfToFloat(0x3c00u), 1.0f);
   EXPECT_EQ(HalfToFloat(0xc000u), -2.0f);
@@ -34,6 +36,13 @@ TEST(DescriptorStore, HalfConversionRoundTripsEveryHalfAndRoundsToNearestEven) {
   EXPECT_EQ(FloatToHalf(std::ldexp(1.5f, -25)), 0x0001u);
   EXPECT_THROW(FloatToHalf(65520.0f), std::invalid_argument);
   EXPECT_THROW(FloatToHalf(-1e6f), std::invalid_argument);
+  // The .npy writer's variant: what rounds beyond 65504 becomes an infinity, as in NumPy.
+  EXPECT_EQ(FloatToHalfOrInfinity(65519.0f), 0x7bffu);
+  EXPECT_EQ(FloatToHalfOrInfinity(65520.0f), 0x7c00u);
+  EXPECT_EQ(FloatToHalfOrInfinity(-1e6f), 0xfc00u);
+  EXPECT_EQ(FloatToHalfOrInfinity(std::numeric_limits<float>::max()), 0x7c00u);
+  EXPECT_EQ(FloatToHalf(-std::numeric_limits<float>::infinity()), 0xfc00u);
+  EXPECT_EQ(FloatToHalf(std::numeric_limits<float>::quiet_NaN()) & 0x7e00u, 0x7e00u);
 }
 
 TEST(DescriptorStore, ReducedPrecisionCutsTheBytesAndReleasesTheFloat32Matrix) {

@@ -17,9 +17,14 @@ std::string ToString(StoragePrecision precision);
 // Bytes per descriptor element: 4, 2 or 1.
 int BytesPerElement(StoragePrecision precision);
 
-// IEEE 754 binary16 conversions, rounding to nearest even. FloatToHalf throws
-// std::invalid_argument for a finite value beyond float16's range (|x| > 65504).
+// IEEE 754 binary16 conversions, rounding to nearest even; NaN stays a (quiet) NaN and
+// infinity infinity. bsf_vpr's one float16 implementation: the stores, the portable distance
+// kernel and the .npy reader and writer all use it. A finite value that rounds beyond
+// float16's range (|x| > 65504) makes FloatToHalf throw std::invalid_argument (a store
+// refuses it) and becomes an infinity of its sign in FloatToHalfOrInfinity (as NumPy's
+// astype(float16) writes it).
 uint16_t FloatToHalf(float value);
+uint16_t FloatToHalfOrInfinity(float value);
 float HalfToFloat(uint16_t half);
 
 }  // namespace bsf_vpr

@@ -586,23 +586,6 @@ TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {
   EXPECT_NE(syn.output.find("--set-noise expects a number"), std::string::npos) << syn.output;
 }
 
-TEST_F(EvaluateTool, BenchmarkRunsEverySectionAndReportsRatios) {
-  // A smoke test of the tool (tiny shapes, one repeat): no timing is asserted.
-  const Result r = RunCommand(std::string(BSF_BENCHMARK_PATH) + " --quick --repeats 1");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  for (const char* fragment : {"fusion  M=3 N=300", "faster", "the memory limit", "FAISS's time",
-                               "of the GEMM throughput", "scaling     1000",
-                               "int8", "float32's time"}) {
-    EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
-  }
-  EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;
-  EXPECT_EQ(RunCommand(std::string(BSF_BENCHMARK_PATH) + " --sections warp").exit_code, 2);
-  const Result int8 = RunCommand(std::string(BSF_BENCHMARK_PATH) +
-                                 " --quick --repeats 1 --sections scaling --storage int8");
-  ASSERT_EQ(int8.exit_code, 0) << int8.output;
-  EXPECT_NE(int8.output.find("scaling (int8 storage)"), std::string::npos) << int8.output;
-}
-
 TEST_F(EvaluateTool, NordlandImagesAreDescribedAndMatched) {
   // Real shipped data: 1500 summer queries against the winter reference (images).
   const std::string root = kSource + "/data/nordland_64x32/";

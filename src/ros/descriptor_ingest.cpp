@@ -6,7 +6,6 @@
 #include <cmath>
 
 #include "bsf_vpr/ros/names.h"
-#include "fusion_params.h"
 #include "param_util.h"
 
 namespace bsf_vpr {

@@ -145,7 +145,9 @@ TEST_F(Files, ShippedGardensPointFilesLoadInFortranOrderAsNumPyWroteThem) {
   // catkin source folder is a folder of links into the repository) is the same file.
   const std::string shared =
       BSF_SOURCE_DIR "/data/../../shared/data/gardens_point_hdc_delf/day_left.npy";
-  if (fs::exists(shared)) EXPECT_EQ(ReadFile(shared), bytes);
+  if (fs::exists(shared)) {
+    EXPECT_EQ(ReadFile(shared), bytes);
+  }
 }
 
 TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {

@@ -31,28 +31,43 @@ void SequenceOptions::Validate() const {
   }
 }
 
-double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
-                            int hypotheses_per_place) {
-  double sum = 0;
+namespace {
+
+// Mean and population standard deviation of the finite entries of `c`, and their count.
+struct FiniteStats {
+  double mean = 0, sd = 0;
   int n = 0;
-  for (Eigen::Index i = 0; i < sequence_costs.size(); ++i) {
-    if (std::isfinite(sequence_costs(i))) {
-      sum += sequence_costs(i);
-      ++n;
+};
+FiniteStats StatsOfFinite(const Eigen::VectorXd& c) {
+  FiniteStats st;
+  double sum = 0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    if (std::isfinite(c(i))) {
+      sum += c(i);
+      ++st.n;
     }
   }
+  if (st.n == 0) return st;
+  st.mean = sum / st.n;
+  double sq = 0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    if (std::isfinite(c(i))) sq += (c(i) - st.mean) * (c(i) - st.mean);
+  }
+  st.sd = std::sqrt(sq / st.n);
+  return st;
+}
+
+}  // namespace
+
+double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
+                            int hypotheses_per_place) {
   if (best < 0 || best >= sequence_costs.size() || !std::isfinite(sequence_costs(best))) {
     return -std::numeric_limits<double>::infinity();
   }
+  const FiniteStats st = StatsOfFinite(sequence_costs);
+  const int n = st.n;
   if (n < 2) return 0;  // one candidate place: no evidence either way
-  const double mean = sum / n;
-  double sq = 0;
-  for (Eigen::Index i = 0; i < sequence_costs.size(); ++i) {
-    if (std::isfinite(sequence_costs(i)))
-      sq += (sequence_costs(i) - mean) * (sequence_costs(i) - mean);
-  }
-  const double sd = std::sqrt(sq / n);
-  const double z = sd > 0 ? (mean - sequence_costs(best)) / sd : 0.0;
+  const double z = st.sd > 0 ? (st.mean - sequence_costs(best)) / st.sd : 0.0;
   // P(no chance alignment beats z) = Phi(z)^m under a standard normal null, m hypotheses;
   // log-odds of it.
   const double m = static_cast<double>(n) * std::max(1, hypotheses_per_place);
@@ -81,23 +96,11 @@ namespace {
 
 // Standardised copy: finite entries to zero mean, unit variance; +inf stays +inf.
 Eigen::VectorXd Standardize(const Eigen::VectorXd& c) {
-  double sum = 0, sq = 0;
-  int n = 0;
-  for (Eigen::Index i = 0; i < c.size(); ++i) {
-    if (std::isfinite(c(i))) {
-      sum += c(i);
-      ++n;
-    }
-  }
-  if (n == 0) return c;
-  const double mean = sum / n;
-  for (Eigen::Index i = 0; i < c.size(); ++i) {
-    if (std::isfinite(c(i))) sq += (c(i) - mean) * (c(i) - mean);
-  }
-  const double sd = std::sqrt(sq / n);
+  const FiniteStats st = StatsOfFinite(c);
+  if (st.n == 0) return c;
   Eigen::VectorXd out = c;
   for (Eigen::Index i = 0; i < c.size(); ++i) {
-    if (std::isfinite(c(i))) out(i) = sd > 0 ? (c(i) - mean) / sd : 0.0;
+    if (std::isfinite(c(i))) out(i) = st.sd > 0 ? (c(i) - st.mean) / st.sd : 0.0;
   }
   return out;
 }
@@ -118,8 +121,7 @@ Eigen::VectorXd SequenceMatcher::Push(const Eigen::VectorXd& costs) {
 
   const Eigen::Index n = costs.size();
   Eigen::VectorXd best = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
-  const int steps = static_cast<int>(  // bounded by Validate
-      std::floor((options_.max_velocity - options_.min_velocity) / options_.velocity_step + 1e-9));
+  const int steps = velocities() - 1;  // bounded by Validate
   for (int s = 0; s <= steps; ++s) {
     const double v = options_.min_velocity + s * options_.velocity_step;
     for (Eigen::Index i = 0; i < n; ++i) {

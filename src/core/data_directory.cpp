@@ -14,35 +14,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "posix_file.h"
+
 namespace bsf_vpr {
 namespace {
 
 // Marks WriteAtomically's temporaries: ".<name>.bsf_tmp.<random>".
 constexpr char kTempMarker[] = ".bsf_tmp.";
-
-// Closes a descriptor when it goes out of scope.
-class Fd {
- public:
-  explicit Fd(int fd = -1) : fd_(fd) {}
-  ~Fd() {
-    if (fd_ >= 0) close(fd_);
-  }
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  Fd(Fd&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
-  Fd& operator=(Fd&& o) noexcept {
-    if (this != &o) {
-      if (fd_ >= 0) close(fd_);
-      fd_ = o.fd_;
-      o.fd_ = -1;
-    }
-    return *this;
-  }
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
 
 std::string SystemError(const std::string& what, const std::string& path, int err) {
   return "cannot " + what + " " + QuotedForMessage(path) + ": " + std::strerror(err);
@@ -199,25 +177,7 @@ std::string DataDirectory::Read(const std::string& relative) const {
         SystemError("open", relative, err) +
         (err == ELOOP ? " (links are not followed below the data directory)" : ""));
   }
-  struct stat st;
-  if (fstat(file.get(), &st) != 0)
-    throw std::runtime_error(SystemError("inspect", relative, errno));
-  if (!S_ISREG(st.st_mode)) {
-    throw std::runtime_error(QuotedForMessage(relative) +
-                             " is not a regular file (a folder, FIFO, socket or device)");
-  }
-  std::string bytes;
-  bytes.resize(static_cast<size_t>(st.st_size));
-  size_t got = 0;
-  while (got < bytes.size()) {
-    const ssize_t n = read(file.get(), bytes.data() + got, bytes.size() - got);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw std::runtime_error(SystemError("read", relative, errno));
-    if (n == 0) break;  // shrank while being read
-    got += static_cast<size_t>(n);
-  }
-  bytes.resize(got);
-  return bytes;
+  return ReadRegularFile(file.get(), relative);
 }
 
 bool DataDirectory::Exists(const std::string& relative) const {

@@ -20,11 +20,6 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-std::string BaseName(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 // Where the files of a reference set come from: the file system as the caller sees it
 // (command-line tools, the node's start-up configuration), or a data directory that no
 // request may leave (the node's services).

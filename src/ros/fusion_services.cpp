@@ -109,10 +109,6 @@ namespace {
 // for a name that is not a plain path of printable parts.
 std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
   if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
-  if (!IsPrintableUtf8(name)) {
-    throw std::invalid_argument("recording name " + QuotedForMessage(name) +
-                                " holds a control character or invalid UTF-8");
-  }
   size_t start = 0;
   for (;;) {
     const size_t slash = name.find('/', start);
@@ -124,7 +120,7 @@ std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
     if (slash == std::string::npos) break;
     start = slash + 1;
   }
-  return dir.Relative(name + ".yaml");
+  return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
 }
 
 }  // namespace

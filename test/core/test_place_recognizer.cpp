@@ -160,21 +160,5 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.Finish().poses.empty());  // poses only when every descriptor had one
 }
 
-TEST(ResolveBelowDirectory, AcceptsPathsInsideAndRefusesEscapes) {
-  char tmpl[] = "/tmp/bsf_dir_XXXXXX";
-  const std::string dir = mkdtemp(tmpl);
-  std::filesystem::create_directory(dir + "/sets");
-  std::filesystem::create_directory_symlink("/etc", dir + "/link");
-  EXPECT_EQ(ResolveBelowDirectory(dir, "sets/a.yaml"), dir + "/sets/a.yaml");
-  EXPECT_EQ(ResolveBelowDirectory(dir, dir + "/b.npy"), dir + "/b.npy");
-  for (const std::string& bad :
-       {std::string("../x.yaml"), std::string("/etc/passwd"), std::string("sets/../../x"),
-        std::string("link/passwd"), std::string("."), std::string("")}) {
-    EXPECT_THROW(ResolveBelowDirectory(dir, bad), std::invalid_argument) << bad;
-  }
-  EXPECT_THROW(ResolveBelowDirectory("", "a.yaml"), std::invalid_argument);
-  std::filesystem::remove_all(dir);
-}
-
 }  // namespace
 }  // namespace bsf_vpr

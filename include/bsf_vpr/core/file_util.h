@@ -18,15 +18,13 @@ std::string ReadFile(const std::string& path);
 // folder on failure, or when `dir` exists and is not a folder.
 void MakeDirectories(const std::string& dir);
 
+// The file-name part of `path` (all of it when it has no '/').
+std::string BaseName(const std::string& path);
+
 // The folder part of `path` ("." when it has none).
 std::string DirName(const std::string& path);
 
 // `path` unchanged if absolute, else joined to `base_dir`.
 std::string ResolvePath(const std::string& base_dir, const std::string& path);
-
-// Resolves `path` (relative paths are taken relative to `base_dir`) and checks that the
-// result lies inside `base_dir` after resolving "..", "." and symbolic links. Returns the
-// resolved absolute path; throws std::invalid_argument naming both if it escapes.
-std::string ResolveBelowDirectory(const std::string& base_dir, const std::string& path);
 
 }  // namespace bsf_vpr

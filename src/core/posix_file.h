@@ -1,0 +1,39 @@
+// File-descriptor helpers shared by file_util.cpp and data_directory.cpp (private header).
+#pragma once
+
+#include <unistd.h>
+
+#include <string>
+
+namespace bsf_vpr {
+
+// Closes a descriptor when it goes out of scope.
+class Fd {
+ public:
+  explicit Fd(int fd = -1) : fd_(fd) {}
+  ~Fd() {
+    if (fd_ >= 0) close(fd_);
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  Fd(Fd&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
+  Fd& operator=(Fd&& o) noexcept {
+    if (this != &o) {
+      if (fd_ >= 0) close(fd_);
+      fd_ = o.fd_;
+      o.fd_ = -1;
+    }
+    return *this;
+  }
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
+// The bytes of the file open as `fd` (opened non-blocking), which must be a regular file.
+// Throws std::runtime_error naming `name` if it is a folder, FIFO, socket or device, or
+// cannot be read.
+std::string ReadRegularFile(int fd, const std::string& name);
+
+}  // namespace bsf_vpr

@@ -39,6 +39,7 @@ void FusionNode::Start() {
                data_dir_->path().c_str());
     }
   }
+  recording_ = std::make_unique<Recording>(data_dir_.get());
   // Config paths are relative to the data directory when one is set. The configuration is
   // the operator's own file: its paths are not confined like service requests.
   const std::string base = params_.data_directory.empty() ? "." : params_.data_directory;
@@ -156,17 +157,16 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
-  if (recorder_.recording()) {
+  if (recording_->recording()) {
     try {
-      recorder_.Add(d);
-      if (!msg->descriptor_type.empty()) recording_descriptor_type_ = msg->descriptor_type;
+      recording_->Add(d, msg->descriptor_type);
     } catch (const std::exception& e) {
       // Reported; recognition goes on (a recording must not stop localisation).
       RejectMessage(std::string("recording: ") + e.what());
     }
   }
   if (recognizer_.map().num_sets() == 0) {
-    if (!recorder_.recording()) RejectMessage("no reference set is loaded");
+    if (!recording_->recording()) RejectMessage("no reference set is loaded");
     return;
   }
   CheckDescriptorType(msg->descriptor_type);
@@ -287,9 +287,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.addf("selected: " + s.name(), "%.1f%% of %ld queries",
                 100.0 * counters_.Usage(s.name()).selected_fraction, counters_.queries());
   }
-  if (recorder_.recording()) {
-    status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());
-  }
+  recording_->Diagnose(status);
   processed_ = rejected_ = 0;
   type_mismatch_.clear();
   processing_s_sum_ = processing_s_max_ = 0;

@@ -34,9 +34,9 @@
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"
-#include "bsf_vpr/core/reference_recorder.h"
 #include "fusion_params.h"
 #include "odometry_tracker.h"
+#include "recording.h"
 #include "selection_counters.h"
 
 namespace bsf_vpr {
@@ -77,10 +77,8 @@ class FusionNode {
   FusionParams params_;
   std::mutex mutex_;
   PlaceRecognizer recognizer_;
-  ReferenceRecorder recorder_;
-  bool recording_overwrite_ = false;  // the recording may replace a set on disk
-  std::string recording_descriptor_type_;
   std::unique_ptr<DataDirectory> data_dir_;  // null: the file services are off
+  std::unique_ptr<Recording> recording_;     // over data_dir_
   // load_reference_set's own queue and thread.
   ros::CallbackQueue load_queue_;
   std::unique_ptr<ros::AsyncSpinner> load_spinner_;

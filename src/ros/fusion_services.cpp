@@ -1,10 +1,8 @@
 // Service handlers of the fusion node. Each answers success=false with a message on any
 // error and leaves the loaded reference sets as they were; none can take the node down.
 #include <chrono>
-#include <filesystem>
 
 #include "bsf_vpr/core/data_directory.h"
-#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "conversions.h"
 #include "fusion_node.h"
@@ -38,9 +36,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
                set.name.c_str());
     }
     CheckDistance(set, data_dir_->Relative(req.path));
-    if (recorder_.recording() && recorder_.name() == set.name) {
-      throw std::invalid_argument("a reference set named '" + set.name + "' is being recorded");
-    }
+    recording_->CheckNotRecording(set.name);
     const std::string name = set.name;
     const int places = set.size();
     recognizer_.AddReferenceSet(std::move(set));
@@ -103,45 +99,10 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
   return true;
 }
 
-namespace {
-
-// The YAML a recording named `name` is saved to, below `dir`. Throws std::invalid_argument
-// for a name that is not a plain path of printable parts.
-std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
-  if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
-  size_t start = 0;
-  for (;;) {
-    const size_t slash = name.find('/', start);
-    const std::string part = name.substr(start, slash == std::string::npos ? slash : slash - start);
-    if (part.empty() || part == "." || part == "..") {
-      throw std::invalid_argument("recording name " + QuotedForMessage(name) +
-                                  " has an empty, '.' or '..' part");
-    }
-    if (slash == std::string::npos) break;
-    start = slash + 1;
-  }
-  return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
-}
-
-}  // namespace
-
 bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
-    if (!data_dir_) {
-      throw std::invalid_argument("no data directory is configured (parameter data_directory)");
-    }
-    const std::string path = RecordingPath(*data_dir_, req.name);
-    if (recognizer_.map().IndexOf(req.name) >= 0) {
-      throw std::invalid_argument("a reference set named '" + req.name + "' is already loaded");
-    }
-    if (data_dir_->Exists(path) && !req.overwrite) {
-      throw std::invalid_argument("'" + path + "' exists in the data directory; choose another " +
-                                  "name, or set overwrite to replace it");
-    }
-    recorder_.Start(req.name, req.condition, recognizer_.map().dimension());
-    recording_overwrite_ = req.overwrite;
-    recording_descriptor_type_.clear();
+    recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map());
     res.success = true;
     res.message = "recording '" + req.name + "'";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -155,30 +116,17 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
 bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
-    if (!recorder_.recording()) throw std::invalid_argument("no recording is running");
-    res.num_descriptors = recorder_.count();
+    res.num_descriptors = recording_->count();  // also in a refusal: what is kept
     if (req.discard) {
-      recorder_.Discard();
+      recording_->Discard();
       res.success = true;
       res.message = "discarded " + std::to_string(res.num_descriptors) + " descriptors";
       return true;
     }
-    const std::string path = RecordingPath(*data_dir_, recorder_.name());
-    // Built, saved, and only then forgotten: a save that fails keeps the recording, so the
-    // caller can free space or fix the folder and call again.
-    ReferenceSet set = recorder_.Build(recording_descriptor_type_);  // throws if empty
-    set.distance = ToString(params_.recognizer.metric);
+    Recording::Saved saved = recording_->Save(params_.recognizer.metric);
+    res.path = saved.path;
     try {
-      SaveReferenceSet(*data_dir_, set, path, recording_overwrite_);
-    } catch (const std::exception& e) {
-      throw std::runtime_error(
-          std::string("saving failed, the recording of ") + std::to_string(res.num_descriptors) +
-          " descriptors is kept (call again to retry, or discard): " + e.what());
-    }
-    recorder_.Discard();
-    res.path = data_dir_->path() + "/" + path;
-    try {
-      recognizer_.AddReferenceSet(std::move(set));
+      recognizer_.AddReferenceSet(std::move(saved.set));
     } catch (const std::exception& e) {
       res.success = true;
       res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +

@@ -1,12 +1,20 @@
-// The fusion node's parts that need no master: selection counters and enumerations parsed
-// from parameters.
+// The fusion node's parts that need no master: selection counters, enumerations parsed
+// from parameters, and the recording of a new reference set.
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
 
 #include "../../src/ros/odometry_tracker.h"
+#include "../../src/ros/recording.h"
 #include "../../src/ros/selection_counters.h"
+#include "bsf_vpr/core/reference_set_io.h"
 
 namespace bsf_vpr {
 namespace {
+
+namespace fs = std::filesystem;
 
 ReferenceMap ThreeSets() {
   ReferenceMap map;
@@ -53,6 +61,184 @@ TEST(OdometrySource, ParsesOnceAndNamesTheChoices) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("none, topic or tf"), std::string::npos);
   }
+}
+
+// A Recording over a fresh data directory, with a map of one 3-d set named "day".
+class RecordingTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_recording_XXXXXX";
+    root_ = mkdtemp(tmpl);
+    dir_ = std::make_unique<DataDirectory>(root_);
+    map_.Add(MakeReferenceSet("day", RowMatrixXf::Random(4, 3)));
+  }
+  void TearDown() override { fs::remove_all(root_); }
+
+  // What std::invalid_argument `f` throws (fails the test if it throws nothing).
+  template <typename F>
+  static std::string Refusal(F f) {
+    try {
+      f();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "not refused";
+    return "";
+  }
+  static Eigen::VectorXf Row(float value) { return Eigen::VectorXf::Constant(3, value); }
+
+  std::string root_;
+  std::unique_ptr<DataDirectory> dir_;
+  ReferenceMap map_;
+};
+
+TEST_F(RecordingTest, SavesTheDescriptorsAsASetBelowTheDataDirectoryAndEnds) {
+  Recording rec(dir_.get());
+  EXPECT_FALSE(rec.recording());
+  rec.Start("night/tonight", "rain", false, map_);
+  EXPECT_TRUE(rec.recording());
+  EXPECT_EQ(rec.name(), "night/tonight");
+  rec.Add(Row(1), "");
+  rec.Add(Row(2), "");
+  EXPECT_EQ(rec.count(), 2);
+  const Recording::Saved saved = rec.Save(DistanceMetric::kCosine);
+  EXPECT_FALSE(rec.recording());
+  EXPECT_EQ(rec.count(), 0);
+  EXPECT_EQ(saved.path, dir_->path() + "/night/tonight.yaml");
+  EXPECT_EQ(saved.set.name, "night/tonight");
+  EXPECT_EQ(saved.set.condition, "rain");
+  EXPECT_EQ(saved.set.distance, "cosine");
+  EXPECT_EQ(saved.set.size(), 2);
+  const ReferenceSet back = LoadReferenceSetFile(*dir_, "night/tonight.yaml", "");
+  EXPECT_EQ(back.name, "night/tonight");
+  EXPECT_EQ(back.distance, "cosine");
+  EXPECT_TRUE(back.descriptors.isApprox(saved.set.descriptors));
+  EXPECT_FLOAT_EQ(back.descriptors(1, 2), 2.0f);
+}
+
+TEST_F(RecordingTest, StartingTwiceIsRefusedAndKeepsTheFirst) {
+  Recording rec(dir_.get());
+  rec.Start("first", "", false, map_);
+  rec.Add(Row(1), "");
+  EXPECT_NE(Refusal([&] { rec.Start("second", "", false, map_); }).find("already recording"),
+            std::string::npos);
+  EXPECT_EQ(rec.name(), "first");
+  EXPECT_EQ(rec.count(), 1);
+}
+
+TEST_F(RecordingTest, StoppingWithoutARecordingIsRefused) {
+  Recording rec(dir_.get());
+  EXPECT_NE(Refusal([&] { rec.Save(DistanceMetric::kEuclidean); }).find("no recording"),
+            std::string::npos);
+  EXPECT_NE(Refusal([&] { rec.Discard(); }).find("no recording"), std::string::npos);
+  EXPECT_THROW(rec.Add(Row(1), ""), std::invalid_argument);
+  EXPECT_EQ(rec.count(), 0);
+}
+
+TEST_F(RecordingTest, AnEmptyRecordingIsNotSavedAndKeepsRunning) {
+  Recording rec(dir_.get());
+  rec.Start("tonight", "", false, map_);
+  EXPECT_NE(Refusal([&] { rec.Save(DistanceMetric::kEuclidean); }).find("no descriptor"),
+            std::string::npos);
+  EXPECT_TRUE(rec.recording());
+  EXPECT_FALSE(dir_->Exists("tonight.yaml"));
+}
+
+TEST_F(RecordingTest, DiscardEndsTheRecordingAndWritesNothing) {
+  Recording rec(dir_.get());
+  rec.Start("tonight", "", false, map_);
+  rec.Add(Row(1), "");
+  rec.Discard();
+  EXPECT_FALSE(rec.recording());
+  EXPECT_EQ(rec.count(), 0);
+  EXPECT_TRUE(fs::is_empty(root_));
+  rec.Start("tonight", "", false, map_);  // the name is free again
+  EXPECT_EQ(rec.count(), 0);
+}
+
+TEST_F(RecordingTest, RefusesBadNamesTakenNamesAndNoDataDirectory) {
+  Recording rec(dir_.get());
+  for (const std::string bad :
+       {"", ".", "..", "a/../b", "../up", "a//b", "a/", "/abs", "line\nbreak", "\xff"}) {
+    EXPECT_THROW(rec.Start(bad, "", false, map_), std::invalid_argument) << bad;
+    EXPECT_FALSE(rec.recording()) << bad;
+  }
+  EXPECT_NE(Refusal([&] { rec.Start("day", "", true, map_); }).find("already loaded"),
+            std::string::npos);
+  Recording off(nullptr);
+  EXPECT_NE(Refusal([&] { off.Start("tonight", "", false, map_); }).find("data_directory"),
+            std::string::npos);
+  EXPECT_FALSE(off.recording());
+}
+
+TEST_F(RecordingTest, ASetOnDiskIsReplacedOnlyWhenOverwriteWasAsked) {
+  SaveReferenceSet(*dir_, MakeReferenceSet("old", RowMatrixXf::Random(7, 3)), "old.yaml", false);
+  Recording rec(dir_.get());
+  EXPECT_NE(Refusal([&] { rec.Start("old", "", false, map_); }).find("exists"), std::string::npos);
+  EXPECT_FALSE(rec.recording());
+  rec.Start("old", "", true, map_);
+  rec.Add(Row(1), "");
+  rec.Save(DistanceMetric::kEuclidean);
+  EXPECT_EQ(LoadReferenceSetFile(*dir_, "old.yaml", "").size(), 1);
+}
+
+TEST_F(RecordingTest, AFailedSaveKeepsTheRecordingForAnotherTry) {
+  Recording rec(dir_.get());
+  rec.Start("tonight", "", false, map_);  // without overwrite
+  rec.Add(Row(1), "");
+  rec.Add(Row(2), "");
+  // The YAML appears while recording: not replaced, the recording kept.
+  SaveReferenceSet(*dir_, MakeReferenceSet("other", RowMatrixXf::Random(7, 3)), "tonight.yaml",
+                   false);
+  try {
+    rec.Save(DistanceMetric::kEuclidean);
+    ADD_FAILURE() << "replaced a set on disk without overwrite";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("recording of 2 descriptors is kept"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(rec.recording());
+  EXPECT_EQ(rec.count(), 2);
+  EXPECT_EQ(LoadReferenceSetFile(*dir_, "tonight.yaml", "").name, "other");
+  dir_->Remove("tonight.yaml");
+  EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.size(), 2);
+  EXPECT_FALSE(rec.recording());
+}
+
+TEST_F(RecordingTest, KeepsTheDescriptorTypeAndTheMapsDimension) {
+  Recording rec(dir_.get());
+  rec.Start("tonight", "", false, map_);
+  rec.Add(Row(1), "hog_64x32_c8_b9");
+  rec.Add(Row(2), "");  // says nothing: the type stays
+  // Another dimension than the map's, or a value that is not finite: refused, and its type
+  // is not taken.
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(5), "other"), std::invalid_argument);
+  EXPECT_THROW(rec.Add(Row(NAN), "other"), std::invalid_argument);
+  EXPECT_EQ(rec.count(), 2);
+  EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.descriptor_type, "hog_64x32_c8_b9");
+  EXPECT_EQ(LoadReferenceSetFile(*dir_, "tonight.yaml", "").descriptor_type, "hog_64x32_c8_b9");
+  // A new recording starts without a type; with no set loaded it takes any dimension.
+  rec.Start("later", "", false, ReferenceMap());
+  rec.Add(Eigen::VectorXf::Ones(5), "");
+  EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.descriptor_type, "");
+}
+
+TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics) {
+  Recording rec(dir_.get());
+  diagnostic_updater::DiagnosticStatusWrapper idle;
+  rec.Diagnose(idle);
+  EXPECT_TRUE(idle.values.empty());
+  EXPECT_NO_THROW(rec.CheckNotRecording("tonight"));
+  rec.Start("tonight", "", false, map_);
+  rec.Add(Row(1), "");
+  EXPECT_NE(Refusal([&] { rec.CheckNotRecording("tonight"); }).find("being recorded"),
+            std::string::npos);
+  EXPECT_NO_THROW(rec.CheckNotRecording("day"));
+  diagnostic_updater::DiagnosticStatusWrapper status;
+  rec.Diagnose(status);
+  ASSERT_EQ(status.values.size(), 1u);
+  EXPECT_EQ(status.values[0].key, "recording");
+  EXPECT_EQ(status.values[0].value, "tonight (1 descriptors)");
 }
 
 }  // namespace

@@ -65,6 +65,19 @@ void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out) {
   if (!pose) out->pose.orientation.w = 1;
 }
 
+geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ros::Time& stamp,
+                                                    const std::string& place_frame) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = match.header.frame_id;
+  t.child_frame_id = place_frame;
+  t.transform.translation.x = match.pose.position.x;
+  t.transform.translation.y = match.pose.position.y;
+  t.transform.translation.z = match.pose.position.z;
+  t.transform.rotation = match.pose.orientation;
+  return t;
+}
+
 ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
   ReferenceSetInfo info;
   info.name = set.name();

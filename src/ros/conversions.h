@@ -7,8 +7,10 @@
 #include <bsf_vpr/Match.h>
 #include <bsf_vpr/ReferenceSetInfo.h>
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/TransformStamped.h>
 
 #include <Eigen/Core>
+#include <string>
 
 #include "bsf_vpr/core/place_recognizer.h"
 
@@ -29,6 +31,11 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
 void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out);
 
 geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
+
+// The transform from the match's frame (its header's frame_id) to `place_frame` at the
+// matched place's pose, stamped `stamp`. Meaningful only for a match with has_pose.
+geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ros::Time& stamp,
+                                                    const std::string& place_frame);
 
 ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set);
 

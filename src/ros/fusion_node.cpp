@@ -1,11 +1,7 @@
 #include "fusion_node.h"
 
-#include <geometry_msgs/TransformStamped.h>
-#include <visualization_msgs/MarkerArray.h>
-
 #include <chrono>
 
-#include "belief_markers.h"
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
@@ -82,10 +78,13 @@ void FusionNode::Start() {
         params_.recognizer.method.c_str());
   }
 
-  belief_pub_ = nh_.advertise<Belief>(names::kBeliefTopic, 10);
-  match_pub_ = nh_.advertise<Match>(names::kMatchTopic, 10);
-  marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
-  if (params_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  RecognitionPublisherOptions publishing;
+  publishing.map_frame = params_.map_frame;
+  publishing.place_frame = params_.place_frame;
+  publishing.publish_tf = params_.publish_tf;
+  publishing.belief_top_k = params_.belief_top_k;
+  publishing.marker_spacing_m = params_.marker_spacing_m;
+  publisher_ = std::make_unique<RecognitionPublisher>(nh_, publishing);
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {
@@ -183,7 +182,7 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
   counters_.Count(r, recognizer_.map());
-  Publish(*msg, r, seconds);
+  publisher_->Publish(msg->header, r, recognizer_, seconds);
 }
 
 std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
@@ -191,36 +190,6 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
                              ? params_.place_spacing_m
                              : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
   return odometry_->StepPlaces(stamp, spacing);
-}
-
-void FusionNode::Publish(const Descriptor& msg, const Recognition& r, double seconds) {
-  auto belief = boost::make_shared<Belief>();
-  belief->header = msg.header;
-  ToBeliefMsg(r, recognizer_, params_.belief_top_k, belief.get());
-  belief->processing_time = seconds;
-  belief_pub_.publish(belief);
-  if (r.belief.accepted) {
-    auto match = boost::make_shared<Match>();
-    match->header = msg.header;
-    match->header.frame_id = params_.map_frame;
-    ToMatchMsg(r, recognizer_.map(), match.get());
-    match_pub_.publish(match);
-    if (tf_ && match->has_pose) {
-      geometry_msgs::TransformStamped t;
-      t.header.stamp = msg.header.stamp.isZero() ? ros::Time::now() : msg.header.stamp;
-      t.header.frame_id = params_.map_frame;
-      t.child_frame_id = params_.place_frame;
-      t.transform.translation.x = match->pose.position.x;
-      t.transform.translation.y = match->pose.position.y;
-      t.transform.translation.z = match->pose.position.z;
-      t.transform.rotation = match->pose.orientation;
-      tf_->sendTransform(t);
-    }
-  }
-  if (marker_pub_.getNumSubscribers() > 0) {
-    marker_pub_.publish(
-        MakeBeliefMarkers(recognizer_.map(), *belief, params_.map_frame, params_.marker_spacing_m));
-  }
 }
 
 void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {

@@ -23,7 +23,6 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <ros/spinner.h>
-#include <tf2_ros/transform_broadcaster.h>
 
 #include <Eigen/Core>
 #include <map>
@@ -36,6 +35,7 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "fusion_params.h"
 #include "odometry_tracker.h"
+#include "recognition_publisher.h"
 #include "recording.h"
 #include "selection_counters.h"
 
@@ -55,7 +55,6 @@ class FusionNode {
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
-  void Publish(const Descriptor& msg, const Recognition& r, double seconds);
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void RejectMessage(const std::string& why);
@@ -84,9 +83,8 @@ class FusionNode {
   std::unique_ptr<ros::AsyncSpinner> load_spinner_;
 
   ros::Subscriber descriptor_sub_;
-  ros::Publisher belief_pub_, match_pub_, marker_pub_;
+  std::unique_ptr<RecognitionPublisher> publisher_;
   std::vector<ros::ServiceServer> services_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<OdometryTracker> odometry_;
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

@@ -1,11 +1,12 @@
 // The fusion node's parts that need no master: selection counters, enumerations parsed
-// from parameters, and the recording of a new reference set.
+// from parameters, message conversions, and the recording of a new reference set.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 
+#include "../../src/ros/conversions.h"
 #include "../../src/ros/odometry_tracker.h"
 #include "../../src/ros/recording.h"
 #include "../../src/ros/selection_counters.h"
@@ -61,6 +62,23 @@ TEST(OdometrySource, ParsesOnceAndNamesTheChoices) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("none, topic or tf"), std::string::npos);
   }
+}
+
+TEST(Conversions, ThePlaceTransformIsTheMatchedPoseInTheMatchFrame) {
+  Match match;
+  match.header.frame_id = "map";
+  match.header.stamp = ros::Time(3);
+  match.has_pose = true;
+  match.pose = ToPoseMsg(PlacePose{1.5, -2.0, 0.25, 0.5});
+  const geometry_msgs::TransformStamped t = ToPlaceTransformMsg(match, ros::Time(7), "vpr_place");
+  EXPECT_EQ(t.header.frame_id, "map");
+  EXPECT_EQ(t.child_frame_id, "vpr_place");
+  EXPECT_EQ(t.header.stamp, ros::Time(7));
+  EXPECT_DOUBLE_EQ(t.transform.translation.x, 1.5);
+  EXPECT_DOUBLE_EQ(t.transform.translation.y, -2.0);
+  EXPECT_DOUBLE_EQ(t.transform.translation.z, 0.25);
+  EXPECT_DOUBLE_EQ(t.transform.rotation.z, std::sin(0.25));  // yaw 0.5 about z
+  EXPECT_DOUBLE_EQ(t.transform.rotation.w, std::cos(0.25));
 }
 
 // A Recording over a fresh data directory, with a map of one 3-d set named "day".

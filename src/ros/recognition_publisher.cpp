@@ -1,0 +1,45 @@
+#include "recognition_publisher.h"
+
+#include <visualization_msgs/MarkerArray.h>
+
+#include <utility>
+
+#include "belief_markers.h"
+#include "bsf_vpr/ros/names.h"
+#include "conversions.h"
+
+namespace bsf_vpr {
+
+RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, RecognitionPublisherOptions options)
+    : options_(std::move(options)) {
+  belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, 10);
+  match_pub_ = nh.advertise<Match>(names::kMatchTopic, 10);
+  marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
+  if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+}
+
+void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recognition& r,
+                                   const PlaceRecognizer& recognizer, double seconds) {
+  auto belief = boost::make_shared<Belief>();
+  belief->header = header;
+  ToBeliefMsg(r, recognizer, options_.belief_top_k, belief.get());
+  belief->processing_time = seconds;
+  belief_pub_.publish(belief);
+  if (r.belief.accepted) {
+    auto match = boost::make_shared<Match>();
+    match->header = header;
+    match->header.frame_id = options_.map_frame;
+    ToMatchMsg(r, recognizer.map(), match.get());
+    match_pub_.publish(match);
+    if (tf_ && match->has_pose) {
+      const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
+      tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
+    }
+  }
+  if (marker_pub_.getNumSubscribers() > 0) {
+    marker_pub_.publish(MakeBeliefMarkers(recognizer.map(), *belief, options_.map_frame,
+                                          options_.marker_spacing_m));
+  }
+}
+
+}  // namespace bsf_vpr

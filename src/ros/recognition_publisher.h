@@ -1,0 +1,47 @@
+// What the fusion node publishes for each recognised descriptor: the belief (always); the
+// match when accepted, with the tf frame map_frame -> place_frame at the matched place when
+// the place has a pose; and the rviz markers of the belief (belief_markers.h) while someone
+// listens. Topics are names.h's, advertised in the namespace of the node handle given.
+//
+// Not thread-safe: the fusion node holds its lock.
+#pragma once
+
+#include <ros/node_handle.h>
+#include <ros/publisher.h>
+#include <std_msgs/Header.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <memory>
+#include <string>
+
+#include "bsf_vpr/core/place_recognizer.h"
+
+namespace bsf_vpr {
+
+// Filled from the fusion parameters of the same names (fusion_params.h, which documents
+// them); fixed once the node has started.
+struct RecognitionPublisherOptions {
+  std::string map_frame;    // frame of the match, the markers and the tf parent
+  std::string place_frame;  // tf child frame at the matched place
+  bool publish_tf = false;
+  int belief_top_k = 0;           // 0: the belief lists every place
+  double marker_spacing_m = 0.0;  // route layout for places without poses
+};
+
+class RecognitionPublisher {
+ public:
+  // Advertises the topics on `nh`.
+  RecognitionPublisher(ros::NodeHandle& nh, RecognitionPublisherOptions options);
+
+  // Publishes what `r` found for the descriptor whose header is `header`. `recognizer` is
+  // the one that found it (method, gamma, sets and place poses); `seconds` the time spent.
+  void Publish(const std_msgs::Header& header, const Recognition& r,
+               const PlaceRecognizer& recognizer, double seconds);
+
+ private:
+  RecognitionPublisherOptions options_;
+  ros::Publisher belief_pub_, match_pub_, marker_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
+};
+
+}  // namespace bsf_vpr

@@ -112,6 +112,18 @@ TEST(Methods, NamesParseAndUnknownNamesAreRefusedWithTheChoices) {
   EXPECT_THROW(ParseMethodList(",", kNames), std::invalid_argument);
 }
 
+TEST(Methods, SuffixesParseAndNeedWhatTheyUse) {
+  const std::vector<std::string> sets = {"a", "b"};
+  const Method m = ParseMethod("bsf+filter+seq", sets);
+  EXPECT_TRUE(m.temporal_filter);
+  EXPECT_TRUE(m.sequence);
+  EXPECT_EQ(m.Name(), "bsf+filter+seq");
+  EXPECT_EQ(ParseMethod("nn:b+seq", sets).set_index, 1);
+  EXPECT_EQ(ParseMethod("bsf+seq+filter", sets).Name(), "bsf+filter+seq");
+  EXPECT_THROW(ParseMethod("nn:a+filter", sets), std::invalid_argument);  // no posterior
+  EXPECT_THROW(ParseMethod("bsf+smooth", sets), std::invalid_argument);
+}
+
 TEST(Methods, DistanceMethodsAreGatedByMaxMatchDistance) {
   Data data(100, 5);
   for (const std::string name : {"nn:winter", "med", "med_selective"}) {

@@ -1,0 +1,112 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "bsf_vpr/core/reference_set.h"
+#include "bsf_vpr/core/stored_reference_set.h"
+#include "test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+// The stored rows, element by element, against the encoding written out here: float32 as
+// given, binary16 rounded to nearest, int8 levels round(x / scale) with scale = max |x| / 127;
+// each row decodes to what the kernels read, and its squared norm is that row's.
+TEST(StoredReferenceSet, HoldsTheEncodedRowsBehindItsAccessorsAtEachPrecision) {
+  ReferenceSet in;
+  in.name = "winter";
+  in.condition = "snow";
+  in.descriptor_type = "test_5";
+  in.distance = "cosine";
+  in.descriptors = testing::RandomMatrix(4, 13, 3);
+  in.descriptors(2, 7) = -9.5f;  // the largest |x|: int8 level -127
+  in.place_ids = {7, 0, 3, 12};
+  in.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, 0}, {10, 11, 12, -1}};
+  const float max_abs = 9.5f;
+  for (StoragePrecision p :
+       {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    ReferenceMap map;
+    map.SetStoragePrecision(p);
+    map.Add(in);
+    const StoredReferenceSet& set = map.set(0);
+    const std::string where = ToString(p);
+    EXPECT_EQ(set.name(), "winter");
+    EXPECT_EQ(set.condition(), "snow");
+    EXPECT_EQ(set.descriptor_type(), "test_5");
+    EXPECT_EQ(set.distance(), "cosine");
+    EXPECT_EQ(set.place_ids(), in.place_ids);
+    ASSERT_EQ(set.poses().size(), 4u);
+    EXPECT_EQ(set.poses()[3].yaw_rad, -1.0);
+    EXPECT_EQ(set.size(), 4);
+    EXPECT_EQ(set.dimension(), 13);
+    EXPECT_EQ(set.precision(), p);
+    EXPECT_EQ(set.data_bytes(), 4u * 13u * static_cast<size_t>(BytesPerElement(p))) << where;
+    EXPECT_EQ(set.scale(), p == StoragePrecision::kInt8 ? max_abs / 127.0f : 1.0f) << where;
+    ASSERT_EQ(set.squared_norms().size(), 4);
+    std::vector<float> row(13);
+    for (int r = 0; r < 4; ++r) {
+      set.DecodeRow(r, row.data());
+      double norm = 0;
+      for (int k = 0; k < 13; ++k) {
+        const float x = in.descriptors(r, k);
+        const size_t i = static_cast<size_t>(r) * 13 + static_cast<size_t>(k);
+        float expected = x;
+        if (p == StoragePrecision::kFloat32) {
+          EXPECT_EQ(static_cast<const float*>(set.data())[i], x);
+        } else if (p == StoragePrecision::kFloat16) {
+          EXPECT_EQ(static_cast<const uint16_t*>(set.data())[i], FloatToHalf(x));
+          expected = HalfToFloat(FloatToHalf(x));
+        } else {
+          const int8_t level = static_cast<int8_t>(std::nearbyint(x / set.scale()));
+          EXPECT_EQ(static_cast<const int8_t*>(set.data())[i], level) << r << " " << k;
+          expected = set.scale() * level;
+        }
+        EXPECT_EQ(row[static_cast<size_t>(k)], expected) << where << " " << r << " " << k;
+        norm += static_cast<double>(expected) * expected;
+      }
+      EXPECT_NEAR(set.squared_norms()(r), norm, 1e-5 * norm) << where << " row " << r;
+    }
+    if (p == StoragePrecision::kInt8) {  // the largest |x| takes the extreme level
+      EXPECT_EQ(static_cast<const int8_t*>(set.data())[2 * 13 + 7], -127);
+    }
+  }
+}
+
+TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision) {
+  ReferenceSet in = MakeReferenceSet("route", testing::RandomMatrix(5, 8, 4), "rain");
+  in.descriptor_type = "test_8";
+  in.distance = "euclidean";
+  in.place_ids = {4, 3, 2, 1, 9};
+  in.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}, {3, 0, 0, 0}, {4, 0, 0, 0.25}};
+  ReferenceMap map;
+  map.Add(in);
+  const ReferenceSet back = map.set(0).ToReferenceSet();
+  EXPECT_EQ(back.name, in.name);
+  EXPECT_EQ(back.condition, in.condition);
+  EXPECT_EQ(back.descriptor_type, in.descriptor_type);
+  EXPECT_EQ(back.distance, in.distance);
+  EXPECT_TRUE((back.descriptors.array() == in.descriptors.array()).all());
+  EXPECT_EQ(back.descriptors.rows(), 5);
+  EXPECT_EQ(back.place_ids, in.place_ids);
+  ASSERT_EQ(back.poses.size(), 5u);
+  EXPECT_EQ(back.poses[4].x_m, 4.0);
+  EXPECT_EQ(back.poses[4].yaw_rad, 0.25);
+  EXPECT_NO_THROW(back.Validate());
+  for (StoragePrecision p : {StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    ReferenceMap reduced;
+    reduced.SetStoragePrecision(p);
+    reduced.Add(in);
+    try {
+      reduced.set(0).ToReferenceSet();
+      ADD_FAILURE() << "a set held at " << ToString(p) << " gave back float32 descriptors";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("'route' is held at " + ToString(p) + " precision only"),
+                std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("float32 source"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,11 +1,6 @@
 #include <gtest/gtest.h>
-#include <unistd.h>
-
-#include <cstdio>
-#include <fstream>
 
 #include "bsf_vpr/core/evaluation.h"
-#include "bsf_vpr/core/ground_truth_io.h"
 
 namespace bsf_vpr {
 namespace {
@@ -74,45 +69,6 @@ TEST(Evaluation, ComputeMetricsRefusesMismatchedSizes) {
   EXPECT_NEAR(m.recall_at_5, 1.0, 1e-12);
   EXPECT_NEAR(m.recall_at_full_precision, 2.0 / 3.0, 1e-12);
   EXPECT_EQ(m.num_queries, 3);
-}
-
-std::string WriteTemp(const std::string& text) {
-  char name[] = "/tmp/bsf_gt_XXXXXX";
-  const int fd = mkstemp(name);
-  close(fd);
-  std::ofstream(name) << text;
-  return name;
-}
-
-TEST(GroundTruthCsv, RoundTripsAndRefusesMalformedRows) {
-  const GroundTruth t({{0, 1}, {}, {2}});
-  const std::string path = WriteTemp("");
-  WriteGroundTruthCsv(path, t);
-  const GroundTruth back = ReadGroundTruthCsv(path, 3, 3);
-  EXPECT_EQ(back.CorrectPlaces(0), (std::vector<int>{0, 1}));
-  EXPECT_FALSE(back.HasTrueMatch(1));
-  EXPECT_EQ(back.CorrectPlaces(2), (std::vector<int>{2}));
-  std::remove(path.c_str());
-
-  const std::vector<std::pair<std::string, std::string>> bad = {
-      {"query,correct_places\n0 1 2\n", "line 2"},
-      {"x,1\n", "not an integer"},
-      {"0,1 zz\n", "'zz'"},
-      {"7,1\n", "query 7"},
-      {"0,9\n", "place 9"},
-      {"0,1\n0,2\n", "twice"},
-  };
-  for (const auto& [text, expect] : bad) {
-    const std::string p = WriteTemp(text);
-    try {
-      ReadGroundTruthCsv(p, 3, 3);
-      ADD_FAILURE() << "accepted: " << text;
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
-    }
-    std::remove(p.c_str());
-  }
-  EXPECT_THROW(ReadGroundTruthCsv("/nonexistent/gt.csv", 3, 3), std::runtime_error);
 }
 
 }  // namespace

@@ -2,7 +2,12 @@
 // the slow, obvious way, as oracles.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
@@ -36,6 +41,33 @@ inline std::string NpyFile(const std::string& dict, const std::string& data) {
   out.push_back(static_cast<char>(h.size() >> 8));
   return out + h + data;
 }
+
+// A fixture with a fresh folder below /tmp for each test (removed after it), and helpers to
+// write files into it.
+class TempDirTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_files_XXXXXX";
+    const char* made = mkdtemp(tmpl);
+    ASSERT_NE(made, nullptr) << "mkdtemp failed";
+    dir_ = made;
+  }
+  void TearDown() override {
+    if (!dir_.empty()) std::filesystem::remove_all(dir_);
+  }
+  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
+  void WriteRaw(const std::string& name, const std::string& bytes) const {
+    std::ofstream(Path(name), std::ios::binary) << bytes;
+  }
+  // An .npy with a hand-written header dictionary and `data_bytes` zero bytes of data.
+  static std::string Npy(const std::string& dict, size_t data_bytes) {
+    return NpyFile(dict, std::string(data_bytes, '\0'));
+  }
+  static std::string NpyWithData(const std::string& dict, const std::string& data) {
+    return NpyFile(dict, data);
+  }
+  std::string dir_;
+};
 
 inline RowMatrixXf RandomMatrix(int rows, int cols, uint64_t seed, float scale = 1.0f) {
   std::mt19937_64 rng(seed);

@@ -1,17 +1,14 @@
+// The .npy reader and writer (npy.h): float and truth matrices in every dtype and both
+// orders, and what they refuse.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <cstdio>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <random>
-#include <tuple>
 
 #include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/npy.h"
-#include "bsf_vpr/core/reference_set_io.h"
 #include "test_util.h"
 
 namespace bsf_vpr {
@@ -19,24 +16,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class Files : public ::testing::Test {
+class NpyIo : public testing::TempDirTest {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/bsf_files_XXXXXX";
-    dir_ = mkdtemp(tmpl);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
-  void WriteRaw(const std::string& name, const std::string& bytes) const {
-    std::ofstream(Path(name), std::ios::binary) << bytes;
-  }
-  // An .npy with a hand-written header dictionary and `data_bytes` bytes of data.
-  std::string Npy(const std::string& dict, size_t data_bytes) const {
-    return NpyWithData(dict, std::string(data_bytes, '\0'));
-  }
-  std::string NpyWithData(const std::string& dict, const std::string& data) const {
-    return testing::NpyFile(dict, data);
-  }
   void ExpectNpyError(const std::string& bytes, const std::string& fragment) {
     WriteRaw("bad.npy", bytes);
     try {
@@ -47,10 +28,9 @@ class Files : public ::testing::Test {
       EXPECT_NE(std::string(e.what()).find("bad.npy"), std::string::npos) << e.what();
     }
   }
-  std::string dir_;
 };
 
-TEST_F(Files, NpyRoundTripsInEveryDtype) {
+TEST_F(NpyIo, NpyRoundTripsInEveryDtype) {
   const RowMatrixXf m = testing::RandomMatrix(17, 5, 3);
   for (NpyDtype t : {NpyDtype::kFloat32, NpyDtype::kFloat64, NpyDtype::kFloat16}) {
     WriteNpyMatrix(Path("m.npy"), m, t);
@@ -80,7 +60,7 @@ std::string ElementBytes(float v, NpyDtype dtype) {
   return out;
 }
 
-TEST_F(Files, NpyInFortranOrderEqualsTheSameMatrixInCOrderInEveryDtype) {
+TEST_F(NpyIo, NpyInFortranOrderEqualsTheSameMatrixInCOrderInEveryDtype) {
   // Not square, so that a transposition that mixes up rows and columns cannot pass.
   const RowMatrixXf m = testing::RandomMatrix(3, 5, 11);
   const struct {
@@ -125,7 +105,7 @@ TEST_F(Files, NpyInFortranOrderEqualsTheSameMatrixInCOrderInEveryDtype) {
   ExpectNpyError(Npy("{'descr': '<f4', 'fortran_order': True, 'shape': (2, 2, 2), }", 32), "2-D");
 }
 
-TEST_F(Files, ShippedGardensPointFilesLoadInFortranOrderAsNumPyWroteThem) {
+TEST_F(NpyIo, ShippedGardensPointFilesLoadInFortranOrderAsNumPyWroteThem) {
   // data/gardens_point_hdc_delf holds the files as NumPy saved them, in Fortran order.
   const std::string shipped = BSF_SOURCE_DIR "/data/gardens_point_hdc_delf/day_left.npy";
   const std::string bytes = ReadFile(shipped);
@@ -150,7 +130,7 @@ TEST_F(Files, ShippedGardensPointFilesLoadInFortranOrderAsNumPyWroteThem) {
   }
 }
 
-TEST_F(Files, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
+TEST_F(NpyIo, NpyRefusesWhatItCannotRepresentWithAClearMessage) {
   // Integers and bools are truth matrices (ReadNpyBoolMatrix), not float matrices.
   ExpectNpyError(Npy("{'descr': '<i4', 'fortran_order': False, 'shape': (2, 2), }", 16),
                  "int32 ('<i4')");
@@ -200,7 +180,7 @@ std::string BytesAs(double v, const std::string& descr) {
 const char* const kTruthDtypes[] = {"|b1", "<b1", "|i1", "<i1", "|u1", "<u1", "<i2", "<u2",
                                     "<i4", "<u4", "<i8", "<u8", "<f2", "<f4", "<f8"};
 
-TEST_F(Files, TruthMatricesAreReadFromEveryDtypeInBothOrders) {
+TEST_F(NpyIo, TruthMatricesAreReadFromEveryDtypeInBothOrders) {
   std::mt19937 rng(7);
   RowMatrixXb expected(4, 6);
   for (Eigen::Index i = 0; i < expected.size(); ++i) expected.data()[i] = rng() % 3 == 0;
@@ -229,7 +209,7 @@ TEST_F(Files, TruthMatricesAreReadFromEveryDtypeInBothOrders) {
   EXPECT_EQ(ReadNpyBoolMatrix(Path("e.npy")).cols(), 3);
 }
 
-TEST_F(Files, TruthMatricesRefuseOtherValuesNamingTheFirstInRowOrder) {
+TEST_F(NpyIo, TruthMatricesRefuseOtherValuesNamingTheFirstInRowOrder) {
   // Other values at (1, 4) and (2, 0): (1, 4) comes first in row order, (2, 0) first in a
   // Fortran-order file.
   const std::vector<std::pair<std::string, std::pair<double, std::string>>> cases = {
@@ -260,159 +240,6 @@ TEST_F(Files, TruthMatricesRefuseOtherValuesNamingTheFirstInRowOrder) {
     }
   }
   EXPECT_THROW(EncodeNpyMatrix(RowMatrixXf(1, 1), NpyDtype::kBool), std::invalid_argument);
-}
-
-TEST_F(Files, GroundTruthNpyEqualsTheEquivalentCsv) {
-  // 5 queries x 7 places at random, query 3 without a true match; the CSV lists the same.
-  std::mt19937 rng(3);
-  std::string csv = "query,correct_places\n", c_order, fortran(5 * 7, '\0');
-  for (int q = 0; q < 5; ++q) {
-    std::string places;
-    for (int i = 0; i < 7; ++i) {
-      const bool correct = q != 3 && rng() % 2 == 0;
-      c_order.push_back(correct ? 1 : 0);
-      fortran[static_cast<size_t>(i * 5 + q)] = correct ? 1 : 0;
-      if (correct) places += (places.empty() ? "" : " ") + std::to_string(i);
-    }
-    if (!places.empty()) csv += std::to_string(q) + "," + places + "\n";
-  }
-  WriteRaw("gt.csv", csv);
-  WriteRaw("gt.npy",
-           NpyWithData("{'descr': '|b1', 'fortran_order': False, 'shape': (5, 7), }", c_order));
-  WriteRaw("gt_f.npy",
-           NpyWithData("{'descr': '|u1', 'fortran_order': True, 'shape': (5, 7), }", fortran));
-  const GroundTruth expected = ReadGroundTruthCsv(Path("gt.csv"), 5, 7);
-  EXPECT_FALSE(expected.HasTrueMatch(3));
-  ASSERT_GT(expected.NumWithTrueMatch(), 2);
-  for (const std::string name : {"gt.npy", "gt_f.npy", "gt.csv"}) {
-    const GroundTruth t = ReadGroundTruthFile(Path(name), 5, 7);
-    ASSERT_EQ(t.num_queries(), 5) << name;
-    for (int q = 0; q < 5; ++q) EXPECT_EQ(t.CorrectPlaces(q), expected.CorrectPlaces(q)) << name;
-  }
-}
-
-TEST_F(Files, GroundTruthNpyOfTheWrongShapeOrValuesIsRefusedNamingTheProblem) {
-  WriteRaw("gt.npy", Npy("{'descr': '|b1', 'fortran_order': False, 'shape': (5, 7), }", 35));
-  const std::vector<std::tuple<int, int, std::string>> cases = {
-      {5, 8, "is 5 x 7 but the evaluation has 5 queries and 8 places"},
-      {6, 7, "is 5 x 7 but the evaluation has 6 queries and 7 places"},
-      {7, 5, "looks transposed"},
-  };
-  for (const auto& [queries, places, fragment] : cases) {
-    try {
-      ReadGroundTruthNpy(Path("gt.npy"), queries, places);
-      ADD_FAILURE() << queries << " x " << places;
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find(Path("gt.npy")), std::string::npos) << e.what();
-    }
-  }
-  // A header announcing gigabytes is refused from the header, before anything is allocated.
-  WriteRaw("huge.npy",
-           Npy("{'descr': '|b1', 'fortran_order': False, 'shape': (65536, 65536), }", 0));
-  EXPECT_THROW(ReadGroundTruthNpy(Path("huge.npy"), 5, 7), std::runtime_error);
-  std::string data(35, '\0');
-  data[2 * 7 + 6] = 3;
-  WriteRaw("three.npy",
-           NpyWithData("{'descr': '<i1', 'fortran_order': False, 'shape': (5, 7), }", data));
-  try {
-    ReadGroundTruthFile(Path("three.npy"), 5, 7);
-    ADD_FAILURE();
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("row 2, column 6 holds 3"), std::string::npos) << e.what();
-  }
-  // Float distances are no ground truth.
-  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(5, 7, 1));
-  EXPECT_THROW(ReadGroundTruthFile(Path("d.npy"), 5, 7), std::runtime_error);
-  EXPECT_THROW(ReadGroundTruthFile(Path("missing.npy"), 5, 7), std::runtime_error);
-}
-
-TEST_F(Files, AtomicWriteReplacesAndLeavesNoTemporaryFile) {
-  WriteFileAtomically(Path("a.txt"), "one");
-  WriteFileAtomically(Path("a.txt"), "two");
-  EXPECT_EQ(ReadFile(Path("a.txt")), "two");
-  int entries = 0;
-  for (const auto& e : fs::directory_iterator(dir_)) entries += e.is_regular_file() ? 1 : 0;
-  EXPECT_EQ(entries, 1);
-  EXPECT_THROW(WriteFileAtomically(Path("no/such/dir/a.txt"), "x"), std::runtime_error);
-}
-
-TEST_F(Files, ReferenceSetYamlRoundTrips) {
-  ReferenceSet s;
-  s.name = "winter";
-  s.condition = "snow";
-  s.descriptor_type = "test_4";
-  s.distance = "cosine";
-  s.descriptors = testing::RandomMatrix(3, 4, 5);
-  s.place_ids = {4, 0, 7};
-  s.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, -1}};
-  SaveReferenceSet(s, Path("winter.yaml"));
-  std::string npy;  // winter.<content hash>.npy, named by the YAML
-  for (const auto& e : fs::directory_iterator(dir_)) {
-    if (e.path().extension() == ".npy") npy = e.path().filename().string();
-  }
-  EXPECT_EQ(npy.rfind("winter.", 0), 0u) << npy;
-  EXPECT_EQ(npy.size(), std::string("winter.0123456789ab.npy").size()) << npy;
-  const ReferenceSet back = LoadReferenceSetFile(Path("winter.yaml"), "");
-  EXPECT_EQ(back.name, "winter");
-  EXPECT_EQ(back.condition, "snow");
-  EXPECT_EQ(back.distance, "cosine");
-  EXPECT_EQ(back.place_ids, s.place_ids);
-  ASSERT_EQ(back.poses.size(), 3u);
-  EXPECT_DOUBLE_EQ(back.poses[2].y_m, 8);
-  EXPECT_TRUE(back.descriptors.isApprox(s.descriptors));
-  EXPECT_EQ(LoadReferenceSetFile(Path(npy), "w2").name, "w2");
-}
-
-TEST_F(Files, EmptyOrHugeShapesAreRefusedBeforeAllocatingAndNameTheFile) {
-  // Tiny files whose shapes would have allocated gigabytes of place ids.
-  for (const std::string shape : {"(1000000000, 0)", "(4294967296, 0)", "(0, 5)"}) {
-    WriteRaw("e.npy", Npy("{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }", 0));
-    try {
-      LoadReferenceSetNpy(Path("e.npy"), "e");
-      ADD_FAILURE() << shape;
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find("e.npy"), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("no descriptors"), std::string::npos) << e.what();
-    }
-  }
-  // An empty matrix still round-trips through the generic reader and writer.
-  WriteNpyMatrix(Path("z.npy"), RowMatrixXf(0, 3));
-  EXPECT_EQ(ReadNpyMatrix(Path("z.npy")).cols(), 3);
-  // A missing file is called missing, whatever its extension.
-  try {
-    LoadReferenceSetFile(Path("missing.txt"), "m");
-    ADD_FAILURE();
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
-  }
-}
-
-TEST_F(Files, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
-  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
-  const std::vector<std::pair<std::string, std::string>> bad = {
-      {"name: a\ndescriptors: d.npy\ncondtion: snow\n", "unknown key 'condtion'"},
-      {"descriptors: d.npy\n", "'name'"},
-      {"name: a\n", "'descriptors'"},
-      {"name: a\ndescriptors: d.npy\ndimension: 5\n", "dimension 5"},
-      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1]\n", "2 place_ids"},
-      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1, 1]\n", "two descriptors for place 1"},
-      {"name: a\ndescriptors: d.npy\nposes: [[0, 0, 0]]\n", "[x, y, z, yaw]"},
-      {"name: a\ndescriptors: d.npy\ndistance: hamming\n", "hamming"},
-      {"name: a\ndescriptors: gone.npy\n", "gone.npy"},
-      {"[1, 2", "bad.yaml"},
-  };
-  for (const auto& [text, expect] : bad) {
-    WriteRaw("bad.yaml", text);
-    try {
-      LoadReferenceSetFile(Path("bad.yaml"), "");
-      ADD_FAILURE() << "accepted: " << text;
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
-    }
-  }
-  EXPECT_THROW(LoadReferenceSetFile(Path("d.txt"), "x"), std::runtime_error);
-  EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
 }
 
 }  // namespace

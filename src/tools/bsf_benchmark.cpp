@@ -42,6 +42,9 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            references stored at --storage float32|float16|int8 (default float32)
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
 and the scaling grid by 100x (a smoke test; its figures are not the documented ones).
+The figures are printed on standard output, a line per measurement; no file is written.
+  -h, --help             this help
+Exit status 2 with one line naming the problem on bad arguments.
 )";
 
 double Median(std::vector<double> v) {

@@ -16,7 +16,8 @@ const char kUsage[] = R"(usage: bsf_curate --results-bag PATH [options]
 Reads bsf_vpr/Belief messages (each carries every set's minimum distance and the selected
 sets) and prints, per reference set, how often it was selected and was the closest, with a
 recommendation: keep, or redundant (rarely selected, or always selected together with a
-closer set); then the stretches of queries where no set was close (coverage gaps).
+closer set); then the stretches of queries where no set was close (coverage gaps). The
+report goes to standard output; no file is written.
   --results-bag PATH     results bag of a replay (launch/replay.launch)
   --belief-topic T       default /bsf_vpr/belief
   --rarely F             'rarely selected' below this fraction of queries (default 0.05)

@@ -32,15 +32,16 @@ Writes one message per query at a fixed rate, so that a traversal can be replaye
                          (default /camera/image_raw)
   --descriptors PATH     rows of a Q x D .npy as bsf_vpr/Descriptor on --topic
                          (default /vpr/descriptor)
-  --out BAG              the bag to write (written to a temporary name, then renamed;
-                         missing folders are created)
+  --out BAG              the bag to write: written as BAG.tmp, then renamed to BAG (removed
+                         on failure); missing folders are created
   --rate HZ              messages per second (default 10)
   --ground-truth CSV     correct places per query ('query,place place ...'), written as
                          bsf_vpr/QueryGroundTruth on /vpr/ground_truth with each query's stamp
   --tolerance K          instead: query q is correct at places q-K .. q+K (frame-aligned)
   --num-places N         with --tolerance: size of the place index (default: Q)
   --poses CSV            query poses 'query,x,y,z,yaw' (metres, radians), written as
-                         geometry_msgs/PoseStamped on /vpr/query_pose in --frame (default map)
+                         geometry_msgs/PoseStamped on /vpr/query_pose in --frame
+  --frame NAME           frame of the query poses (default map)
   --topic NAME           topic of the images or descriptors
   --limit N              only the first N queries
   -h, --help             this help

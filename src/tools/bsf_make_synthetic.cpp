@@ -24,6 +24,7 @@ created if missing.
   --query-weights W,...  probability of each condition for a query (default: all condition 0)
   --seed S               (default 1)
   -h, --help             this help
+Exit status 2 with one line naming the problem on bad arguments.
 )";
 
 std::vector<double> List(const std::string& flag, const std::string& v) {

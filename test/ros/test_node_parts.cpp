@@ -64,6 +64,78 @@ TEST(OdometrySource, ParsesOnceAndNamesTheChoices) {
   }
 }
 
+// Two sets of 3-d descriptors over 6 places; only "day" has poses (place k at x = 10 k).
+PlaceRecognizer TwoSetsWithPoses() {
+  ReferenceSet day = MakeReferenceSet("day", RowMatrixXf::Random(6, 3), "sunny");
+  for (int k = 0; k < 6; ++k) day.poses.push_back(PlacePose{10.0 * k, 0, 0, 0.1 * k});
+  day.descriptor_type = "test_3";
+  PlaceRecognizer r;
+  r.AddReferenceSet(day);
+  r.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3), "dark"));
+  return r;
+}
+
+TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
+  PlaceRecognizer r = TwoSetsWithPoses();
+  const Recognition rec =
+      r.Recognize(r.map().set(0).ToReferenceSet().descriptors.row(2).transpose(), false);
+  Belief all;
+  ToBeliefMsg(rec, r, 0, &all);
+  EXPECT_EQ(all.method, "bsf");
+  EXPECT_EQ(all.num_places, 6);
+  ASSERT_EQ(all.place_ids.size(), 6u);
+  ASSERT_EQ(all.posterior.size(), 6u);
+  double sum = 0;
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(all.place_ids[static_cast<size_t>(k)], k);
+    sum += all.posterior[static_cast<size_t>(k)];
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-5);
+  EXPECT_EQ(all.set_names, (std::vector<std::string>{"day", "night"}));
+  ASSERT_EQ(all.set_min_distances.size(), 2u);
+  EXPECT_FLOAT_EQ(all.set_min_distances[0], 0.0f);  // the query is day's place 2
+  EXPECT_EQ(all.match, rec.belief.match);
+  EXPECT_EQ(all.accepted, rec.belief.accepted);
+  Belief best;
+  ToBeliefMsg(rec, r, 2, &best);
+  ASSERT_EQ(best.place_ids.size(), 2u);
+  EXPECT_EQ(best.place_ids[0], rec.belief.match);
+  EXPECT_GE(best.posterior[0], best.posterior[1]);
+  EXPECT_FLOAT_EQ(best.posterior[0], all.posterior[static_cast<size_t>(rec.belief.match)]);
+}
+
+TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
+  PlaceRecognizer r = TwoSetsWithPoses();
+  RecognizerOptions nn;
+  nn.method = "nn:day";
+  r.SetOptions(nn);
+  const Recognition rec =
+      r.Recognize(r.map().set(0).ToReferenceSet().descriptors.row(4).transpose(), false);
+  Match m;
+  ToMatchMsg(rec, r.map(), &m);
+  EXPECT_EQ(m.place_id, 4);
+  EXPECT_EQ(m.reference_set, "day");
+  EXPECT_DOUBLE_EQ(m.confidence, rec.belief.confidence);
+  ASSERT_TRUE(m.has_pose);
+  EXPECT_DOUBLE_EQ(m.pose.position.x, 40.0);
+  EXPECT_DOUBLE_EQ(m.pose.orientation.z, std::sin(0.2));
+  // Without any pose: an identity orientation, has_pose false.
+  PlaceRecognizer bare;
+  bare.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3)));
+  Match none;
+  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Zero(3), false), bare.map(), &none);
+  EXPECT_FALSE(none.has_pose);
+  EXPECT_EQ(none.pose.orientation.w, 1.0);
+  const ReferenceSetInfo info = ToInfoMsg(r.map().set(0));
+  EXPECT_EQ(info.name, "day");
+  EXPECT_EQ(info.condition, "sunny");
+  EXPECT_EQ(info.descriptor_type, "test_3");
+  EXPECT_EQ(info.num_places, 6);
+  EXPECT_EQ(info.dimension, 3);
+  EXPECT_EQ(info.storage, "float32");
+  EXPECT_GT(info.memory_bytes, 6u * 3u * sizeof(float));
+}
+
 TEST(Conversions, ThePlaceTransformIsTheMatchedPoseInTheMatchFrame) {
   Match match;
   match.header.frame_id = "map";

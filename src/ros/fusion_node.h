@@ -3,6 +3,10 @@
 // the matched place, rviz markers and diagnostics. Services list, load and unload reference
 // sets, answer what-if queries, and record a new set from the incoming descriptors.
 //
+// FusionNode wires the parts beside it: RecognitionPublisher (the messages and tf of each
+// query), Recording (start_recording / stop_recording), OdometryTracker and
+// SelectionCounters; the service handlers are in fusion_services.cpp.
+//
 // Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
 // Every callback takes mutex_: services and reconfiguration may run while descriptors
 // stream in, from any thread. load_reference_set runs on a queue and thread of its own and

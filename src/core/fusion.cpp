@@ -40,35 +40,23 @@ double Threshold::LogOdds() const {
 
 void Threshold::Validate() const {
   if (kind == Kind::kProbability && !(value > 0 && value < 1)) {
-    throw std::invalid_argument("threshold h as a probability must lie in (0, 1), got " +
+    throw std::invalid_argument("threshold as a probability (threshold_kind probability) must lie in (0, 1), got " +
                                 std::to_string(value));
   }
   if (kind == Kind::kLogOdds && !std::isfinite(value)) {
-    throw std::invalid_argument("threshold h as log-odds must be finite");
+    throw std::invalid_argument("threshold as log-odds (threshold_kind log_odds) must be finite");
   }
 }
 
-Threshold Threshold::Parse(const std::string& text) {
-  Threshold t;
-  std::string number = text;
-  if (text.rfind("logodds:", 0) == 0) {
-    t.kind = Kind::kLogOdds;
-    number = text.substr(8);
-  } else if (text.rfind("p:", 0) == 0) {
-    number = text.substr(2);
-  }
-  size_t used = 0;
-  try {
-    t.value = std::stod(number, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != number.size()) {
-    throw std::invalid_argument("threshold '" + text +
-                                "' is not a number (expected p:0.9, 0.9 or logodds:5)");
-  }
-  t.Validate();
-  return t;
+Threshold::Kind ParseThresholdKind(const std::string& name) {
+  if (name == "probability") return Threshold::Kind::kProbability;
+  if (name == "log_odds") return Threshold::Kind::kLogOdds;
+  throw std::invalid_argument("threshold_kind must be probability or log_odds, got '" + name +
+                              "'");
+}
+
+std::string ToString(Threshold::Kind kind) {
+  return kind == Threshold::Kind::kLogOdds ? "log_odds" : "probability";
 }
 
 double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {

@@ -12,11 +12,11 @@ namespace bsf_vpr {
 
 void PatchNormOptions::Validate() const {
   if (width_px < 1 || height_px < 1) {
-    throw std::invalid_argument("width_px and height_px must be >= 1, got " +
+    throw std::invalid_argument("patch_width_px and patch_height_px must be >= 1, got " +
                                 std::to_string(width_px) + " x " + std::to_string(height_px));
   }
   if (patch_size_px < 1 || patch_size_px > std::min(width_px, height_px)) {
-    throw std::invalid_argument("patch_size_px must lie in 1.." +
+    throw std::invalid_argument("patch_size_px must lie in 1..min(patch_width_px, patch_height_px) = " +
                                 std::to_string(std::min(width_px, height_px)) + ", got " +
                                 std::to_string(patch_size_px));
   }

@@ -7,6 +7,19 @@ namespace bsf_vpr {
 
 void RecognizerOptions::Validate() const { method_options.Validate(); }
 
+const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
+  static const OptionTable<RecognizerOptions> kTable =
+      OptionTable<RecognizerOptions>()
+          .Add(
+              "method", [](auto& o) -> auto& { return o.method; },
+              "bsf, bayes_full, med, med_selective, nn:<set> or bayes:<set>, optionally with "
+              "+filter (temporal filter prior) and/or +seq (sequence matching)",
+              "", {}, /*live=*/true)
+          .Include(
+              MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; });
+  return kTable;
+}
+
 PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move(options)) {
   options_.Validate();
   // The method is checked against the sets when they are known (SetOptions / Recognize).

@@ -8,23 +8,23 @@ namespace bsf_vpr {
 
 void SequenceOptions::Validate() const {
   if (length < 1 || length > kMaxSequenceLength) {
-    throw std::invalid_argument("sequence length must lie in 1.." +
+    throw std::invalid_argument("sequence_length must lie in 1.." +
                                 std::to_string(kMaxSequenceLength) + ", got " +
                                 std::to_string(length));
   }
   if (!(min_velocity > 0) || !(max_velocity >= min_velocity) ||
       !(max_velocity <= kMaxSequenceVelocity)) {
     throw std::invalid_argument(
-        "sequence velocities must satisfy 0 < min_velocity <= max_velocity <= " +
+        "sequence velocities must satisfy 0 < sequence_min_velocity <= sequence_max_velocity <= " +
         std::to_string(kMaxSequenceVelocity) + " places per query, got " +
         std::to_string(min_velocity) + " and " + std::to_string(max_velocity));
   }
-  if (!(velocity_step > 0)) throw std::invalid_argument("sequence velocity_step must be > 0");
+  if (!(velocity_step > 0)) throw std::invalid_argument("sequence_velocity_step must be > 0");
   // Computed in double before any conversion to int: a tiny step cannot overflow.
   const double velocities = (max_velocity - min_velocity) / velocity_step + 1;
   if (!(velocities <= kMaxSequenceVelocities)) {
     throw std::invalid_argument(
-        "sequence velocity_step " + std::to_string(velocity_step) + " gives " +
+        "sequence_velocity_step " + std::to_string(velocity_step) + " gives " +
         std::to_string(velocities) + " velocities between " + std::to_string(min_velocity) +
         " and " + std::to_string(max_velocity) + "; at most " +
         std::to_string(kMaxSequenceVelocities) + " are searched (use a larger step)");

@@ -9,9 +9,9 @@ namespace bsf_vpr {
 
 void TemporalFilterOptions::Validate() const {
   if (!std::isfinite(step_mean_places))
-    throw std::invalid_argument("step_mean_places must be finite");
+    throw std::invalid_argument("filter_step_mean_places must be finite");
   if (!(step_std_places >= 0) || !std::isfinite(step_std_places)) {
-    throw std::invalid_argument("step_std_places must be >= 0");
+    throw std::invalid_argument("filter_step_std_places must be a finite number >= 0");
   }
   if (!(relocalization_probability > 0 && relocalization_probability <= 1)) {
     throw std::invalid_argument("relocalization_probability must lie in (0, 1], got " +

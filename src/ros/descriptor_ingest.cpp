@@ -9,75 +9,59 @@
 #include "param_util.h"
 
 namespace bsf_vpr {
-IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
-  RefuseUnknownParams(pnh, {"input",
-                            "expected_dimension",
-                            "l2_normalize",
-                            "descriptor_type",
-                            "image_descriptor",
-                            "patch_width_px",
-                            "patch_height_px",
-                            "patch_size_px",
-                            "hog_width_px",
-                            "hog_height_px",
-                            "hog_cell_px",
-                            "hog_bins",
-                            "onnx_model",
-                            "onnx_input_width_px",
-                            "onnx_input_height_px",
-                            "onnx_mean",
-                            "onnx_std",
-                            "onnx_rgb",
-                            "onnx_output_layer",
-                            "onnx_pca_path",
-                            "onnx_l2_normalize",
-                            "queue_size",
-                            "diagnostic_period",
-                            "image_transport"});
-  IngestParams p;
-  const std::string input = GetParam<std::string>(pnh, "input", "image");
-  if (input == "image") {
-    p.input = IngestInput::kImage;
-  } else if (input == "descriptor") {
-    p.input = IngestInput::kDescriptor;
-  } else {
-    throw std::invalid_argument("input must be image or descriptor, got '" + input + "'");
-  }
-  p.expected_dimension = GetParam<int>(pnh, "expected_dimension", p.expected_dimension);
-  if (p.expected_dimension < 0) throw std::invalid_argument("expected_dimension must be >= 0");
-  p.l2_normalize = GetParam<bool>(pnh, "l2_normalize", p.l2_normalize);
-  p.describer.patch_norm.width_px =
-      GetParam<int>(pnh, "patch_width_px", p.describer.patch_norm.width_px);
-  p.describer.patch_norm.height_px =
-      GetParam<int>(pnh, "patch_height_px", p.describer.patch_norm.height_px);
-  p.describer.patch_norm.patch_size_px =
-      GetParam<int>(pnh, "patch_size_px", p.describer.patch_norm.patch_size_px);
-  ImageDescriberOptions& d = p.describer;
-  d.kind = ParseImageDescriberKind(
-      GetParam<std::string>(pnh, "image_descriptor", ToString(d.kind)));
-  d.hog.width_px = GetParam<int>(pnh, "hog_width_px", d.hog.width_px);
-  d.hog.height_px = GetParam<int>(pnh, "hog_height_px", d.hog.height_px);
-  d.hog.cell_px = GetParam<int>(pnh, "hog_cell_px", d.hog.cell_px);
-  d.hog.bins = GetParam<int>(pnh, "hog_bins", d.hog.bins);
-  d.onnx.model_path = GetParam<std::string>(pnh, "onnx_model", d.onnx.model_path);
-  d.onnx.input_width_px = GetParam<int>(pnh, "onnx_input_width_px", d.onnx.input_width_px);
-  d.onnx.input_height_px = GetParam<int>(pnh, "onnx_input_height_px", d.onnx.input_height_px);
-  const auto as_floats = [](const std::vector<double>& v) {
-    return std::vector<float>(v.begin(), v.end());
-  };
-  d.onnx.mean = as_floats(
-      GetParam<std::vector<double>>(pnh, "onnx_mean", {d.onnx.mean.begin(), d.onnx.mean.end()}));
-  d.onnx.std = as_floats(
-      GetParam<std::vector<double>>(pnh, "onnx_std", {d.onnx.std.begin(), d.onnx.std.end()}));
-  d.onnx.rgb = GetParam<bool>(pnh, "onnx_rgb", d.onnx.rgb);
-  d.onnx.output_layer = GetParam<std::string>(pnh, "onnx_output_layer", d.onnx.output_layer);
-  d.onnx.pca_path = GetParam<std::string>(pnh, "onnx_pca_path", d.onnx.pca_path);
-  d.onnx.l2_normalize = GetParam<bool>(pnh, "onnx_l2_normalize", d.onnx.l2_normalize);
-  d.patch_norm.Validate();
-  p.descriptor_type = GetParam<std::string>(pnh, "descriptor_type", "");
-  p.queue_size = GetParam<int>(pnh, "queue_size", p.queue_size);
-  if (p.queue_size < 1) throw std::invalid_argument("queue_size must be >= 1");
+IngestInput ParseIngestInput(const std::string& name) {
+  if (name == "image") return IngestInput::kImage;
+  if (name == "descriptor") return IngestInput::kDescriptor;
+  throw std::invalid_argument("input must be image or descriptor, got '" + name + "'");
+}
+
+std::string ToString(IngestInput input) {
+  return input == IngestInput::kDescriptor ? "descriptor" : "image";
+}
+
+const OptionTable<IngestParams>& IngestParamsTable() {
+  static const OptionTable<IngestParams> kTable =
+      OptionTable<IngestParams>()
+          .AddChoice(
+              "input", [](auto& p) -> auto& { return p.input; },
+              "what arrives: image (sensor_msgs/Image on \"image\", described here) or "
+              "descriptor (bsf_vpr/Descriptor or std_msgs/Float32MultiArray on "
+              "\"descriptor_in\", e.g. from a NetVLAD node)",
+              {"image", "descriptor"}, ParseIngestInput)
+          .Add(
+              "expected_dimension", [](auto& p) -> auto& { return p.expected_dimension; },
+              "refuse descriptors of another dimension; 0 = any", "", AtLeast(0))
+          .Add(
+              "l2_normalize", [](auto& p) -> auto& { return p.l2_normalize; },
+              "scale each descriptor to unit L2 norm")
+          .Include(
+              ImageDescriberOptionsTable(), [](auto& p) -> auto& { return p.describer; })
+          .Add(
+              "descriptor_type", [](auto& p) -> auto& { return p.descriptor_type; },
+              "stamped on the output; \"\" = the image descriptor's name for images, the "
+              "incoming message's for descriptors")
+          .Add(
+              "queue_size", [](auto& p) -> auto& { return p.queue_size; },
+              "input messages buffered", "messages", AtLeast(1))
+          .Add(
+              "image_transport", [](auto& p) -> auto& { return p.image_transport; },
+              "image_transport transport of the image topic (raw, compressed, ...)")
+          .Add(
+              "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
+              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0));
+  return kTable;
+}
+
+IngestParams LoadIngestParams(RosParamSource& source) {
+  IngestParams p = LoadOptions(IngestParamsTable(), source);
+  source.RefuseUnread();
+  p.describer.patch_norm.Validate();
   return p;
+}
+
+IngestParams LoadIngestParams(const ros::NodeHandle& pnh) {
+  RosParamSource source = RosParamSource::FromNodeHandle(pnh);
+  return LoadIngestParams(source);
 }
 
 std::string ImageProblem(const sensor_msgs::Image& m) {
@@ -160,7 +144,11 @@ void DescriptorIngest::UpdateSubscription() {
   if (wanted && !subscribed) {
     const uint32_t q = static_cast<uint32_t>(params_.queue_size);
     if (params_.input == IngestInput::kImage) {
-      image_sub_ = it_.subscribe(names::kImageTopic, q, &DescriptorIngest::OnImage, this);
+      // The transport is the nodelet's own parameter (by default image_transport reads ~ of
+      // the process, which in a nodelet manager is the manager's namespace).
+      image_sub_ = it_.subscribe(
+          names::kImageTopic, q, &DescriptorIngest::OnImage, this,
+          image_transport::TransportHints(params_.image_transport, ros::TransportHints(), pnh_));
     } else {
       // Any type: bsf_vpr/Descriptor and std_msgs/Float32MultiArray are told apart per
       // message, and a publisher of another type is reported rather than silently unheard.

@@ -1,11 +1,11 @@
-// descriptor_ingest: turns images (described with the core's patch-normalised image
-// descriptor) or descriptor messages from another node (NetVLAD, ...) into validated
-// bsf_vpr/Descriptor messages: non-empty, finite, of the expected dimension, optionally
-// L2-normalised. Descriptors may come as bsf_vpr/Descriptor or std_msgs/Float32MultiArray
-// (a 1-D array, as a Python node publishes it) on the same topic. Bad input (an image whose
-// sizes do not fit its data, a message of another type) is dropped with a throttled error
-// and counted in diagnostics.
-// It subscribes to its input only while someone listens to its output (a pure transform).
+// descriptor_ingest: turns images (described with one of the core's image descriptors:
+// patch-normalised, HOG or an ONNX network) or descriptor messages from another node (NetVLAD, ...)
+// into validated bsf_vpr/Descriptor messages: non-empty, finite, of the expected dimension,
+// optionally L2-normalised. Descriptors may come as bsf_vpr/Descriptor or
+// std_msgs/Float32MultiArray (a 1-D array, as a Python node publishes it) on the same topic. Bad
+// input (an image whose sizes do not fit its data, a message of another type) is dropped with a
+// throttled error and counted in diagnostics. It subscribes to its input only while someone listens
+// to its output (a pure transform).
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
@@ -21,22 +21,31 @@
 #include <string>
 
 #include "bsf_vpr/core/image_describer.h"
+#include "param_util.h"
 
 namespace bsf_vpr {
 
 // What the ingest takes: images to describe, or descriptors computed elsewhere.
 enum class IngestInput { kImage, kDescriptor };
+IngestInput ParseIngestInput(const std::string& name);  // image | descriptor
+std::string ToString(IngestInput input);
 
 struct IngestParams {
   IngestInput input = IngestInput::kImage;  // parameter input: image | descriptor
-  int expected_dimension = 0;   // 0: any non-empty dimension
+  int expected_dimension = 0;               // 0: any non-empty dimension
   bool l2_normalize = false;
   std::string descriptor_type;      // stamped on the output; default: the image descriptor's name
   ImageDescriberOptions describer;  // for images: patchnorm | hog | onnx
   int queue_size = 10;
+  std::string image_transport = "raw";  // how images arrive (raw, compressed, ...)
+  double diagnostic_period = 1.0;       // seconds (diagnostic_updater reads it too)
 };
 
-// Reads and validates ~ parameters; throws std::invalid_argument naming a bad or unknown one.
+// The declaration of every parameter (options.h); config/ingest.yaml is written from it.
+const OptionTable<IngestParams>& IngestParamsTable();
+
+// Reads and validates the parameters; throws std::invalid_argument naming a bad or unknown one.
+IngestParams LoadIngestParams(RosParamSource& source);
 IngestParams LoadIngestParams(const ros::NodeHandle& pnh);
 
 // Why an image message cannot be converted safely ("" if it can): zero or huge sizes, an

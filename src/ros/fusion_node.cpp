@@ -7,6 +7,7 @@
 #include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
+#include "reconfigure_options.h"
 
 namespace bsf_vpr {
 
@@ -46,7 +47,7 @@ void FusionNode::Start() {
     if (!e.condition.empty()) set.condition = e.condition;
     sets.emplace_back(std::move(set), path);
   }
-  if (!params_.distance_given) {
+  if (!params_.distance_given()) {
     // No distance configured: the one the sets were made for, if they agree on one.
     std::string declared;
     for (const auto& [set, path] : sets) {
@@ -194,38 +195,24 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
 
 void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const OptionTable<RecognizerOptions>& table = RecognizerOptionsTable();
+  dynamic_reconfigure::Config request;
+  config.__toMessage__(request);
+  MapOptionSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
   RecognizerOptions o = recognizer_.options();
   try {
-    o.method = config.method;
-    o.method_options.selection.gamma_fraction = config.gamma_fraction;
-    o.method_options.selection.rule = ParseSelectionRule(config.selection);
-    o.method_options.likelihood.variant = ParseLikelihoodVariant(config.likelihood);
-    o.method_options.threshold = MakeThreshold(config.threshold, config.threshold_kind);
-    o.method_options.max_match_distance = config.max_match_distance;
-    o.method_options.filter.step_mean_places = config.filter_step_mean_places;
-    o.method_options.filter.step_std_places = config.filter_step_std_places;
-    o.method_options.filter.relocalization_probability = config.relocalization_probability;
+    table.Apply(source, &o, /*live_only=*/true);
     recognizer_.SetOptions(o);
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
-             o.method.c_str(), o.method_options.selection.gamma_fraction, config.selection.c_str(),
-             config.likelihood.c_str());
+             o.method.c_str(), o.method_options.selection.gamma_fraction,
+             ToString(o.method_options.selection.rule).c_str(),
+             ToString(o.method_options.likelihood.variant).c_str());
   } catch (const std::exception& e) {
     ROS_ERROR("bsf_vpr: reconfiguration refused, keeping the previous settings: %s", e.what());
   }
   // Report what is in force (the previous values where the request was refused).
-  const RecognizerOptions& now = recognizer_.options();
-  config.method = now.method;
-  config.gamma_fraction = now.method_options.selection.gamma_fraction;
-  config.selection = ToString(now.method_options.selection.rule);
-  config.likelihood = ToString(now.method_options.likelihood.variant);
-  config.threshold = now.method_options.threshold.value;
-  config.threshold_kind = now.method_options.threshold.kind == Threshold::Kind::kProbability
-                              ? "probability"
-                              : "log_odds";
-  config.max_match_distance = now.method_options.max_match_distance;
-  config.filter_step_mean_places = now.method_options.filter.step_mean_places;
-  config.filter_step_std_places = now.method_options.filter.step_std_places;
-  config.relocalization_probability = now.method_options.filter.relocalization_probability;
+  dynamic_reconfigure::Config now = ConfigFromValues(table.Values(recognizer_.options(), true));
+  config.__fromMessage__(now);
 }
 
 void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {

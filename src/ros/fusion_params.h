@@ -1,5 +1,6 @@
-// Parameters of the fusion node, read from its private namespace (config/fusion.yaml
-// documents each one with its default and unit).
+// Parameters of the fusion node, read from its private namespace. FusionParamsTable()
+// declares each one (name, default, unit, doc, bounds); config/fusion.yaml, cfg/Fusion.cfg
+// and docs/options.md are written from it by bsf_options.
 #pragma once
 
 #include <ros/node_handle.h>
@@ -9,6 +10,7 @@
 
 #include "bsf_vpr/core/place_recognizer.h"
 #include "odometry_tracker.h"
+#include "param_util.h"
 
 namespace bsf_vpr {
 
@@ -21,8 +23,10 @@ struct ReferenceSetEntry {
 struct FusionParams {
   RecognizerOptions recognizer;
   std::vector<ReferenceSetEntry> reference_sets;
-  std::string data_directory;   // services read and write files only below it (created)
-  bool distance_given = false;  // "distance" was set (not ""); else the loaded sets' own
+  std::string data_directory;  // services read and write files only below it (created)
+  // "euclidean" or "cosine"; "": the distance the sets loaded at start declare, or the
+  // first set loaded into an empty node (recognizer.metric holds the one in use).
+  std::string distance;
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
@@ -39,18 +43,19 @@ struct FusionParams {
   std::string odom_frame = "odom";
   std::string base_frame = "base_link";
   double place_spacing_m = 0;
-  // (diagnostic_period, seconds, is read by diagnostic_updater itself.)
+  double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
+
+  bool distance_given() const { return !distance.empty(); }
 };
 
+// The declaration of every parameter (reference_sets, a list of mappings, is read by code
+// of its own).
+const OptionTable<FusionParams>& FusionParamsTable();
+
 // Reads and validates every parameter. Throws std::invalid_argument naming the parameter:
-// a wrong type, a bad value, or a key that is not a parameter of this node (a misspelt
-// parameter would otherwise be silently ignored).
+// a wrong type, a bad value, or a key that no option read (a misspelt parameter would
+// otherwise be silently ignored).
+FusionParams LoadFusionParams(RosParamSource& source);
 FusionParams LoadFusionParams(const ros::NodeHandle& pnh);
-
-// The names LoadFusionParams accepts (also the dynamic_reconfigure ones).
-const std::vector<std::string>& FusionParamNames();
-
-// Threshold from its two parameters: kind "probability" or "log_odds".
-Threshold MakeThreshold(double value, const std::string& kind);
 
 }  // namespace bsf_vpr

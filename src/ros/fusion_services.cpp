@@ -26,7 +26,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
     if (!req.condition.empty()) set.condition = req.condition;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!params_.distance_given && recognizer_.map().num_sets() == 0 && !set.distance.empty()) {
+    if (!params_.distance_given() && recognizer_.map().num_sets() == 0 && !set.distance.empty()) {
       // No distance configured and nothing loaded yet: the first set's own distance.
       RecognizerOptions o = recognizer_.options();
       o.metric = ParseDistanceMetric(set.distance);

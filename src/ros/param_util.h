@@ -1,28 +1,49 @@
-// Reading parameters of the bsf_vpr nodes.
+// Reading the parameters of the bsf_vpr nodes from the options tables (core options.h).
 #pragma once
 
 #include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
 
-#include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/options.h"
+
 namespace bsf_vpr {
 
-// The value of ~key, or `fallback` when it is not set. Throws std::invalid_argument naming
-// the parameter when it is set with the wrong type.
-template <typename T>
-T GetParam(const ros::NodeHandle& pnh, const std::string& key, const T& fallback) {
-  if (!pnh.hasParam(key)) return fallback;
-  T value;
-  if (!pnh.getParam(key, value)) {
-    throw std::invalid_argument("parameter '" + pnh.resolveName(key) + "' has the wrong type");
-  }
-  return value;
-}
+// The parameters of one namespace, as one struct (read once from the parameter server, or
+// made by a test without a master), with the keys that were read tracked: a key that no
+// table read is refused by RefuseUnread().
+class RosParamSource : public OptionSource {
+ public:
+  // `params` is a struct of the parameters under `ns` (an invalid value: none).
+  RosParamSource(XmlRpc::XmlRpcValue params, std::string ns);
+  // The private parameters of a node.
+  static RosParamSource FromNodeHandle(const ros::NodeHandle& pnh);
 
-// Throws std::invalid_argument listing the keys under `pnh` that are not in `known` (a
-// misspelt parameter would otherwise be silently ignored).
-void RefuseUnknownParams(const ros::NodeHandle& pnh, const std::vector<std::string>& known);
+  std::optional<OptionValue> Get(const std::string& name, OptionType type) override;
+  std::string Describe(const std::string& name) const override { return ns_ + "/" + name; }
+  // The raw value of a parameter read by code of its own (an external option); marks it read.
+  std::optional<XmlRpc::XmlRpcValue> GetRaw(const std::string& name);
+  bool Has(const std::string& name) const;
+
+  // Throws std::invalid_argument listing the parameters that nothing read (a misspelt
+  // parameter would otherwise be silently ignored).
+  void RefuseUnread() const;
+
+ private:
+  XmlRpc::XmlRpcValue params_;
+  std::string ns_;
+  std::vector<std::string> read_;
+};
+
+// Reads every option of `table` from `source` into a copy of `defaults` and returns it.
+// Throws std::invalid_argument naming the parameter.
+template <typename S>
+S LoadOptions(const OptionTable<S>& table, RosParamSource& source, S defaults = S{}) {
+  table.Apply(source, &defaults);
+  return defaults;
+}
 
 }  // namespace bsf_vpr

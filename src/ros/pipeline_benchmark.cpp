@@ -8,6 +8,7 @@
 // launch/benchmark_pipeline.launch and docs/performance.md.
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <std_msgs/String.h>
 
 #include <algorithm>
 #include <atomic>
@@ -19,8 +20,6 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <sstream>
 #include <thread>
-
-#include <std_msgs/String.h>
 
 #include "bsf_vpr/Belief.h"
 #include "bsf_vpr/Descriptor.h"
@@ -37,6 +36,45 @@ double Percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
   return v[static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5)];
+}
+
+struct PipelineBenchmarkOptions {
+  std::string queries;  // Q x D .npy
+  int count = 200;
+  int warmup = 10;
+  std::vector<double> rates_hz = {10.0, 0.0};
+  std::string output;
+  bool shutdown_when_done = true;
+  double timeout_s = 10;
+};
+
+const OptionTable<PipelineBenchmarkOptions>& Table() {
+  static const OptionTable<PipelineBenchmarkOptions> kTable =
+      OptionTable<PipelineBenchmarkOptions>()
+          .Add(
+              "queries", [](auto& o) -> auto& { return o.queries; },
+              "Q x D descriptor .npy published as queries (cycled)")
+          .Add(
+              "count", [](auto& o) -> auto& { return o.count; }, "queries per phase", "",
+              AtLeast(1))
+          .Add(
+              "warmup", [](auto& o) -> auto& { return o.warmup; },
+              "queries before the first phase, not measured", "", AtLeast(0))
+          .Add(
+              "rates_hz", [](auto& o) -> auto& { return o.rates_hz; },
+              "one phase per rate; 0 = flat out (the next query leaves when the previous "
+              "belief arrives)",
+              "Hz", AtLeast(0))
+          .Add(
+              "output", [](auto& o) -> auto& { return o.output; },
+              "file the table is also written to (\"\": none)")
+          .Add(
+              "shutdown_when_done", [](auto& o) -> auto& { return o.shutdown_when_done; },
+              "shut the process down after the last phase")
+          .Add(
+              "timeout_s", [](auto& o) -> auto& { return o.timeout_s; },
+              "longest wait for one belief", "s", Above(0));
+  return kTable;
 }
 
 }  // namespace
@@ -58,19 +96,10 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
     try {
-      RefuseUnknownParams(pnh, {"queries", "count", "warmup", "rates_hz", "output",
-                                "shutdown_when_done", "timeout_s"});
-      queries_ = ReadNpyMatrix(GetParam<std::string>(pnh, "queries", ""));
-      count_ = GetParam<int>(pnh, "count", 200);
-      warmup_ = GetParam<int>(pnh, "warmup", 10);
-      rates_hz_ = GetParam<std::vector<double>>(pnh, "rates_hz", {10.0, 0.0});
-      output_ = GetParam<std::string>(pnh, "output", "");
-      shutdown_when_done_ = GetParam<bool>(pnh, "shutdown_when_done", true);
-      timeout_s_ = GetParam<double>(pnh, "timeout_s", 10.0);
-      if (count_ < 1 || warmup_ < 0) throw std::invalid_argument("count must be >= 1, warmup >= 0");
-      for (double r : rates_hz_) {
-        if (!(r >= 0)) throw std::invalid_argument("rates_hz entries must be >= 0 (0: flat out)");
-      }
+      RosParamSource source = RosParamSource::FromNodeHandle(pnh);
+      options_ = LoadOptions(Table(), source);
+      source.RefuseUnread();
+      queries_ = ReadNpyMatrix(options_.queries);
     } catch (const std::exception& e) {
       NODELET_FATAL("bsf_vpr pipeline_benchmark cannot start: %s", e.what());
       throw;
@@ -105,9 +134,9 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
 
   bool WaitFor(int k) {
     std::unique_lock<std::mutex> lock(mutex_);
-    return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s_),
-                        [&] { return stop_ || received_.count(k + 1) > 0; }) &&
-           !stop_;
+    return cv_.wait_for(lock, std::chrono::duration<double>(options_.timeout_s), [&] {
+      return stop_ || received_.count(k + 1) > 0;
+    }) && !stop_;
   }
 
   void Run() {
@@ -119,18 +148,18 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
              "overhead median ms | overhead p90 ms |\n| --- | --- | --- | --- | --- | --- | --- | "
              "--- |\n";
     int k = 0;
-    for (int i = 0; i < warmup_ && !stop_; ++i, ++k) {  // the first queries touch cold memory
+    for (int i = 0; i < options_.warmup && !stop_;
+         ++i, ++k) {  // the first queries touch cold memory
       Send(k);
       WaitFor(k);
     }
-    for (double rate : rates_hz_) {
+    for (double rate : options_.rates_hz) {
       std::vector<Sample> samples;
       const Clock::time_point phase_start = Clock::now();
-      for (int i = 0; i < count_ && !stop_; ++i, ++k) {
+      for (int i = 0; i < options_.count && !stop_; ++i, ++k) {
         if (rate > 0) {
-          std::this_thread::sleep_until(phase_start +
-                                        std::chrono::duration_cast<Clock::duration>(
-                                            std::chrono::duration<double>(i / rate)));
+          std::this_thread::sleep_until(phase_start + std::chrono::duration_cast<Clock::duration>(
+                                                          std::chrono::duration<double>(i / rate)));
         }
         Send(k);
         if (WaitFor(k)) {
@@ -146,32 +175,29 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
         overhead.push_back(s.latency_ms - s.core_ms);
       }
       char row[512];
-      std::snprintf(row, sizeof row, "| %s | %d | %zu | %.3f | %.3f | %.3f | %.3f | %.3f |\n",
-                    rate > 0 ? (std::to_string(static_cast<int>(rate)) + " Hz").c_str()
-                             : ("flat out (" + std::to_string(static_cast<int>(
-                                                   samples.size() / std::max(seconds, 1e-9))) +
-                                " Hz)")
-                                   .c_str(),
-                    count_, samples.size(), Percentile(latency, 0.5), Percentile(latency, 0.9),
-                    Percentile(core, 0.5), Percentile(overhead, 0.5), Percentile(overhead, 0.9));
+      std::snprintf(
+          row, sizeof row, "| %s | %d | %zu | %.3f | %.3f | %.3f | %.3f | %.3f |\n",
+          rate > 0 ? (std::to_string(static_cast<int>(rate)) + " Hz").c_str()
+                   : ("flat out (" +
+                      std::to_string(static_cast<int>(samples.size() / std::max(seconds, 1e-9))) +
+                      " Hz)")
+                         .c_str(),
+          options_.count, samples.size(), Percentile(latency, 0.5), Percentile(latency, 0.9),
+          Percentile(core, 0.5), Percentile(overhead, 0.5), Percentile(overhead, 0.9));
       table << row;
     }
     std::printf("bsf_vpr pipeline_benchmark (%ld x %ld queries):\n%s", queries_.rows(),
                 queries_.cols(), table.str().c_str());
     std::fflush(stdout);
-    if (!output_.empty()) WriteFileAtomically(output_, table.str());
+    if (!options_.output.empty()) WriteFileAtomically(options_.output, table.str());
     std_msgs::String results;
     results.data = table.str();
     results_pub_.publish(results);
-    if (shutdown_when_done_ && !stop_) ros::requestShutdown();
+    if (options_.shutdown_when_done && !stop_) ros::requestShutdown();
   }
 
+  PipelineBenchmarkOptions options_;
   RowMatrixXf queries_;
-  int count_ = 200, warmup_ = 10;
-  std::vector<double> rates_hz_;
-  std::string output_;
-  bool shutdown_when_done_ = true;
-  double timeout_s_ = 10;
   ros::Publisher pub_, results_pub_;
   ros::Subscriber sub_;
   std::mutex mutex_;

@@ -19,7 +19,7 @@ Writes the reference set PATH.yaml and its descriptors beside it as
 <stem>.<content hash>.npy (float32), which the YAML names: row k is place k (images
 sorted by name). The .npy is written first and the YAML replaced last, in one step: a set
 that existed at PATH.yaml stays whole until the new one is; its old .npy is then removed.
-  --images DIR            describe the images with --descriptor (below)
+  --images DIR            describe the images with --image-descriptor (below)
   --descriptors PATH      or take the rows of a descriptor .npy as they are
   --name NAME             name of the reference set
   --out PATH.yaml         the YAML to write (missing folders are created)
@@ -38,7 +38,7 @@ int Run(int argc, char** argv) {
   std::string images, descriptors, name, out, condition, distance;
   ImageDescriberOptions describer;
   std::string describer_flag;  // the first image-descriptor flag given, if any
-  tools::FlagReader flags(argc, argv, tools::DescriberSwitches());
+  tools::FlagReader flags(argc, argv);
   for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--images") {
       images = v;
@@ -52,8 +52,7 @@ int Run(int argc, char** argv) {
       condition = v;
     } else if (f == "--distance") {
       distance = ToString(ParseDistanceMetric(v));
-    } else if (tools::ParseDescriberSwitch(f, &describer) ||
-               tools::ParseDescriberFlag(f, v, &describer)) {
+    } else if (tools::ParseDescriberFlag(f, v, &describer)) {
       if (describer_flag.empty()) describer_flag = f;
     } else {
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
@@ -76,7 +75,7 @@ int Run(int argc, char** argv) {
   }
   ReferenceSet set;
   if (!images.empty()) {
-    tools::ValidateDescriberOptions(describer);
+    ValidateImageDescriberOptions(describer);
     set = tools::DescribeImageFolderAsSet(images, name, *MakeImageDescriber(describer));
   } else {
     set = LoadReferenceSetNpy(descriptors, name);

@@ -49,6 +49,7 @@ bool FlagReader::Next(std::string* flag, std::string* value) {
     help_ = true;
     return false;
   }
+  RefuseRenamedFlag(*flag);
   if (std::find(switches_.begin(), switches_.end(), *flag) != switches_.end()) {
     value->clear();
     ++i_;
@@ -58,6 +59,38 @@ bool FlagReader::Next(std::string* flag, std::string* value) {
   *value = argv_[i_ + 1];
   i_ += 2;
   return true;
+}
+
+void RefuseRenamedFlag(const std::string& flag) {
+  static const std::vector<std::pair<std::string, std::string>> kRenamed = {
+      {"--gamma", "--gamma-fraction G"},
+      {"--seq-length", "--sequence-length L"},
+      {"--seq-warmup", "--sequence-use-partial true|false"},
+      {"--seq-min-velocity", "--sequence-min-velocity V"},
+      {"--seq-max-velocity", "--sequence-max-velocity V"},
+      {"--seq-velocity-step", "--sequence-velocity-step V"},
+      {"--filter-step", "--filter-step-mean-places S"},
+      {"--filter-std", "--filter-step-std-places S"},
+      {"--relocalization", "--relocalization-probability R"},
+      {"--descriptor", "--image-descriptor patchnorm|hog|onnx"},
+      {"--patch-width", "--patch-width-px W"},
+      {"--patch-height", "--patch-height-px H"},
+      {"--patch-size", "--patch-size-px P"},
+      {"--hog-width", "--hog-width-px W"},
+      {"--hog-height", "--hog-height-px H"},
+      {"--hog-cell", "--hog-cell-px C"},
+      {"--onnx-input", "--onnx-input-width-px W --onnx-input-height-px H"},
+      {"--onnx-output", "--onnx-output-layer NAME"},
+      {"--onnx-pca", "--onnx-pca-path PATH"},
+      {"--onnx-bgr", "--onnx-rgb false"},
+      {"--onnx-no-l2", "--onnx-l2-normalize false"},
+  };
+  for (const auto& [old_flag, now] : kRenamed) {
+    if (flag == old_flag) {
+      throw std::invalid_argument(flag + " was renamed: use " + now +
+                                  " (options have the names of the ROS parameters)");
+    }
+  }
 }
 
 int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv) {

@@ -22,7 +22,7 @@ void CreateParentFolders(const std::string& file);
 
 // Reads the "--flag value" pairs of argv in order; a flag among `switches` stands alone (its
 // value is ""). Next() returns false at the end or at -h/--help (then help() is true); it
-// throws std::invalid_argument for a flag without value.
+// throws std::invalid_argument for a flag without value or a renamed one (RefuseRenamedFlag).
 class FlagReader {
  public:
   FlagReader(int argc, char** argv, std::vector<std::string> switches = {})
@@ -37,6 +37,11 @@ class FlagReader {
   int i_ = 1;
   bool help_ = false;
 };
+
+// Throws std::invalid_argument naming the new spelling when `flag` is one that was renamed
+// so that each option has one name everywhere (--gamma is now --gamma-fraction, as the ROS
+// parameter gamma_fraction).
+void RefuseRenamedFlag(const std::string& flag);
 
 // Runs `run(argc, argv)`; an exception becomes "<tool>: error: <what>" and kExitBadInput.
 int RunTool(const char* tool, int (*run)(int, char**), int argc, char** argv);

@@ -16,7 +16,7 @@ Evaluates place recognition methods offline: no ROS master needed.
 
 Inputs (either descriptors, or precomputed per-source matrices):
   --reference NAME=PATH   a reference set: descriptor .npy (N x D), reference-set .yaml,
-                          or a folder of images (described with --descriptor, below).
+                          or a folder of images (described with --image-descriptor, below).
                           Repeat for M sets.
   --query PATH            the query traversal, of the same kinds (Q x D)
   --distances NAME=PATH   a Q x N .npy of distances from every query to every place for
@@ -44,26 +44,18 @@ Ground truth (one of):
   --tolerance-m R         a match is correct when its place pose lies within R metres of
                           the query's pose (poses from the query and reference YAMLs)
 
-Methods and parameters:
+Methods:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
                           nn:<set>, bayes:<set>, and 'all' (every one of these, with nn:
                           and bayes: for every set; the default). Suffixes over time
                           (queries in traversal order): +filter (temporal filter prior,
                           Bayesian methods) and +seq (sequence matching), e.g. bsf+seq,
                           nn:winter+seq, all,bsf+filter. A repeated method runs once.
-  --gamma G               selection fraction gamma (default 0.04)
-  --selection relative|standardized   selection rule (default relative)
-  --likelihood one_sided|two_sided    likelihood variant (default one_sided)
-  --threshold H           acceptance threshold h: p:0.9 / 0.9 (posterior probability) or
-                          logodds:5 (default p:0.5); only affects the accepted flag
-  --seq-length L          queries per sequence for +seq (default 5)
-  --seq-warmup partial|single   before L queries have arrived: match the shorter sequence
-                          so far (partial, default) or the single query
-  --seq-min-velocity V, --seq-max-velocity V, --seq-velocity-step V
-                          places per query searched by +seq (default 0.8 1.25 0.05)
-  --filter-step S, --filter-std S   +filter: mean and standard deviation of the progress
-                          per query, in places (default 1 1)
-  --relocalization R      +filter: probability of re-localising anywhere (default 0.01)
+
+Method options (the fusion node's parameters of the same names):
+)" + OptionsUsage(MethodOptionsTable().Infos()) +
+         R"(
+Image descriptor, for image folders (the ingest nodelet's parameters of the same names):
 )" + DescriberUsage() +
          R"(
 Output:
@@ -89,21 +81,11 @@ NamedPath ParseNamedPath(const std::string& flag, const std::string& value) {
 
 EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
   EvaluateArgs a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    if (flag == "-h" || flag == "--help") {
-      a.help = true;
-      return a;
-    }
+  FlagReader flags(argc, argv, {"--no-progress"});
+  for (std::string flag, value; flags.Next(&flag, &value);) {
     if (flag == "--no-progress") {
       a.progress = false;
-      continue;
-    }
-    if (ParseDescriberSwitch(flag, &a.describer)) continue;
-    if (flag.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + flag + "'");
-    if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
-    const std::string value = argv[++i];
-    if (flag == "--reference") {
+    } else if (flag == "--reference") {
       a.references.push_back(ParseNamedPath(flag, value));
     } else if (flag == "--query") {
       a.query = value;
@@ -131,42 +113,18 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.ground_truth = value;
     } else if (flag == "--methods") {
       a.methods = value;
-    } else if (flag == "--gamma") {
-      a.options.selection.gamma_fraction = ParseNumber(flag, value);
-    } else if (flag == "--selection") {
-      a.options.selection.rule = ParseSelectionRule(value);
-    } else if (flag == "--likelihood") {
-      a.options.likelihood.variant = ParseLikelihoodVariant(value);
-    } else if (flag == "--threshold") {
-      a.options.threshold = Threshold::Parse(value);
-    } else if (flag == "--seq-length") {
-      a.options.sequence.length = ParseInteger(flag, value);
-    } else if (flag == "--seq-warmup") {
-      if (value != "partial" && value != "single") {
-        throw std::invalid_argument("--seq-warmup expects partial or single, got '" + value + "'");
-      }
-      a.options.sequence.use_partial_sequences = value == "partial";
-    } else if (flag == "--seq-min-velocity") {
-      a.options.sequence.min_velocity = ParseNumber(flag, value);
-    } else if (flag == "--seq-max-velocity") {
-      a.options.sequence.max_velocity = ParseNumber(flag, value);
-    } else if (flag == "--seq-velocity-step") {
-      a.options.sequence.velocity_step = ParseNumber(flag, value);
-    } else if (flag == "--filter-step") {
-      a.options.filter.step_mean_places = ParseNumber(flag, value);
-    } else if (flag == "--filter-std") {
-      a.options.filter.step_std_places = ParseNumber(flag, value);
-    } else if (flag == "--relocalization") {
-      a.options.filter.relocalization_probability = ParseNumber(flag, value);
+    } else if (MethodOptionsTable().SetFromFlag(flag, value, &a.options)) {
+      // --gamma-fraction, --threshold, --sequence-*, --filter-*: the method options
     } else if (ParseDescriberFlag(flag, value, &a.describer)) {
-      // --descriptor, --patch-*, --hog-*, --onnx-*: parsed into a.describer
+      // --image-descriptor, --patch-*, --hog-*, --onnx-*: the image descriptor
     } else if (flag == "--out") {
       a.out_dir = value;
     } else {
       throw std::invalid_argument("unknown option '" + flag + "' (see --help)");
     }
   }
-  CheckCombination(a);
+  a.help = flags.help();
+  if (!a.help) CheckCombination(a);
   return a;
 }
 
@@ -205,7 +163,7 @@ void CheckCombination(const EvaluateArgs& a) {
     throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
   }
   a.options.Validate();
-  ValidateDescriberOptions(a.describer);
+  ValidateImageDescriberOptions(a.describer);
 }
 
 }  // namespace tools

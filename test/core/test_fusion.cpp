@@ -144,16 +144,18 @@ TEST(Fusion, ParallelLikelihoodsGiveBitwiseTheSameBelief) {
 TEST(Fusion, ThresholdAcceptsAboveH) {
   Fixture f(2, 200, 7);
   PlaceBelief b;
-  Threshold low = Threshold::Parse("logodds:-1e9");
+  Threshold low = Threshold{Threshold::Kind::kLogOdds, -1e9};
   FuseBayes(f.views, {0, 1}, 200, {}, nullptr, low, 5, &b);
   EXPECT_TRUE(b.accepted);
-  Threshold high = Threshold::Parse("p:0.999999");
+  Threshold high = Threshold{Threshold::Kind::kProbability, 0.999999};
   FuseBayes(f.views, {0, 1}, 200, {}, nullptr, high, 5, &b);
   EXPECT_EQ(b.accepted, b.confidence > high.LogOdds());
-  EXPECT_NEAR(Threshold::Parse("0.5").LogOdds(), 0.0, 1e-12);
-  EXPECT_NEAR(Threshold::Parse("p:0.9").LogOdds(), std::log(9.0), 1e-12);
-  EXPECT_THROW(Threshold::Parse("p:1.0"), std::invalid_argument);
-  EXPECT_THROW(Threshold::Parse("high"), std::invalid_argument);
+  EXPECT_NEAR((Threshold{Threshold::Kind::kProbability, 0.5}.LogOdds()), 0.0, 1e-12);
+  EXPECT_NEAR((Threshold{Threshold::Kind::kProbability, 0.9}.LogOdds()), std::log(9.0), 1e-12);
+  EXPECT_THROW((Threshold{Threshold::Kind::kProbability, 1.0}.Validate()), std::invalid_argument);
+  EXPECT_EQ(ParseThresholdKind("log_odds"), Threshold::Kind::kLogOdds);
+  EXPECT_EQ(ToString(Threshold::Kind::kProbability), "probability");
+  EXPECT_THROW(ParseThresholdKind("logodds"), std::invalid_argument);
 }
 
 TEST(Fusion, RefusesABadPrior) {

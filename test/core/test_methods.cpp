@@ -150,7 +150,7 @@ TEST(Methods, ANanDistanceNeverGivesAnAcceptedBelief) {
   data.d[1][7] = NAN;
   data.d[2][7] = NAN;
   MethodOptions o;
-  o.threshold = Threshold::Parse("logodds:-1000");
+  o.threshold = Threshold{Threshold::Kind::kLogOdds, -1000};
   try {
     const PlaceBelief b = RunMethod(ParseMethod("bayes_full", kNames), data.views, 50, o);
     EXPECT_FALSE(b.log_posterior.hasNaN());

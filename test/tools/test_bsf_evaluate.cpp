@@ -10,10 +10,10 @@
 #include <map>
 #include <sstream>
 
+#include "../core/test_util.h"
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
-#include "../core/test_util.h"
 #include "tool_test_util.h"
 
 namespace bsf_vpr {
@@ -372,17 +372,27 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
            " --tolerance 2",
        "already loaded"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --methods nn:dusk", "dusk"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma -1",
-       "gamma_fraction"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma abc",
-       "--gamma expects a number"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma-fraction -1",
+       "--gamma-fraction must be >= 0"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma-fraction abc",
+       "--gamma-fraction expects a number"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --distance l1", "'l1'"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --likelihood x", "'x'"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --seq-warmup z", "'z'"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --sequence-use-partial z",
+       "--sequence-use-partial expects true or false, got 'z'"},
+      // The former spellings name the option's one name.
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --gamma 0.1",
+       "--gamma was renamed: use --gamma-fraction"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --seq-warmup single",
+       "use --sequence-use-partial true|false"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --threshold logodds:5",
+       "--threshold expects a number, got 'logodds:5'"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --threshold-kind logodds",
+       "--threshold-kind must be probability | log_odds"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --methods nn:day+filter",
        "+filter needs a Bayesian method"},
       {"--reference day=" + day + " --query " + night + " --tolerance 2 --selection y", "'y'"},
-      {"--reference day=" + day + " --query " + night + " --tolerance 2 --threshold p:2", "(0, 1)"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --threshold 2", "(0, 1)"},
       {"--reference day=" + day + " --query " + night + " --ground-truth /nonexistent/gt.csv",
        "gt.csv"},
       {"--reference day=" + day + " --distances d=" + dir_ + "/short.npy --tolerance 2",
@@ -458,23 +468,23 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   const std::string in = "--reference winter=" + root + "winter --query " + root +
                          "summer --distance cosine --tolerance 2 --methods bsf,nn:winter "
                          "--no-progress --out ";
-  const Result hog = Evaluate(in + dir_ + "/hog --descriptor hog");
+  const Result hog = Evaluate(in + dir_ + "/hog --image-descriptor hog");
   ASSERT_EQ(hog.exit_code, 0) << hog.output;
   EXPECT_NE(hog.output.find("dimension 756"), std::string::npos) << hog.output;
   EXPECT_GT(Summary(dir_ + "/hog").at("bsf").at("r_at_1"), 0.05);  // chance: 5/1500
   const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
-  const Result onnx =
-      Evaluate(in + dir_ + "/onnx --descriptor onnx --onnx-model " + model + " --onnx-input 7x7");
+  const Result onnx = Evaluate(in + dir_ + "/onnx --image-descriptor onnx --onnx-model " + model +
+                               " --onnx-input-width-px 7 --onnx-input-height-px 7");
   ASSERT_EQ(onnx.exit_code, 0) << onnx.output;
   EXPECT_NE(onnx.output.find("dimension 48"), std::string::npos) << onnx.output;
   const Result missing =
-      Evaluate(in + dir_ + "/x --descriptor onnx --onnx-model /nonexistent.onnx");
+      Evaluate(in + dir_ + "/x --image-descriptor onnx --onnx-model /nonexistent.onnx");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("/nonexistent.onnx"), std::string::npos) << missing.output;
-  const Result no_model = Evaluate(in + dir_ + "/x --descriptor onnx");
+  const Result no_model = Evaluate(in + dir_ + "/x --image-descriptor onnx");
   EXPECT_EQ(no_model.exit_code, 2);
-  EXPECT_NE(no_model.output.find("model_path"), std::string::npos) << no_model.output;
-  const Result bad = Evaluate(in + dir_ + "/x --descriptor sift");
+  EXPECT_NE(no_model.output.find("onnx_model"), std::string::npos) << no_model.output;
+  const Result bad = Evaluate(in + dir_ + "/x --image-descriptor sift");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
 }
@@ -504,12 +514,15 @@ TEST_F(EvaluateTool, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
     std::string name, flags, distance, type;
     int dimension;
   } kDescribers[] = {
-      {"hog", "--descriptor hog --hog-width 32 --hog-height 32 --hog-cell 8 --hog-bins 6", "cosine",
-       "hog_32x32_c8_b6", 3 * 3 * 4 * 6},
+      {"hog",
+       "--image-descriptor hog --hog-width-px 32 --hog-height-px 32 --hog-cell-px 8 --hog-bins 6",
+       "cosine", "hog_32x32_c8_b6", 3 * 3 * 4 * 6},
       // Without L2 normalisation Euclidean distances depend on the norm: --onnx-no-l2 counts.
-      {"onnx", "--descriptor onnx --onnx-model " + model + " --onnx-input 7x7 --onnx-no-l2",
+      {"onnx",
+       "--image-descriptor onnx --onnx-model " + model +
+           " --onnx-input-width-px 7 --onnx-input-height-px 7 --onnx-l2-normalize false",
        "euclidean", "onnx_model_48", 48},
-      {"patchnorm", "--patch-width 32 --patch-height 16 --patch-size 4", "cosine",
+      {"patchnorm", "--patch-width-px 32 --patch-height-px 16 --patch-size-px 4", "cosine",
        "patchnorm_32x16_p4", 32 * 16},
   };
   for (const auto& d : kDescribers) {
@@ -545,16 +558,21 @@ TEST_F(EvaluateTool, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
   const std::string mk_ref =
       std::string(BSF_MAKE_REFERENCE_PATH) + " --name x --out " + dir_ + "/x/x.yaml ";
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"--images " + winter + " --descriptor sift", "unknown --descriptor 'sift'"},
-      {"--images " + winter + " --descriptor hog --hog-cell 7", "multiples of cell_px"},
-      {"--images " + winter + " --descriptor onnx", "model_path"},
-      {"--images " + winter + " --descriptor onnx --onnx-model /nonexistent.onnx",
+      {"--images " + winter + " --image-descriptor sift",
+       "--image-descriptor must be patchnorm | hog | onnx, got 'sift'"},
+      {"--images " + winter + " --image-descriptor hog --hog-cell-px 7",
+       "multiples of hog_cell_px"},
+      {"--images " + winter + " --image-descriptor onnx", "onnx_model is empty"},
+      {"--images " + winter + " --image-descriptor onnx --onnx-model /nonexistent.onnx",
        "/nonexistent.onnx"},
-      {"--images " + winter + " --descriptor onnx --onnx-model " + model + " --onnx-input 7",
-       "--onnx-input expects WxH"},
-      {"--descriptors " + kGardens + "day_left.npy --onnx-bgr", "--onnx-bgr describes images"},
-      {"--descriptors " + kGardens + "day_left.npy --descriptor hog",
-       "--descriptor describes images: it goes with --images"},
+      {"--images " + winter + " --image-descriptor onnx --onnx-model " + model +
+           " --onnx-input 7x7",
+       "--onnx-input was renamed: use --onnx-input-width-px W --onnx-input-height-px H"},
+      {"--images " + winter + " --hog-bins 0", "--hog-bins must be >= 1, got 0"},
+      {"--descriptors " + kGardens + "day_left.npy --onnx-rgb false",
+       "--onnx-rgb describes images"},
+      {"--descriptors " + kGardens + "day_left.npy --image-descriptor hog",
+       "--image-descriptor describes images: it goes with --images"},
   };
   for (const auto& [args, fragment] : bad) {
     const Result r = RunCommand(mk_ref + args);

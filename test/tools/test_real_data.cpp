@@ -29,7 +29,7 @@ using testing::Summary;
 const std::string kData = std::string(BSF_SOURCE_DIR) + "/data/";
 constexpr double kTolerance = 0.002;
 // The paper's selection and today's likelihood, spelled out.
-const std::string kPaperMode = " --selection relative --gamma 0.04 --likelihood one_sided";
+const std::string kPaperMode = " --selection relative --gamma-fraction 0.04 --likelihood one_sided";
 
 struct Case {
   std::string query, descriptor;
@@ -82,7 +82,7 @@ TEST_F(RealData, NordlandHundredFusesTwoSeasonsForTheThird) {
     for (const std::string season : {"summer", "fall", "winter"}) {
       if (season != c.query) refs += " --reference " + season + "=" + n100 + season;
     }
-    ExpectAucs(refs + " --query " + n100 + c.query + " --descriptor " + c.descriptor +
+    ExpectAucs(refs + " --query " + n100 + c.query + " --image-descriptor " + c.descriptor +
                    " --distance cosine --tolerance 2",
                c.auc, c.query + "/" + c.descriptor);
   }
@@ -105,7 +105,7 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
              "corridor, relative selection");
   // The scale-free rule.
   ExpectAucs(args, {{"bsf", 0.7493}, {"med_selective", 0.7068}}, "corridor, standardized",
-             " --selection standardized --gamma 0.04 --likelihood one_sided");
+             " --selection standardized --gamma-fraction 0.04 --likelihood one_sided");
 }
 
 }  // namespace

@@ -20,14 +20,14 @@ namespace bsf_vpr {
 struct Threshold {
   enum class Kind { kProbability, kLogOdds };
   Kind kind = Kind::kProbability;
-  double value = 0.5;
+  double value = 0.9;
 
   double LogOdds() const;
   // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
   void Validate() const;
-  // "p:0.99" or "0.99" (probability), "logodds:12" (log-odds).
-  static Threshold Parse(const std::string& text);
 };
+Threshold::Kind ParseThresholdKind(const std::string& name);  // probability | log_odds
+std::string ToString(Threshold::Kind kind);
 
 // The outcome of one query under one method.
 struct PlaceBelief {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -57,6 +58,15 @@ struct ImageDescriberOptions {
   HogOptions hog;
   OnnxOptions onnx;
 };
+
+// The options of ImageDescriberOptions: ROS parameters of the ingest nodelet and flags of
+// the tools that describe image folders (--image-descriptor hog --hog-cell-px 8).
+const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable();
+
+// Checks the options of the chosen describer (and the patch-normalised ones, always).
+// Throws std::invalid_argument naming the bad option. A missing ONNX model is found later,
+// by MakeImageDescriber.
+void ValidateImageDescriberOptions(const ImageDescriberOptions& options);
 
 class ImageDescriber {
  public:

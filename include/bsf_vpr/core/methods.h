@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/fusion.h"
+#include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/sequence_matcher.h"
 #include "bsf_vpr/core/temporal_filter.h"
 
@@ -63,6 +64,10 @@ struct MethodOptions {
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
+
+// The options of MethodOptions (options.h): the same names as ROS parameters, as
+// command-line flags (--gamma-fraction) and in dynamic_reconfigure.
+const OptionTable<MethodOptions>& MethodOptionsTable();
 
 // Runs `method` on one query's distances to every set of the map (`sets[u]` for set u,
 // each with count > 0). `log_prior` (N entries, may be unnormalised) or null for uniform;

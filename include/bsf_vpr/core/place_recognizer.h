@@ -26,6 +26,10 @@ struct RecognizerOptions {
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
 
+// The options of RecognizerOptions: method and the MethodOptionsTable() (the metric is the
+// loaded sets' own, chosen by whoever loads them).
+const OptionTable<RecognizerOptions>& RecognizerOptionsTable();
+
 struct Recognition {
   PlaceBelief belief;
   // Among the sets the method used, the one whose descriptor of the matched place is closest

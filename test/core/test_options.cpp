@@ -1,0 +1,190 @@
+// The options tables: one declaration per option gives the defaults, the flags, the checks
+// and the usage text; every table entry reads and writes its own member.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <stdexcept>
+
+#include "bsf_vpr/core/image_describer.h"
+#include "bsf_vpr/core/methods.h"
+#include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/place_recognizer.h"
+
+namespace bsf_vpr {
+namespace {
+
+// A valid value of `info` that differs from its default.
+OptionValue OtherValue(const OptionInfo& info) {
+  const OptionValue& d = info.default_value;
+  switch (info.type) {
+    case OptionType::kBool:
+      return !std::get<bool>(d);
+    case OptionType::kInt: {
+      const long long v = std::get<long long>(d);
+      return v + 1 <= info.bounds.max ? v + 1 : v - 1;
+    }
+    case OptionType::kDouble: {
+      const double v = std::get<double>(d);
+      const double up = v + 0.125;
+      if (up < info.bounds.max) return up;
+      return v - 0.125 > info.bounds.min ? v - 0.125 : (v + info.bounds.min) / 2;
+    }
+    case OptionType::kChoice:
+      for (const std::string& c : info.choices) {
+        if (c != std::get<std::string>(d)) return c;
+      }
+      break;
+    case OptionType::kDoubleList: {
+      std::vector<double> v = std::get<std::vector<double>>(d);
+      v.push_back(0.5);
+      return v;
+    }
+    case OptionType::kString:
+      return std::get<std::string>(d) + "x";
+    case OptionType::kExternal:
+      break;
+  }
+  ADD_FAILURE() << info.name << " has no other value";
+  return d;
+}
+
+// Setting one option through a source changes that option and no other: each entry is
+// wired to its own member, and the default is the struct's.
+template <typename S>
+void ExpectEachOptionOwnsItsMember(const OptionTable<S>& table) {
+  const S defaults{};
+  std::set<std::string> names;
+  for (const auto& spec : table.specs()) {
+    EXPECT_TRUE(names.insert(spec.info.name).second) << "twice: " << spec.info.name;
+    if (!spec.get) continue;
+    EXPECT_EQ(spec.get(defaults), spec.info.default_value) << spec.info.name;
+    const OptionValue other = OtherValue(spec.info);
+    MapOptionSource source({{spec.info.name, other}});
+    S changed{};
+    table.Apply(source, &changed);
+    EXPECT_TRUE(source.Unread().empty());
+    for (const auto& [name, value] : table.Values(changed)) {
+      if (name == spec.info.name) {
+        EXPECT_EQ(value, other) << name;
+      } else {
+        EXPECT_EQ(value, table.Find(name)->info.default_value)
+            << "setting " << spec.info.name << " changed " << name;
+      }
+    }
+    // The same through its command-line flag.
+    S flagged{};
+    ASSERT_TRUE(table.SetFromFlag(OptionFlag(spec.info.name), FormatOptionValue(other), &flagged))
+        << spec.info.name;
+    EXPECT_EQ(spec.get(flagged), other) << spec.info.name;
+  }
+}
+
+TEST(Options, EveryTableEntryOwnsItsMember) {
+  ExpectEachOptionOwnsItsMember(MethodOptionsTable());
+  ExpectEachOptionOwnsItsMember(RecognizerOptionsTable());
+  ExpectEachOptionOwnsItsMember(ImageDescriberOptionsTable());
+}
+
+TEST(Options, OneDefaultThresholdEverywhere) {
+  // The core, bsf_evaluate and the node share the struct's default (it was 0.5 in the
+  // core and the evaluator but 0.9 in the node).
+  const OptionInfo& info = MethodOptionsTable().Find("threshold")->info;
+  EXPECT_EQ(info.default_value, OptionValue(0.9));
+  EXPECT_EQ(MethodOptions().threshold.value, 0.9);
+  EXPECT_EQ(MethodOptionsTable().Find("threshold_kind")->info.default_value,
+            OptionValue(std::string("probability")));
+}
+
+TEST(Options, FlagsTakeDashesOrUnderscores) {
+  MethodOptions o;
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--gamma-fraction", "0.25", &o));
+  EXPECT_EQ(o.selection.gamma_fraction, 0.25);
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--gamma_fraction", "0.5", &o));
+  EXPECT_EQ(o.selection.gamma_fraction, 0.5);
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--sequence-use-partial", "false", &o));
+  EXPECT_FALSE(o.sequence.use_partial_sequences);
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--threshold-kind", "log_odds", &o));
+  EXPECT_EQ(o.threshold.kind, Threshold::Kind::kLogOdds);
+  EXPECT_FALSE(MethodOptionsTable().SetFromFlag("--gamma", "0.5", &o));  // not an option
+  EXPECT_FALSE(MethodOptionsTable().SetFromFlag("gamma_fraction", "0.5", &o));
+  EXPECT_EQ(o.selection.gamma_fraction, 0.5);
+}
+
+void ExpectThrowsWith(const std::function<void()>& f, const std::string& part) {
+  try {
+    f();
+    ADD_FAILURE() << "no exception; expected one with '" << part << "'";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+  }
+}
+
+TEST(Options, BadValuesNameTheOptionAndChangeNothing) {
+  const auto& t = MethodOptionsTable();
+  MethodOptions o;
+  ExpectThrowsWith([&] { t.SetFromFlag("--gamma-fraction", "-1", &o); },
+                   "--gamma-fraction must be >= 0, got -1");
+  ExpectThrowsWith([&] { t.SetFromFlag("--gamma-fraction", "abc", &o); },
+                   "--gamma-fraction expects a number, got 'abc'");
+  ExpectThrowsWith([&] { t.SetFromFlag("--relocalization-probability", "0", &o); },
+                   "must be in (0, 1]");
+  ExpectThrowsWith([&] { t.SetFromFlag("--selection", "best", &o); },
+                   "--selection must be relative | standardized, got 'best'");
+  ExpectThrowsWith([&] { t.SetFromFlag("--top-k", "2.5", &o); }, "expects a whole number");
+  ExpectThrowsWith([&] { t.SetFromFlag("--top-k", "99999999999", &o); }, "out of range");
+  ExpectThrowsWith([&] { t.SetFromFlag("--sequence-use-partial", "yes", &o); },
+                   "expects true or false");
+  ExpectThrowsWith([&] { t.SetFromFlag("--filter-step-mean-places", "nan", &o); },
+                   "--filter-step-mean-places");
+  EXPECT_EQ(o.selection.gamma_fraction, MethodOptions().selection.gamma_fraction);
+  EXPECT_EQ(o.top_k, MethodOptions().top_k);
+}
+
+TEST(Options, SourcesAreTypedAndTracked) {
+  MapOptionSource source({{"gamma_fraction", 1LL},  // a whole number for a double: fine
+                          {"top_k", 3.5},           // a double for an int: refused
+                          {"unheard_of", true}},
+                         "/bsf_vpr/");
+  MethodOptions o;
+  ExpectThrowsWith([&] { MethodOptionsTable().Apply(source, &o); },
+                   "/bsf_vpr/top_k must be a whole number, got '3.5'");
+  EXPECT_EQ(o.selection.gamma_fraction, 1.0);
+  EXPECT_EQ(source.Unread(), std::vector<std::string>{"unheard_of"});
+}
+
+TEST(Options, LiveOnlyLeavesTheOthers) {
+  MapOptionSource source({{"top_k", 3LL}, {"threshold", 0.5}});
+  MethodOptions o;
+  MethodOptionsTable().Apply(source, &o, /*live_only=*/true);
+  EXPECT_EQ(o.top_k, MethodOptions().top_k);  // top_k is not live
+  EXPECT_EQ(o.threshold.value, 0.5);
+  for (const OptionInfo& info : MethodOptionsTable().Infos(/*live_only=*/true)) {
+    EXPECT_TRUE(info.live) << info.name;
+  }
+}
+
+TEST(Options, UsageListsEveryFlagWithItsDefault) {
+  const std::string usage = OptionsUsage(MethodOptionsTable().Infos());
+  for (const OptionInfo& info : MethodOptionsTable().Infos()) {
+    EXPECT_NE(usage.find(OptionFlag(info.name)), std::string::npos) << info.name;
+  }
+  EXPECT_NE(usage.find("default 0.04"), std::string::npos) << usage;
+  EXPECT_NE(usage.find("relative | standardized"), std::string::npos) << usage;
+  for (size_t start = 0, end; start < usage.size(); start = end + 1) {
+    end = usage.find('\n', start);
+    EXPECT_LE(end - start, 92u) << usage.substr(start, end - start);
+  }
+}
+
+TEST(Options, FormatsValuesAsUsersWriteThem) {
+  EXPECT_EQ(FormatOptionValue(0.04), "0.04");
+  EXPECT_EQ(FormatOptionValue(1.0), "1.0");
+  EXPECT_EQ(FormatOptionValue(1e-9), "1e-09");
+  EXPECT_EQ(FormatOptionValue(12LL), "12");
+  EXPECT_EQ(FormatOptionValue(std::vector<double>{0.5, 2}), "0.5,2.0");
+  EXPECT_EQ(OptionFlag("filter_step_mean_places"), "--filter-step-mean-places");
+  EXPECT_EQ(OptionNameFromFlag("--filter-step_mean-places"), "filter_step_mean_places");
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,0 +1,230 @@
+// End-to-end tests of the tools that make bsf_vpr's inputs (bsf_make_reference,
+// bsf_make_bag, bsf_make_synthetic), run as a user would run them.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "bsf_vpr/core/reference_set_io.h"
+#include "tool_test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kSource = BSF_SOURCE_DIR;
+const std::string kGardens = kSource + "/data/gardens_point_hdc_delf/";
+
+using testing::Evaluate;
+using testing::Lines;
+using testing::Result;
+using testing::RunCommand;
+
+class MakeTools : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/bsf_make_XXXXXX";
+    dir_ = mkdtemp(tmpl);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string dir_;
+};
+
+TEST_F(MakeTools, MakeReferenceAndMakeBagWriteFilesOrFailCleanly) {
+  const std::string mk_ref = BSF_MAKE_REFERENCE_PATH, mk_bag = BSF_MAKE_BAG_PATH;
+  EXPECT_EQ(RunCommand(mk_ref + " --help").exit_code, 0);
+  EXPECT_EQ(RunCommand(mk_bag + " --help").exit_code, 0);
+  const Result ref =
+      RunCommand(mk_ref + " --descriptors " + kGardens + "day_left.npy --name day " +
+                 "--condition day --distance cosine --out " + dir_ + "/sets/day.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  const ReferenceSet day = LoadReferenceSetFile(dir_ + "/sets/day.yaml", "");
+  EXPECT_EQ(day.size(), 200);
+  EXPECT_EQ(day.condition, "day");
+  EXPECT_EQ(day.distance, "cosine");
+  const Result bag = RunCommand(mk_bag + " --descriptors " + kGardens + "night_right.npy " +
+                                "--tolerance 8 --rate 20 --limit 50 --out " + dir_ + "/night.bag");
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  EXPECT_NE(bag.output.find("50 queries"), std::string::npos) << bag.output;
+  EXPECT_TRUE(fs::exists(dir_ + "/night.bag"));
+  // A bag of queries holds no beliefs: the results-bag mode says so.
+  const Result no_beliefs = Evaluate("--results-bag " + dir_ + "/night.bag --tolerance 2");
+  EXPECT_EQ(no_beliefs.exit_code, 2);
+  EXPECT_NE(no_beliefs.output.find("no bsf_vpr/Belief"), std::string::npos) << no_beliefs.output;
+
+  std::ofstream(dir_ + "/poses.csv") << "query,x,y,z,yaw\n0,1,2,3\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {mk_ref + " --images " + dir_ + " --name x --out " + dir_ + "/x.yaml", "no image files"},
+      {mk_ref + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/x.yaml", "--name"},
+      {mk_ref + " --descriptors " + kGardens + "day_left.npy --name x --out " + dir_ + "/x.npy",
+       ".yaml"},
+      {mk_ref + " --images a --descriptors b --name x --out x.yaml", "exactly one"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy", "--out"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/b.bag --rate 0",
+       "--rate"},
+      {mk_bag + " --descriptors " + kGardens + "day_left.npy --out " + dir_ + "/b.bag --poses " +
+           dir_ + "/poses.csv",
+       "query,x,y,z,yaw"},
+      {mk_bag + " --images /nonexistent --out " + dir_ + "/b.bag", "/nonexistent"},
+      {std::string(BSF_EVALUATE_PATH) + " --results-bag /nonexistent.bag",
+       "cannot read results bag"},
+      {std::string(BSF_EVALUATE_PATH) + " --results-bag x.bag --reference a=" + kGardens +
+           "day_left.npy",
+       "--results-bag goes without"},
+  };
+  for (const auto& [command, fragment] : cases) {
+    const Result r = RunCommand(command);
+    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << command << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/b.bag"));  // nothing half-written is left behind
+  EXPECT_FALSE(fs::exists(dir_ + "/b.bag.tmp"));
+}
+
+TEST_F(MakeTools, ToolsCreateTheFoldersTheyWriteInto) {
+  const std::string day = kGardens + "day_left.npy", night = kGardens + "night_right.npy";
+  const Result bag = RunCommand(std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night +
+                                " --tolerance 8 --limit 5 --out " + dir_ + "/a/b/night.bag");
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/a/b/night.bag"));
+  const Result ref = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day +
+                                " --name day --out " + dir_ + "/c/d/day.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/c/d/day.yaml"));
+  EXPECT_EQ(LoadReferenceSetYaml(dir_ + "/c/d/day.yaml").size(), 200);  // and its .npy
+  const Result syn =
+      RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/e/f");
+  ASSERT_EQ(syn.exit_code, 0) << syn.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/e/f/queries.npy"));
+  const std::string in = "--reference day=" + day + " --query " + night +
+                         " --distance cosine --tolerance 3 --methods bsf --no-progress --out ";
+  const Result eval = Evaluate(in + dir_ + "/g/h");
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  EXPECT_TRUE(fs::is_regular_file(dir_ + "/g/h/summary.csv"));
+  // A folder that cannot be made (a file is in the way): one line naming it, exit 2.
+  std::ofstream(dir_ + "/file") << "x";
+  const std::vector<std::string> commands = {
+      std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + night + " --out " + dir_ +
+          "/file/sub/n.bag",
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " + day + " --name day --out " + dir_ +
+          "/file/sub/day.yaml",
+      std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/file/sub",
+  };
+  for (const std::string& command : commands) {
+    const Result r = RunCommand(command);
+    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find("cannot create folder '" + dir_ + "/file/sub'"), std::string::npos)
+        << command << "\n"
+        << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  const Result bad_eval = Evaluate(in + dir_ + "/file/sub");
+  EXPECT_EQ(bad_eval.exit_code, 2);
+  EXPECT_NE(bad_eval.output.find(dir_ + "/file/"), std::string::npos) << bad_eval.output;
+}
+
+// The first `count` images of a shipped Nordland season, copied into dir/season.
+std::string CopyImages(const std::string& season, int count, const std::string& dir) {
+  const std::string from = kSource + "/data/nordland_64x32/" + season;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(from)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  const std::string to = dir + "/" + season;
+  fs::create_directories(to);
+  for (int k = 0; k < count && k < static_cast<int>(files.size()); ++k) {
+    fs::copy_file(files[static_cast<size_t>(k)], to + "/" + files[k].filename().string());
+  }
+  return to;
+}
+
+TEST_F(MakeTools, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
+  // 100 winter images as the reference, 100 summer images as queries. A set made with
+  // HOG or an ONNX network (flags away from their defaults, a switch among them) must
+  // give exactly the evaluator's own results for the image folder with the same flags.
+  const std::string winter = CopyImages("winter", 100, dir_);
+  const std::string summer = CopyImages("summer", 100, dir_);
+  const std::string model = kSource + "/test/data/models/maxpool2d/model.onnx";
+  const struct {
+    std::string name, flags, distance, type;
+    int dimension;
+  } kDescribers[] = {
+      {"hog",
+       "--image-descriptor hog --hog-width-px 32 --hog-height-px 32 --hog-cell-px 8 --hog-bins 6",
+       "cosine", "hog_32x32_c8_b6", 3 * 3 * 4 * 6},
+      // Without L2 normalisation Euclidean distances depend on the norm: --onnx-no-l2 counts.
+      {"onnx",
+       "--image-descriptor onnx --onnx-model " + model +
+           " --onnx-input-width-px 7 --onnx-input-height-px 7 --onnx-l2-normalize false",
+       "euclidean", "onnx_model_48", 48},
+      {"patchnorm", "--patch-width-px 32 --patch-height-px 16 --patch-size-px 4", "cosine",
+       "patchnorm_32x16_p4", 32 * 16},
+  };
+  for (const auto& d : kDescribers) {
+    const std::string yaml = dir_ + "/sets/" + d.name + ".yaml";
+    const Result made =
+        RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --images " + winter +
+                   " --name winter --distance " + d.distance + " " + d.flags + " --out " + yaml);
+    ASSERT_EQ(made.exit_code, 0) << made.output;
+    EXPECT_NE(made.output.find(d.type), std::string::npos) << made.output;
+    const ReferenceSet set = LoadReferenceSetYaml(yaml);
+    EXPECT_EQ(set.descriptor_type, d.type);
+    EXPECT_EQ(set.distance, d.distance);
+    EXPECT_EQ(set.size(), 100);
+    EXPECT_EQ(set.dimension(), d.dimension);
+
+    const std::string common = " --query " + summer + " --distance " + d.distance + " " + d.flags +
+                               " --tolerance 2 --methods bsf,nn:winter --no-progress --out ";
+    const Result from_set = Evaluate("--reference winter=" + yaml + common + dir_ + "/a_" + d.name);
+    ASSERT_EQ(from_set.exit_code, 0) << from_set.output;
+    const Result from_images =
+        Evaluate("--reference winter=" + winter + common + dir_ + "/b_" + d.name);
+    ASSERT_EQ(from_images.exit_code, 0) << from_images.output;
+    const std::vector<std::string> summary = Lines(dir_ + "/a_" + d.name + "/summary.csv");
+    ASSERT_EQ(summary.size(), 3u) << d.name;
+    EXPECT_EQ(summary, Lines(dir_ + "/b_" + d.name + "/summary.csv")) << d.name;
+    for (const char* m : {"bsf", "nn_winter"}) {
+      const std::string matches = std::string("/matches/") + m + ".csv";
+      EXPECT_EQ(Lines(dir_ + "/a_" + d.name + matches), Lines(dir_ + "/b_" + d.name + matches))
+          << d.name << " " << m;
+    }
+  }
+  // The flags are the evaluator's: the same checks, and descriptor flags need images.
+  const std::string mk_ref =
+      std::string(BSF_MAKE_REFERENCE_PATH) + " --name x --out " + dir_ + "/x/x.yaml ";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"--images " + winter + " --image-descriptor sift",
+       "--image-descriptor must be patchnorm | hog | onnx, got 'sift'"},
+      {"--images " + winter + " --image-descriptor hog --hog-cell-px 7",
+       "multiples of hog_cell_px"},
+      {"--images " + winter + " --image-descriptor onnx", "onnx_model is empty"},
+      {"--images " + winter + " --image-descriptor onnx --onnx-model /nonexistent.onnx",
+       "/nonexistent.onnx"},
+      {"--images " + winter + " --image-descriptor onnx --onnx-model " + model +
+           " --onnx-input 7x7",
+       "--onnx-input was renamed: use --onnx-input-width-px W --onnx-input-height-px H"},
+      {"--images " + winter + " --hog-bins 0", "--hog-bins must be >= 1, got 0"},
+      {"--descriptors " + kGardens + "day_left.npy --onnx-rgb false",
+       "--onnx-rgb describes images"},
+      {"--descriptors " + kGardens + "day_left.npy --image-descriptor hog",
+       "--image-descriptor describes images: it goes with --images"},
+  };
+  for (const auto& [args, fragment] : bad) {
+    const Result r = RunCommand(mk_ref + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/x"));
+}
+
+TEST_F(MakeTools, MakeSyntheticRefusesABadNumberList) {
+  const Result syn =
+      RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --out " + dir_ + "/s --set-noise 0.1,x");
+  EXPECT_EQ(syn.exit_code, 2);
+  EXPECT_NE(syn.output.find("--set-noise expects a number"), std::string::npos) << syn.output;
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -38,12 +38,13 @@ class RosParamSource : public OptionSource {
   std::vector<std::string> read_;
 };
 
-// Reads every option of `table` from `source` into a copy of `defaults` and returns it.
-// Throws std::invalid_argument naming the parameter.
+// Reads every option of `table` from `source` into a default S and returns it. Throws
+// std::invalid_argument naming the parameter.
 template <typename S>
-S LoadOptions(const OptionTable<S>& table, RosParamSource& source, S defaults = S{}) {
-  table.Apply(source, &defaults);
-  return defaults;
+S LoadOptions(const OptionTable<S>& table, RosParamSource& source) {
+  S options;
+  table.Apply(source, &options);
+  return options;
 }
 
 }  // namespace bsf_vpr

@@ -215,7 +215,10 @@ class OptionTable {
 
  private:
   OptionTable& Push(Spec s) {
-    if (s.get) s.info.default_value = s.get(S{});
+    if (s.get) {
+      const S defaults;  // a named object: GCC 12 warns falsely about a temporary's strings
+      s.info.default_value = s.get(defaults);
+    }
     specs_.push_back(std::move(s));
     return *this;
   }

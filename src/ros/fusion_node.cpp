@@ -62,6 +62,7 @@ void FusionNode::Start() {
     if (!declared.empty()) params_.recognizer.metric = ParseDistanceMetric(declared);
   }
   recognizer_.SetStoragePrecision(params_.storage);
+  recognizer_.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
   for (auto& [set, path] : sets) {
     CheckDistance(set, path);
     recognizer_.AddReferenceSet(std::move(set));
@@ -125,6 +126,8 @@ void FusionNode::Start() {
   odometry_ = std::make_unique<OdometryTracker>(nh_, params_.odometry_source,
                                                params_.odometry_topic, params_.odom_frame,
                                                params_.base_frame);
+  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
+                                                  params_.map_frame, params_.base_frame);
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -157,9 +160,13 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
-  if (recording_->recording()) {
+  // Recording by localisation waits for the match; the other modes record every descriptor.
+  const bool localized = recording_->recording() &&
+                         recording_->places() == RecordingPlaces::kLocalized;
+  if (recording_->recording() && !localized) {
     try {
-      recording_->Add(d, msg->descriptor_type);
+      const std::optional<PlacePose> pose = robot_pose_->PoseAt(msg->header.stamp);
+      recording_->Add(d, msg->descriptor_type, pose);
     } catch (const std::exception& e) {
       // Reported; recognition goes on (a recording must not stop localisation).
       RejectMessage(std::string("recording: ") + e.what());
@@ -182,6 +189,14 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   ++processed_;
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
+  if (localized && r.belief.accepted) {
+    try {
+      recording_->Add(d, msg->descriptor_type, std::nullopt,
+                      LocalizedPlace{r.belief.match, r.belief.confidence});
+    } catch (const std::exception& e) {
+      RejectMessage(std::string("recording: ") + e.what());
+    }
+  }
   counters_.Count(r, recognizer_.map());
   publisher_->Publish(msg->header, r, recognizer_, seconds);
 }
@@ -191,6 +206,12 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
                              ? params_.place_spacing_m
                              : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
   return odometry_->StepPlaces(stamp, spacing);
+}
+
+double FusionNode::PlaceSpacing() const {
+  if (params_.place_spacing_m > 0) return params_.place_spacing_m;
+  const double median = recognizer_.map().MedianPlaceSpacing().value_or(1.0);
+  return median > 0 ? median : 1.0;
 }
 
 void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {

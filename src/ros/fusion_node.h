@@ -39,6 +39,7 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "fusion_params.h"
 #include "odometry_tracker.h"
+#include "robot_pose.h"
 #include "recognition_publisher.h"
 #include "recording.h"
 #include "selection_counters.h"
@@ -59,6 +60,9 @@ class FusionNode {
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
+  // The distance between places in metres: place_spacing_m, or the median spacing of the
+  // loaded place poses, or 1. Caller holds mutex_.
+  double PlaceSpacing() const;
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void RejectMessage(const std::string& why);
@@ -90,6 +94,7 @@ class FusionNode {
   std::unique_ptr<RecognitionPublisher> publisher_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<OdometryTracker> odometry_;
+  std::unique_ptr<RobotPoseSource> robot_pose_;  // for recording by pose
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;

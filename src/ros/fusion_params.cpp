@@ -102,9 +102,27 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "robot frame when odometry_source is tf")
           .Add(
               "place_spacing_m", [](auto& p) -> auto& { return p.place_spacing_m; },
-              "distance between places that turns odometry into a step in places; 0: the "
-              "median spacing of the loaded place poses",
+              "distance between places along the route: turns odometry into a step in places "
+              "(+filter), and spaces the places a recording by pose makes where the map has "
+              "none; 0: the median spacing of the loaded place poses (1 m without any)",
               "m", AtLeast(0))
+          .AddChoice(
+              "pose_source", [](auto& p) -> auto& { return p.pose_source; },
+              "where the robot's pose in map_frame comes from when recording by pose: "
+              "tf (map_frame -> base_frame), topic (nav_msgs/Odometry on pose_topic, "
+              "its pose taken as in map_frame) or none",
+              {"tf", "topic", "none"}, [](const std::string& v) { return v; })
+          .Add(
+              "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
+              "nav_msgs/Odometry topic of the robot's pose in map_frame when pose_source is "
+              "topic")
+          .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
+                   {"place_spacing_m"})
+          .Add(
+              "place_pose_tolerance_m", [](auto& p) -> auto& { return p.place_pose_tolerance_m; },
+              "a reference set (loaded or recorded) that puts a place farther than this from "
+              "where the loaded sets have it is refused: its place ids belong to another map",
+              "m", Above(0))
           .Add(
               "map_frame", [](auto& p) -> auto& { return p.map_frame; },
               "frame of the place poses, parent of place_frame")

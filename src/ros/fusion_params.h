@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "odometry_tracker.h"
 #include "param_util.h"
@@ -43,6 +44,14 @@ struct FusionParams {
   std::string odom_frame = "odom";
   std::string base_frame = "base_link";
   double place_spacing_m = 0;
+  // Recording by pose (start_recording places: pose): where the robot's pose in map_frame
+  // comes from, "tf" (map_frame -> base_frame), "topic" (nav_msgs/Odometry on pose_topic,
+  // its pose taken as in map_frame) or "none"; and how it is associated with the places
+  // (places.place_spacing_m is set from place_spacing_m).
+  std::string pose_source = "tf";
+  std::string pose_topic = "odometry/map";
+  PlaceIndexOptions places;
+  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
   double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
 
   bool distance_given() const { return !distance.empty(); }

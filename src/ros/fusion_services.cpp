@@ -102,9 +102,15 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
 bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
-    recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map());
+    const RecordingPlaces places =
+        ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
+    if (places == RecordingPlaces::kPose && params_.pose_source == "none") {
+      throw std::invalid_argument("recording by pose needs the robot's pose: set pose_source "
+                                  "to tf or topic");
+    }
+    recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map(), places);
     res.success = true;
-    res.message = "recording '" + req.name + "'";
+    res.message = "recording '" + req.name + "', places by " + ToString(places);
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
@@ -123,7 +129,10 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
       res.message = "discarded " + std::to_string(res.num_descriptors) + " descriptors";
       return true;
     }
-    Recording::Saved saved = recording_->Save(params_.recognizer.metric);
+    PlaceIndexOptions places = params_.places;
+    places.place_spacing_m = PlaceSpacing();
+    Recording::Saved saved =
+        recording_->Save(recognizer_.options().metric, &recognizer_.map(), places);
     res.path = saved.path;
     try {
       recognizer_.AddReferenceSet(std::move(saved.set));

@@ -32,7 +32,7 @@ void CheckRecording(const ReferenceRecorder& recorder) {
 }  // namespace
 
 void Recording::Start(const std::string& name, const std::string& condition, bool overwrite,
-                      const ReferenceMap& loaded) {
+                      const ReferenceMap& loaded, RecordingPlaces places) {
   if (!data_dir_) {
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
@@ -44,23 +44,36 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
     throw std::invalid_argument("'" + path + "' exists in the data directory; choose another " +
                                 "name, or set overwrite to replace it");
   }
-  recorder_.Start(name, condition, loaded.dimension());  // refuses a second recording
+  if (places == RecordingPlaces::kLocalized && loaded.num_sets() == 0) {
+    throw std::invalid_argument(
+        "recording by localisation needs a loaded reference set to "
+        "localise against");
+  }
+  recorder_.Start(name, condition, loaded.dimension(), places);  // refuses a second one
   overwrite_ = overwrite;
   descriptor_type_.clear();
 }
 
 void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
-                    const std::string& descriptor_type) {
-  recorder_.Add(descriptor);
+                    const std::string& descriptor_type, const std::optional<PlacePose>& pose,
+                    const std::optional<LocalizedPlace>& localized) {
+  recorder_.Add(descriptor, pose, localized);
   if (!descriptor_type.empty()) descriptor_type_ = descriptor_type;
 }
 
-Recording::Saved Recording::Save(DistanceMetric distance) {
+Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* loaded,
+                                 const PlaceIndexOptions& options) {
   CheckRecording(recorder_);
   const std::string path = RecordingPath(*data_dir_, recorder_.name());
+  ReferenceRecorder::Map map;
+  map.options = options;
+  if (loaded) {
+    for (int i = 0; i < loaded->num_places(); ++i) map.place_poses.push_back(loaded->PoseOf(i));
+  }
   // Built, saved, and only then forgotten: a save that fails keeps the recording.
-  Saved saved{recorder_.Build(descriptor_type_), ""};  // throws if empty
+  Saved saved{recorder_.Build(descriptor_type_, map), ""};  // throws if empty
   saved.set.distance = ToString(distance);
+  if (loaded) loaded->CheckPlacePoses(saved.set);
   try {
     SaveReferenceSet(*data_dir_, saved.set, path, overwrite_);
   } catch (const std::exception& e) {
@@ -86,7 +99,8 @@ void Recording::CheckNotRecording(const std::string& set_name) const {
 
 void Recording::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   if (recorder_.recording()) {
-    status.addf("recording", "%s (%d descriptors)", recorder_.name().c_str(), recorder_.count());
+    status.addf("recording", "%s (%d descriptors, places by %s)", recorder_.name().c_str(),
+                recorder_.count(), ToString(recorder_.places()).c_str());
   }
 }
 

@@ -13,6 +13,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 
 #include "bsf_vpr/core/data_directory.h"
@@ -34,14 +35,21 @@ class Recording {
   // directory, the name is not a plain relative path (empty, '.' or '..' parts, control
   // characters, invalid UTF-8), a set of that name is loaded, its YAML exists and
   // `overwrite` is false, or a recording runs already.
+  // `places` says how descriptors become places (reference_recorder.h); localized needs a
+  // loaded set to localise against.
   void Start(const std::string& name, const std::string& condition, bool overwrite,
-             const ReferenceMap& loaded);
+             const ReferenceMap& loaded, RecordingPlaces places = RecordingPlaces::kSequential);
+  RecordingPlaces places() const { return recorder_.places(); }
 
   // Adds one descriptor as the next place. `descriptor_type` "" says nothing; otherwise it
   // is the recorded set's type (the last one given wins). Throws std::invalid_argument if no
   // recording runs or the descriptor is refused (another dimension, not finite); nothing is
   // added then, and the type is not taken.
-  void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor, const std::string& descriptor_type);
+  // `pose` (the robot's, in the map frame) is required when recording by pose, `localized`
+  // (the accepted match) when recording by localisation.
+  void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor, const std::string& descriptor_type,
+           const std::optional<PlacePose>& pose = std::nullopt,
+           const std::optional<LocalizedPlace>& localized = std::nullopt);
 
   struct Saved {
     ReferenceSet set;  // as written, for the caller to load
@@ -51,7 +59,10 @@ class Recording {
   // if Start was asked to overwrite. Throws std::invalid_argument if no recording runs or it
   // holds no descriptor, and std::runtime_error if writing fails; the recording is kept in
   // either case.
-  Saved Save(DistanceMetric distance);
+  // With `loaded`, places by pose are associated with its places (`options`), and a set
+  // whose poses contradict them (ReferenceMap::CheckPlacePoses) is refused before saving.
+  Saved Save(DistanceMetric distance, const ReferenceMap* loaded = nullptr,
+             const PlaceIndexOptions& options = {});
 
   // Ends the recording and drops what it holds. Throws std::invalid_argument if no
   // recording runs.

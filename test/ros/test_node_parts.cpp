@@ -328,7 +328,43 @@ TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics
   rec.Diagnose(status);
   ASSERT_EQ(status.values.size(), 1u);
   EXPECT_EQ(status.values[0].key, "recording");
-  EXPECT_EQ(status.values[0].value, "tonight (1 descriptors)");
+  EXPECT_EQ(status.values[0].value, "tonight (1 descriptors, places by sequential)");
+}
+
+TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
+  ReferenceMap posed;
+  ReferenceSet summer = MakeReferenceSet("summer", RowMatrixXf::Random(4, 3));
+  summer.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}, {3, 0, 0, 0}};
+  posed.Add(summer);
+  PlaceIndexOptions options;
+  options.association_radius_m = 0.4;
+  Recording rec(dir_.get());
+  rec.Start("by_pose", "", false, posed, RecordingPlaces::kPose);
+  EXPECT_THROW(rec.Add(Row(9), ""), std::invalid_argument);  // no pose: left out
+  for (int i = 0; i <= 6; ++i) rec.Add(Row(float(i)), "t", PlacePose{0.5 * i, 0.1, 0, 0});
+  const Recording::Saved saved = rec.Save(DistanceMetric::kEuclidean, &posed, options);
+  EXPECT_EQ(saved.set.place_ids, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_FLOAT_EQ(saved.set.descriptors(3, 0), 6.0f);  // the descriptor at x = 3
+  EXPECT_EQ(saved.set.poses.size(), 4u);
+  EXPECT_EQ(saved.set.descriptor_type, "t");
+  // A sequential recording whose poses put place 2 at 500 m is refused, and kept.
+  rec.Start("elsewhere", "", false, posed);
+  for (int i = 0; i < 3; ++i) rec.Add(Row(1), "", PlacePose{i == 2 ? 502.0 : i, 0, 0, 0});
+  EXPECT_NE(Refusal([&] { rec.Save(DistanceMetric::kEuclidean, &posed, options); })
+                .find("puts place 2 500.0 m from where the loaded sets have it"),
+            std::string::npos);
+  EXPECT_TRUE(rec.recording());
+  rec.Discard();
+  // By localisation: needs a loaded set; keeps the accepted places.
+  ReferenceMap empty;
+  EXPECT_NE(Refusal([&] { rec.Start("loc", "", false, empty, RecordingPlaces::kLocalized); })
+                .find("needs a loaded reference set"),
+            std::string::npos);
+  rec.Start("loc", "", false, posed, RecordingPlaces::kLocalized);
+  rec.Add(Row(1), "", std::nullopt, LocalizedPlace{2, 3.0});
+  const Recording::Saved loc = rec.Save(DistanceMetric::kEuclidean, &posed, options);
+  EXPECT_EQ(loc.set.place_ids, std::vector<int>{2});
+  EXPECT_EQ(loc.set.poses[0].x_m, 2.0);
 }
 
 }  // namespace

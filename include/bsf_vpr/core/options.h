@@ -11,6 +11,7 @@
 // no table read is refused (as cartographer's LuaParameterDictionary refuses unused keys).
 #pragma once
 
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <optional>
@@ -148,10 +149,13 @@ class OptionTable {
     return Push(std::move(s));
   }
 
-  // Every option of `sub`, a table of the member that `field` returns.
+  // Every option of `sub`, a table of the member that `field` returns, but those named in
+  // `except` (which the including struct declares with a meaning of its own).
   template <typename Sub, typename Field>
-  OptionTable& Include(const OptionTable<Sub>& sub, Field field) {
+  OptionTable& Include(const OptionTable<Sub>& sub, Field field,
+                       const std::vector<std::string>& except = {}) {
     for (const typename OptionTable<Sub>::Spec& c : sub.specs()) {
+      if (std::find(except.begin(), except.end(), c.info.name) != except.end()) continue;
       Spec s;
       s.info = c.info;
       if (c.get) {

@@ -52,6 +52,8 @@ class PlaceRecognizer {
 
   // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
   void SetStoragePrecision(StoragePrecision precision) { map_.SetStoragePrecision(precision); }
+  // Largest disagreement on a place's pose between sets (ReferenceMap::SetPlacePoseTolerance).
+  void SetPlacePoseTolerance(double metres) { map_.SetPlacePoseTolerance(metres); }
 
   // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried state.
   void AddReferenceSet(ReferenceSet set);

@@ -8,6 +8,7 @@
 #include "bsf_vpr/core/results_io.h"
 #include "cli_util.h"
 #include "evaluate_args.h"
+#include "evaluate_ground_truth.h"
 #include "evaluate_inputs.h"
 #include "evaluate_results_bag.h"
 
@@ -29,12 +30,16 @@ int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
       tools::ReadResultsBag(args.results_bag, args.belief_topic, args.truth_topic);
   const int q = static_cast<int>(bag.outcomes.size());
   GroundTruth truth;
+  std::string truth_description;
   if (args.tolerance_frames >= 0) {
     truth = GroundTruth::FromFrameTolerance(q, bag.num_places, args.tolerance_frames);
+    truth_description = tools::DescribeFrameTruth(args.tolerance_frames);
   } else if (!args.ground_truth.empty()) {
     truth = ReadGroundTruthFile(args.ground_truth, q, bag.num_places);
+    truth_description = "the correct places listed in '" + args.ground_truth + "'";
   } else if (bag.truth) {
     truth = *bag.truth;
+    truth_description = "the correct places recorded on " + args.truth_topic;
   } else {
     throw std::invalid_argument("no ground truth: give --tolerance or --ground-truth, or record " +
                                 args.truth_topic + " in the results bag");
@@ -46,7 +51,8 @@ int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
   std::cout << "bsf_evaluate: results bag " << args.results_bag << ": " << q << " queries, method "
             << bag.method;
   if (bag.missing > 0) std::cout << ", " << bag.missing << " without a belief (counted as wrong)";
-  std::cout << std::endl;
+  std::cout << "\nbsf_evaluate: ground truth: " << truth_description << "; "
+            << tools::CountTrueMatches(truth) << std::endl;
   Report({r}, args.out_dir);
   return 0;
 }
@@ -61,7 +67,8 @@ int Run(int argc, char** argv) {
   if (!args.results_bag.empty()) return RunResultsBag(args);
   const auto data = tools::LoadEvaluationData(args);
   const std::vector<Method> methods = ParseMethodList(args.methods, data->input.set_names);
-  std::cout << "bsf_evaluate: " << data->description << std::endl;
+  std::cout << "bsf_evaluate: " << data->description
+            << "\nbsf_evaluate: ground truth: " << data->truth_description << std::endl;
 
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

@@ -42,7 +42,13 @@ Ground truth (one of):
                           (q, i) is 1 when place i is correct for query q (the VPR
                           tutorial's GThard is N x Q: save GThard.T)
   --tolerance-m R         a match is correct when its place pose lies within R metres of
-                          the query's pose (poses from the query and reference YAMLs)
+                          the query's pose (planar distance, x and y); a place without a
+                          pose is never correct. Place poses from the reference-set YAMLs;
+                          query poses from a query YAML or from --query-poses
+  --query-poses CSV       with --tolerance-m, the poses of a .npy or image-folder query: a
+                          header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', then one row per
+                          query in order (metres, radians, the reference poses' frame; no
+                          lat,lon: the sets keep metres and no origin)
 
 Methods:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
@@ -58,7 +64,8 @@ Method options (the fusion node's parameters of the same names):
 Image descriptor, for image folders (the ingest nodelet's parameters of the same names):
 )" + DescriberUsage() +
          R"(
-Output:
+Output (stdout: what was loaded, the ground truth used and how many queries have a true
+match, and the table):
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
   --no-progress           do not report progress on stderr
   -h, --help              show this help
@@ -109,6 +116,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     } else if (flag == "--tolerance-m") {
       a.tolerance_m = ParseNumber(flag, value);
       if (a.tolerance_m < 0) throw std::invalid_argument("--tolerance-m must be >= 0");
+    } else if (flag == "--query-poses") {
+      a.query_poses = value;
     } else if (flag == "--ground-truth") {
       a.ground_truth = value;
     } else if (flag == "--methods") {
@@ -131,6 +140,10 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
 void CheckCombination(const EvaluateArgs& a) {
   const bool descriptor_mode = !a.references.empty() || !a.query.empty();
   const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
+  const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
+  if (!a.query_poses.empty() && a.tolerance_m < 0) {
+    throw std::invalid_argument("--query-poses goes with --tolerance-m R");
+  }
   if (!a.results_bag.empty()) {
     if (descriptor_mode || matrix_mode) {
       throw std::invalid_argument("--results-bag goes without --reference/--query/--distances");
@@ -154,13 +167,14 @@ void CheckCombination(const EvaluateArgs& a) {
   }
   if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
   if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");
-  const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   if (truths != 1) {
     throw std::invalid_argument(
         "give exactly one of --tolerance K, --tolerance-m R and --ground-truth PATH");
   }
   if (a.tolerance_m >= 0 && !descriptor_mode) {
-    throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
+    throw std::invalid_argument(
+        "--tolerance-m needs poses: use --reference YAML files with poses and --query (a YAML "
+        "with poses, or any query with --query-poses CSV)");
   }
   a.options.Validate();
   ValidateImageDescriberOptions(a.describer);

@@ -32,6 +32,7 @@ struct EvaluateArgs {
   StoragePrecision storage = StoragePrecision::kFloat32;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
+  std::string query_poses;    // --query-poses CSV, for --tolerance-m (evaluate_ground_truth.h)
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;

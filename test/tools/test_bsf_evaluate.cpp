@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -301,6 +302,117 @@ TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
                                    "/night.yaml --tolerance-m 3");
   EXPECT_EQ(no_poses.exit_code, 2);
   EXPECT_NE(no_poses.output.find("place poses"), std::string::npos) << no_poses.output;
+}
+
+// A route with 1 m between consecutive places that is not a straight line: an arc of radius
+// 100 m (chords of up to 4.4 m of arc differ from it by under 0.002 m), climbing 0.5 m per
+// metre so that a 3-D distance would differ from the planar one that counts.
+PlacePose OnArc(double s_m) {
+  const double a = s_m / 100.0;
+  return PlacePose{100.0 * std::sin(a), 100.0 * (1.0 - std::cos(a)), 0.5 * s_m, a};
+}
+
+// Frame-aligned and 1 m apart: the 200 Gardens Point day places lie i metres along the arc
+// (dir/day.yaml), night query q 0.4 m past place q (dir/poses.csv, 'query,x,y,z,yaw', which
+// bsf_make_bag --poses reads too; dir/poses_t.csv, the same by timestamp). Within 3.5 m
+// of a query lie places q-3 .. q+3: the ground truth of --tolerance 3.
+class EvaluateByPosition : public EvaluateTool {
+ protected:
+  void SetUp() override {
+    EvaluateTool::SetUp();
+    day_ = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
+    for (int i = 0; i < day_.size(); ++i) day_.poses.push_back(OnArc(i));
+    day_.distance = "cosine";
+    SaveReferenceSet(day_, dir_ + "/day.yaml");
+    night_ = ReadNpyMatrix(kGardens + "night_right.npy");
+    std::ofstream by_query(dir_ + "/poses.csv"), by_time(dir_ + "/poses_t.csv");
+    by_query << "query,x,y,z,yaw\n";
+    by_time << "timestamp,x,y,z,yaw\n";
+    char row[160], stamp[32];
+    for (int q = 0; q < night_.rows(); ++q) {
+      const PlacePose p = OnArc(q + 0.4);
+      query_poses_.push_back(p);
+      std::snprintf(row, sizeof(row), "%.17g,%.17g,%.17g,%.17g\n", p.x_m, p.y_m, p.z_m, p.yaw_rad);
+      std::snprintf(stamp, sizeof(stamp), "%.2f", 1500000000.25 + 0.1 * q);
+      by_query << q << ',' << row;
+      by_time << stamp << ',' << row;
+    }
+  }
+  ReferenceSet day_;
+  RowMatrixXf night_;
+  std::vector<PlacePose> query_poses_;
+};
+
+TEST_F(EvaluateByPosition, MetresAgreeWithFramesOnAFrameAlignedRouteWithQueryPosesFromACsv) {
+  const std::string offline = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                              "night_right.npy --methods bsf --no-progress ";
+  const Result metres = Evaluate(offline + "--query-poses " + dir_ + "/poses.csv --tolerance-m " +
+                                 "3.5 --out " + dir_ + "/m");
+  ASSERT_EQ(metres.exit_code, 0) << metres.output;
+  EXPECT_NE(metres.output.find("ground truth: a match within 3.5 m of the query's pose is "
+                               "correct (planar distance, --tolerance-m 3.5); query poses from '" +
+                               dir_ + "/poses.csv'; place poses for 200 of 200 places"),
+            std::string::npos)
+      << metres.output;
+  EXPECT_NE(metres.output.find("200 of 200 queries have a true match"), std::string::npos);
+  const Result by_stamp = Evaluate(offline + "--query-poses " + dir_ +
+                                   "/poses_t.csv --tolerance-m 3.5 --out " + dir_ + "/t");
+  ASSERT_EQ(by_stamp.exit_code, 0) << by_stamp.output;
+  const Result frames = Evaluate(offline + "--tolerance 3 --out " + dir_ + "/f");
+  ASSERT_EQ(frames.exit_code, 0) << frames.output;
+  EXPECT_NE(frames.output.find("ground truth: query q shows place q; a match within 3 places is "
+                               "correct (--tolerance 3); 200 of 200 queries have a true match"),
+            std::string::npos)
+      << frames.output;
+  const std::vector<std::string> summary = Lines(dir_ + "/f/summary.csv");
+  ASSERT_EQ(summary.size(), 2u);
+  EXPECT_GT(Summary(dir_ + "/f").at("bsf").at("r_at_1"), 0.3);  // not a trivial score
+  EXPECT_EQ(Lines(dir_ + "/m/summary.csv"), summary);
+  EXPECT_EQ(Lines(dir_ + "/t/summary.csv"), summary);
+  EXPECT_EQ(Lines(dir_ + "/m/pr/bsf.csv"), Lines(dir_ + "/f/pr/bsf.csv"));
+}
+
+TEST_F(EvaluateByPosition, AWrongQueryPoseCsvGivesOneLineAndExitCode2) {
+  auto csv = [&](const std::string& name, const std::string& header, int rows,
+                 const std::string& extra = "") {
+    std::ofstream f(dir_ + "/" + name);
+    f << header << '\n';
+    for (int q = 0; q < rows; ++q) f << q << "," << q << ",0,0,0\n";
+    f << extra;
+    return dir_ + "/" + name;
+  };
+  const std::string in = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                         "night_right.npy --tolerance-m 3 --query-poses ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {in + csv("q.csv", "q,x,y,z,yaw", 200),
+       "line 1: expected the header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', got 'q,x,y,z,yaw'"},
+      {in + csv("latlon.csv", "timestamp,lat,lon", 200),
+       "line 1: latitude/longitude are not accepted"},
+      {in + csv("short.csv", "query,x,y,z,yaw", 199),
+       "has 199 rows for 200 queries (one row per query, in order)"},
+      {in + csv("long.csv", "query,x,y,z,yaw", 200, "200,0,0,0,0\n"), "has 201 rows"},
+      {in + csv("order.csv", "query,x,y,z,yaw", 3, "4,0,0,0,0\n"),
+       "line 5: query 4 where query 3 was expected"},
+      {in + csv("time.csv", "timestamp,x,y,z,yaw", 3, "2,0,0,0,0\n"),
+       "line 5: timestamp 2 is not after the row before"},
+      {in + csv("nan.csv", "query,x,y,z,yaw", 3, "3,nan,0,0,0\n"),
+       "line 5: 'nan' is not a finite number"},
+      {in + csv("four.csv", "query,x,y,z,yaw", 3, "3,0,0,0\n"), "line 5: expected 5 values"},
+      {in + csv("empty.csv", "", 0), "is empty: expected the header"},
+      {in + dir_ + "/missing.csv", dir_ + "/missing.csv"},
+      {"--reference day=" + dir_ + "/day.yaml --query " + dir_ + "/day.yaml --tolerance-m 3 " +
+           "--query-poses " + dir_ + "/poses.csv",
+       "has poses of its own: --query-poses is for a query without"},
+      {"--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+           "night_right.npy --tolerance 3 --query-poses " + dir_ + "/poses.csv",
+       "--query-poses goes with --tolerance-m R"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    const Result r = Evaluate(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
 }
 
 TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {

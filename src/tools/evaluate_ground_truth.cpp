@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
 #include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/reference_set_io.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -123,6 +125,42 @@ std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceMap& map) {
     throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
   }
   return poses;
+}
+
+std::vector<std::optional<PlacePose>> NodePlacePoses(const std::vector<NamedPath>& references,
+                                                     const std::vector<std::string>& set_names,
+                                                     int num_places) {
+  std::map<std::string, std::string> path_of;
+  std::string sets;
+  for (const std::string& s : set_names) sets += (sets.empty() ? "" : ", ") + s;
+  for (const NamedPath& r : references) {
+    if (std::find(set_names.begin(), set_names.end(), r.name) == set_names.end()) {
+      throw std::invalid_argument("--reference " + r.name + "=" + r.path +
+                                  ": the node of this replay had no set '" + r.name +
+                                  "' (its sets: " + sets + ")");
+    }
+    if (!path_of.emplace(r.name, r.path).second) {
+      throw std::invalid_argument("--reference " + r.name + " is given twice");
+    }
+  }
+  ReferenceMap map;
+  for (const std::string& name : set_names) {
+    const auto it = path_of.find(name);
+    if (it == path_of.end()) {
+      throw std::invalid_argument(
+          "--tolerance-m with --results-bag needs the place poses of every "
+          "set the node had loaded: give --reference " +
+          name + "=PATH.yaml (its sets: " + sets + ")");
+    }
+    map.Add(LoadReferenceSetFile(it->second, name));
+  }
+  if (map.num_places() != num_places) {
+    throw std::invalid_argument("the reference sets given make " +
+                                std::to_string(map.num_places()) + " places, the beliefs have " +
+                                std::to_string(num_places) +
+                                ": give the reference-set YAMLs the node had loaded");
+  }
+  return PlacePosesOf(map);
 }
 
 std::string DescribeMetricTruth(double tolerance_m, const std::string& query_source,

@@ -30,6 +30,15 @@ std::vector<PlacePose> ReadQueryPosesCsv(const std::string& path, int num_querie
 // has). Throws std::invalid_argument when no place has a pose.
 std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceMap& map);
 
+// The place poses a node had during a replay, from the reference-set YAMLs given with
+// --results-bag (`references`). Their names must be exactly the node's sets (`set_names`,
+// as the beliefs list them); they are loaded in that order, so that a place two sets have
+// takes its pose from the same set as in the node; and together they must make the node's
+// place index of `num_places` places. Throws std::invalid_argument naming the problem.
+std::vector<std::optional<PlacePose>> NodePlacePoses(const std::vector<NamedPath>& references,
+                                                     const std::vector<std::string>& set_names,
+                                                     int num_places);
+
 // "a match within R m of the query's pose is correct (planar distance, --tolerance-m R);
 // query poses from <query_source>; place poses for P of N places". For the summary.
 std::string DescribeMetricTruth(double tolerance_m, const std::string& query_source,

@@ -5,6 +5,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "bsf_vpr/core/place_index.h"
+
 namespace bsf_vpr {
 
 GroundTruth::GroundTruth(std::vector<std::vector<int>> correct_places)
@@ -39,11 +41,9 @@ GroundTruth GroundTruth::FromMetricTolerance(
     const PlacePose& a = query_poses[q];
     for (size_t p = 0; p < place_poses.size(); ++p) {
       if (!place_poses[p]) continue;
-      const PlacePose& b = *place_poses[p];
-      const double d =
-          std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m) +
-                    (a.z_m - b.z_m) * (a.z_m - b.z_m));
-      if (d <= tolerance_m) correct[q].push_back(static_cast<int>(p));
+      if (PlanarDistance(a, *place_poses[p]) <= tolerance_m) {
+        correct[q].push_back(static_cast<int>(p));
+      }
     }
   }
   return GroundTruth(std::move(correct));

@@ -30,10 +30,12 @@ Inputs (either descriptors, or precomputed per-source matrices):
                           (default float32; float16 halves and int8 quarters their bytes)
   --results-bag PATH      instead: the beliefs a node published during a replay (recorded by
                           launch/replay.launch), scored exactly as offline for the method the
-                          node ran; ground truth from --tolerance/--ground-truth or, if
-                          neither is given, the bsf_vpr/QueryGroundTruth recorded in the bag
-  --belief-topic T, --truth-topic T   topics in the results bag (default /bsf_vpr/belief,
-                          /vpr/ground_truth)
+                          node ran; ground truth from --tolerance/--ground-truth/--tolerance-m
+                          or, if none is given, the bsf_vpr/QueryGroundTruth recorded in the
+                          bag. With --tolerance-m, --reference NAME=PATH.yaml gives the place
+                          poses of each set the node had loaded (its descriptors are not used)
+  --belief-topic T, --truth-topic T, --pose-topic T   topics in the results bag (default
+                          /bsf_vpr/belief, /vpr/ground_truth, /vpr/query_pose)
 
 Ground truth (one of):
   --tolerance K           query q shows place q; a match within K places is correct
@@ -42,7 +44,15 @@ Ground truth (one of):
                           (q, i) is 1 when place i is correct for query q (the VPR
                           tutorial's GThard is N x Q: save GThard.T)
   --tolerance-m R         a match is correct when its place pose lies within R metres of
-                          the query's pose (poses from the query and reference YAMLs)
+                          the query's pose (planar distance, x and y); a place without a
+                          pose is never correct. Place poses from the reference-set YAMLs;
+                          query poses from a query YAML, from --query-poses, or with
+                          --results-bag from --pose-topic (matched to each belief by header
+                          stamp; a query without a pose is left out of the scores and counted)
+  --query-poses CSV       with --tolerance-m, the poses of a .npy or image-folder query: a
+                          header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', then one row per
+                          query in order (metres, radians, the reference poses' frame; no
+                          lat,lon: the sets keep metres and no origin)
 
 Methods:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
@@ -58,7 +68,8 @@ Method options (the fusion node's parameters of the same names):
 Image descriptor, for image folders (the ingest nodelet's parameters of the same names):
 )" + DescriberUsage() +
          R"(
-Output:
+Output (stdout: what was loaded, the ground truth used and how many queries have a true
+match, and the table):
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
   --no-progress           do not report progress on stderr
   -h, --help              show this help
@@ -82,6 +93,7 @@ NamedPath ParseNamedPath(const std::string& flag, const std::string& value) {
 EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
   EvaluateArgs a;
   FlagReader flags(argc, argv, {"--no-progress"});
+  bool pose_topic_given = false;
   for (std::string flag, value; flags.Next(&flag, &value);) {
     if (flag == "--no-progress") {
       a.progress = false;
@@ -99,6 +111,9 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.belief_topic = value;
     } else if (flag == "--truth-topic") {
       a.truth_topic = value;
+    } else if (flag == "--pose-topic") {
+      a.pose_topic = value;
+      pose_topic_given = true;
     } else if (flag == "--distance") {
       a.metric = ParseDistanceMetric(value);
     } else if (flag == "--storage") {
@@ -109,6 +124,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     } else if (flag == "--tolerance-m") {
       a.tolerance_m = ParseNumber(flag, value);
       if (a.tolerance_m < 0) throw std::invalid_argument("--tolerance-m must be >= 0");
+    } else if (flag == "--query-poses") {
+      a.query_poses = value;
     } else if (flag == "--ground-truth") {
       a.ground_truth = value;
     } else if (flag == "--methods") {
@@ -124,21 +141,43 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
     }
   }
   a.help = flags.help();
-  if (!a.help) CheckCombination(a);
+  if (a.help) return a;
+  CheckCombination(a);
+  if (pose_topic_given && (a.results_bag.empty() || a.tolerance_m < 0)) {
+    throw std::invalid_argument("--pose-topic goes with --results-bag and --tolerance-m");
+  }
   return a;
 }
 
 void CheckCombination(const EvaluateArgs& a) {
   const bool descriptor_mode = !a.references.empty() || !a.query.empty();
   const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
+  const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
+  if (!a.query_poses.empty() && a.tolerance_m < 0) {
+    throw std::invalid_argument("--query-poses goes with --tolerance-m R");
+  }
   if (!a.results_bag.empty()) {
-    if (descriptor_mode || matrix_mode) {
-      throw std::invalid_argument("--results-bag goes without --reference/--query/--distances");
+    if (!a.query.empty() || matrix_mode) {
+      throw std::invalid_argument("--results-bag goes without --query/--distances/--similarities");
     }
-    if (a.tolerance_m >= 0)
-      throw std::invalid_argument("--tolerance-m is not available with --results-bag");
-    if (a.tolerance_frames >= 0 && !a.ground_truth.empty()) {
-      throw std::invalid_argument("give at most one of --tolerance K and --ground-truth PATH");
+    if (!a.references.empty() && a.tolerance_m < 0) {
+      throw std::invalid_argument(
+          "--results-bag goes without --reference except to give the place poses for "
+          "--tolerance-m R");
+    }
+    if (!a.query_poses.empty()) {
+      throw std::invalid_argument(
+          "--query-poses is for offline queries: with --results-bag the query poses come from "
+          "--pose-topic (default /vpr/query_pose)");
+    }
+    if (truths > 1) {
+      throw std::invalid_argument(
+          "give at most one of --tolerance K, --tolerance-m R and --ground-truth PATH");
+    }
+    if (a.tolerance_m >= 0 && a.references.empty()) {
+      throw std::invalid_argument(
+          "--tolerance-m with --results-bag needs place poses: give --reference NAME=PATH.yaml "
+          "for each set the node had loaded");
     }
     a.options.Validate();
     return;
@@ -154,13 +193,14 @@ void CheckCombination(const EvaluateArgs& a) {
   }
   if (descriptor_mode && a.references.empty()) throw std::invalid_argument("no --reference given");
   if (descriptor_mode && a.query.empty()) throw std::invalid_argument("no --query given");
-  const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   if (truths != 1) {
     throw std::invalid_argument(
         "give exactly one of --tolerance K, --tolerance-m R and --ground-truth PATH");
   }
   if (a.tolerance_m >= 0 && !descriptor_mode) {
-    throw std::invalid_argument("--tolerance-m needs poses: use --reference/--query YAML files");
+    throw std::invalid_argument(
+        "--tolerance-m needs poses: use --reference YAML files with poses and --query (a YAML "
+        "with poses, or any query with --query-poses CSV)");
   }
   a.options.Validate();
   ValidateImageDescriberOptions(a.describer);

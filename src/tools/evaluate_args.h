@@ -19,19 +19,23 @@ struct NamedPath {
 };
 
 struct EvaluateArgs {
-  std::vector<NamedPath> references;    // --reference NAME=PATH
+  // --reference NAME=PATH; with --results-bag only the place poses of the sets the node
+  // had loaded, for --tolerance-m.
+  std::vector<NamedPath> references;
   std::string query;                    // --query PATH
   std::vector<NamedPath> distances;     // --distances NAME=PATH
   std::vector<NamedPath> similarities;  // --similarities NAME=PATH
   std::string results_bag;              // --results-bag PATH
   std::string belief_topic = "/bsf_vpr/belief";
   std::string truth_topic = "/vpr/ground_truth";
+  std::string pose_topic = "/vpr/query_pose";  // geometry_msgs/PoseStamped, for --tolerance-m
   // --distance; when not given: the distance the reference sets (and a query YAML) declare,
   // if they agree, else euclidean (evaluate_inputs.h).
   std::optional<DistanceMetric> metric;
   StoragePrecision storage = StoragePrecision::kFloat32;
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
+  std::string query_poses;    // --query-poses CSV, for --tolerance-m (evaluate_ground_truth.h)
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;

@@ -10,6 +10,7 @@
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "describer_flags.h"
+#include "evaluate_ground_truth.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -159,6 +160,28 @@ void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
                       std::to_string(data->input.num_queries) + " queries";
 }
 
+// --tolerance-m offline: query poses from --query-poses or the query YAML, place poses from
+// the reference sets.
+void LoadMetricTruth(const EvaluateArgs& args, EvaluationData* data) {
+  std::string query_source = "query '" + args.query + "'";
+  if (!args.query_poses.empty()) {
+    if (!data->query_poses.empty()) {
+      throw std::invalid_argument("query '" + args.query +
+                                  "' has poses of its own: --query-poses is for a query "
+                                  "without (a .npy or an image folder)");
+    }
+    data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
+    query_source = "'" + args.query_poses + "'";
+  } else if (data->query_poses.empty()) {
+    throw std::invalid_argument(
+        "--tolerance-m needs query poses: give --query-poses CSV, or the query as a YAML with "
+        "'poses'");
+  }
+  const std::vector<std::optional<PlacePose>> place_poses = PlacePosesOf(data->map);
+  data->truth = GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
+  data->truth_description = DescribeMetricTruth(args.tolerance_m, query_source, place_poses);
+}
+
 }  // namespace
 
 std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
@@ -171,24 +194,15 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
   if (args.tolerance_frames >= 0) {
     data->truth = GroundTruth::FromFrameTolerance(data->input.num_queries, data->input.num_places,
                                                   args.tolerance_frames);
+    data->truth_description = DescribeFrameTruth(args.tolerance_frames);
   } else if (args.tolerance_m >= 0) {
-    if (data->query_poses.empty()) {
-      throw std::invalid_argument(
-          "--tolerance-m needs query poses: give the query as a YAML "
-          "with 'poses'");
-    }
-    std::vector<std::optional<PlacePose>> place_poses;
-    for (int i = 0; i < data->map.num_places(); ++i) place_poses.push_back(data->map.PoseOf(i));
-    if (std::none_of(place_poses.begin(), place_poses.end(),
-                     [](const auto& p) { return p.has_value(); })) {
-      throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
-    }
-    data->truth =
-        GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
+    LoadMetricTruth(args, data.get());
   } else {
     data->truth =
         ReadGroundTruthFile(args.ground_truth, data->input.num_queries, data->input.num_places);
+    data->truth_description = "the correct places listed in '" + args.ground_truth + "'";
   }
+  data->truth_description += "; " + CountTrueMatches(data->truth);
   return data;
 }
 

@@ -20,13 +20,15 @@ struct EvaluationData {
   EvaluationData(const EvaluationData&) = delete;  // no implicit move either
   EvaluationData& operator=(const EvaluationData&) = delete;
 
-  ReferenceMap map;                    // descriptor mode
-  RowMatrixXf queries;                 // descriptor mode, Q x D
-  std::vector<PlacePose> query_poses;  // descriptor mode, from a query YAML (else empty)
-  std::vector<RowMatrixXf> matrices;   // matrix mode, one Q x N distance matrix per source
-  EvaluationInput input;               // refers to the members above
+  ReferenceMap map;     // descriptor mode
+  RowMatrixXf queries;  // descriptor mode, Q x D
+  // descriptor mode with --tolerance-m: from the query YAML or --query-poses (else empty)
+  std::vector<PlacePose> query_poses;
+  std::vector<RowMatrixXf> matrices;  // matrix mode, one Q x N distance matrix per source
+  EvaluationInput input;              // refers to the members above
   GroundTruth truth;
-  std::string description;  // one line: what was loaded
+  std::string description;        // one line: what was loaded
+  std::string truth_description;  // one line: which ground truth, how many have a true match
 };
 
 // Throws std::exception with a message naming the file and the problem.

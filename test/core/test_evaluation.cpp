@@ -59,6 +59,13 @@ TEST(Evaluation, MetricToleranceUsesPlacePoses) {
       GroundTruth::FromMetricTolerance({{4, 0, 0, 0}, {100, 0, 0, 0}}, places, 10);
   EXPECT_EQ(t.CorrectPlaces(0), (std::vector<int>{0, 1}));
   EXPECT_FALSE(t.HasTrueMatch(1));
+  // Planar distance: height and heading do not count (GPS altitude is the noisiest part of
+  // a fix); exactly the tolerance away is still correct.
+  const GroundTruth flat = GroundTruth::FromMetricTolerance(
+      {{0, 3, 50, 0}, {10, 5, 0, 3.1}}, {PlacePose{0, 0, 0, 0}, PlacePose{10, 0, 0, 0}}, 5);
+  EXPECT_EQ(flat.CorrectPlaces(0), (std::vector<int>{0}));
+  EXPECT_EQ(flat.CorrectPlaces(1), (std::vector<int>{1}));  // 5 m north of place 1
+  EXPECT_THROW(GroundTruth::FromMetricTolerance({}, places, -1), std::invalid_argument);
 }
 
 TEST(Evaluation, ComputeMetricsRefusesMismatchedSizes) {

@@ -1,18 +1,25 @@
 // End-to-end tests of the bsf_evaluate tool and the scripts that drive it (plot_pr,
 // studies), run as a user would run them.
+#include <bsf_vpr/Belief.h>
+#include <bsf_vpr/Descriptor.h>
 #include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "../core/test_util.h"
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "tool_test_util.h"
@@ -301,6 +308,304 @@ TEST_F(EvaluateTool, MetricToleranceUsesThePosesOfQueryAndReferenceYamls) {
                                    "/night.yaml --tolerance-m 3");
   EXPECT_EQ(no_poses.exit_code, 2);
   EXPECT_NE(no_poses.output.find("place poses"), std::string::npos) << no_poses.output;
+}
+
+// A route with 1 m between consecutive places that is not a straight line: an arc of radius
+// 100 m (chords of up to 4.4 m of arc differ from it by under 0.002 m), climbing 0.5 m per
+// metre so that a 3-D distance would differ from the planar one that counts.
+PlacePose OnArc(double s_m) {
+  const double a = s_m / 100.0;
+  return PlacePose{100.0 * std::sin(a), 100.0 * (1.0 - std::cos(a)), 0.5 * s_m, a};
+}
+
+// Frame-aligned and 1 m apart: the 200 Gardens Point day places lie i metres along the arc
+// (dir/day.yaml), night query q 0.4 m past place q (dir/poses.csv, 'query,x,y,z,yaw', which
+// bsf_make_bag --poses reads too; dir/poses_t.csv, the same by timestamp). Within 3.5 m
+// of a query lie places q-3 .. q+3: the ground truth of --tolerance 3.
+class EvaluateByPosition : public EvaluateTool {
+ protected:
+  void SetUp() override {
+    EvaluateTool::SetUp();
+    day_ = LoadReferenceSetNpy(kGardens + "day_left.npy", "day");
+    for (int i = 0; i < day_.size(); ++i) day_.poses.push_back(OnArc(i));
+    day_.distance = "cosine";
+    SaveReferenceSet(day_, dir_ + "/day.yaml");
+    night_ = ReadNpyMatrix(kGardens + "night_right.npy");
+    std::ofstream by_query(dir_ + "/poses.csv"), by_time(dir_ + "/poses_t.csv");
+    by_query << "query,x,y,z,yaw\n";
+    by_time << "timestamp,x,y,z,yaw\n";
+    char row[160], stamp[32];
+    for (int q = 0; q < night_.rows(); ++q) {
+      const PlacePose p = OnArc(q + 0.4);
+      query_poses_.push_back(p);
+      std::snprintf(row, sizeof(row), "%.17g,%.17g,%.17g,%.17g\n", p.x_m, p.y_m, p.z_m, p.yaw_rad);
+      std::snprintf(stamp, sizeof(stamp), "%.2f", 1500000000.25 + 0.1 * q);
+      by_query << q << ',' << row;
+      by_time << stamp << ',' << row;
+    }
+  }
+  ReferenceSet day_;
+  RowMatrixXf night_;
+  std::vector<PlacePose> query_poses_;
+};
+
+TEST_F(EvaluateByPosition, MetresAgreeWithFramesOnAFrameAlignedRouteWithQueryPosesFromACsv) {
+  const std::string offline = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                              "night_right.npy --methods bsf --no-progress ";
+  const Result metres = Evaluate(offline + "--query-poses " + dir_ + "/poses.csv --tolerance-m " +
+                                 "3.5 --out " + dir_ + "/m");
+  ASSERT_EQ(metres.exit_code, 0) << metres.output;
+  EXPECT_NE(metres.output.find("ground truth: a match within 3.5 m of the query's pose is "
+                               "correct (planar distance, --tolerance-m 3.5); query poses from '" +
+                               dir_ + "/poses.csv'; place poses for 200 of 200 places"),
+            std::string::npos)
+      << metres.output;
+  EXPECT_NE(metres.output.find("200 of 200 queries have a true match"), std::string::npos);
+  const Result by_stamp = Evaluate(offline + "--query-poses " + dir_ +
+                                   "/poses_t.csv --tolerance-m 3.5 --out " + dir_ + "/t");
+  ASSERT_EQ(by_stamp.exit_code, 0) << by_stamp.output;
+  const Result frames = Evaluate(offline + "--tolerance 3 --out " + dir_ + "/f");
+  ASSERT_EQ(frames.exit_code, 0) << frames.output;
+  EXPECT_NE(frames.output.find("ground truth: query q shows place q; a match within 3 places is "
+                               "correct (--tolerance 3); 200 of 200 queries have a true match"),
+            std::string::npos)
+      << frames.output;
+  const std::vector<std::string> summary = Lines(dir_ + "/f/summary.csv");
+  ASSERT_EQ(summary.size(), 2u);
+  EXPECT_GT(Summary(dir_ + "/f").at("bsf").at("r_at_1"), 0.3);  // not a trivial score
+  EXPECT_EQ(Lines(dir_ + "/m/summary.csv"), summary);
+  EXPECT_EQ(Lines(dir_ + "/t/summary.csv"), summary);
+  EXPECT_EQ(Lines(dir_ + "/m/pr/bsf.csv"), Lines(dir_ + "/f/pr/bsf.csv"));
+}
+
+TEST_F(EvaluateByPosition, AWrongQueryPoseCsvGivesOneLineAndExitCode2) {
+  auto csv = [&](const std::string& name, const std::string& header, int rows,
+                 const std::string& extra = "") {
+    std::ofstream f(dir_ + "/" + name);
+    f << header << '\n';
+    for (int q = 0; q < rows; ++q) f << q << "," << q << ",0,0,0\n";
+    f << extra;
+    return dir_ + "/" + name;
+  };
+  const std::string in = "--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                         "night_right.npy --tolerance-m 3 --query-poses ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {in + csv("q.csv", "q,x,y,z,yaw", 200),
+       "line 1: expected the header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', got 'q,x,y,z,yaw'"},
+      {in + csv("latlon.csv", "timestamp,lat,lon", 200),
+       "line 1: latitude/longitude are not accepted"},
+      {in + csv("short.csv", "query,x,y,z,yaw", 199),
+       "has 199 rows for 200 queries (one row per query, in order)"},
+      {in + csv("long.csv", "query,x,y,z,yaw", 200, "200,0,0,0,0\n"), "has 201 rows"},
+      {in + csv("order.csv", "query,x,y,z,yaw", 3, "4,0,0,0,0\n"),
+       "line 5: query 4 where query 3 was expected"},
+      {in + csv("time.csv", "timestamp,x,y,z,yaw", 3, "2,0,0,0,0\n"),
+       "line 5: timestamp 2 is not after the row before"},
+      {in + csv("nan.csv", "query,x,y,z,yaw", 3, "3,nan,0,0,0\n"),
+       "line 5: 'nan' is not a finite number"},
+      {in + csv("four.csv", "query,x,y,z,yaw", 3, "3,0,0,0\n"), "line 5: expected 5 values"},
+      {in + csv("empty.csv", "", 0), "is empty: expected the header"},
+      {in + dir_ + "/missing.csv", dir_ + "/missing.csv"},
+      {"--reference day=" + dir_ + "/day.yaml --query " + dir_ + "/day.yaml --tolerance-m 3 " +
+           "--query-poses " + dir_ + "/poses.csv",
+       "has poses of its own: --query-poses is for a query without"},
+      {"--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+           "night_right.npy --tolerance 3 --query-poses " + dir_ + "/poses.csv",
+       "--query-poses goes with --tolerance-m R"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    const Result r = Evaluate(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+}
+
+// The offline outcomes of `method` for the Gardens Point night queries against `day`
+// (cosine distance), computed by the core exactly as bsf_evaluate computes them.
+std::vector<QueryOutcome> OfflineOutcomes(const ReferenceSet& day, const RowMatrixXf& night,
+                                          const std::string& method) {
+  ReferenceMap map;
+  map.Add(day);
+  EvaluationInput in;
+  in.num_queries = static_cast<int>(night.rows());
+  in.num_places = map.num_places();
+  in.set_names = map.SetNames();
+  in.place_ids = {map.set(0).place_ids()};
+  in.distances = [&](int begin, int end, std::vector<RowMatrixXf>* block) {
+    const RowMatrixXf q = night.middleRows(begin, end - begin);
+    *block = ComputeDistances(DistanceMetric::kCosine, q, map);
+  };
+  const GroundTruth any = GroundTruth::FromFrameTolerance(in.num_queries, in.num_places, 0);
+  return EvaluateMethods(in, ParseMethodList(method, in.set_names), MethodOptions(), any)[0]
+      .outcomes;
+}
+
+// Makes `bag_path` (a query bag from bsf_make_bag: descriptors on /vpr/descriptor, maybe
+// ground truth and poses) into the results bag of a replay: one bsf_vpr/Belief per
+// descriptor with the descriptor's header, as the fusion node publishes it, holding
+// outcomes[k] for the k-th descriptor (ranked places only, as for a method without a
+// posterior). `restamp` is added to the stamps (a node that did not keep them).
+void AppendBeliefs(const std::string& bag_path, const std::string& method,
+                   const std::vector<std::string>& set_names, int num_places,
+                   const std::vector<QueryOutcome>& outcomes,
+                   ros::Duration restamp = ros::Duration(0)) {
+  std::vector<std_msgs::Header> headers;
+  {
+    rosbag::Bag in(bag_path, rosbag::bagmode::Read);
+    for (const rosbag::MessageInstance& m : rosbag::View(in, rosbag::TopicQuery("/vpr/descriptor")))
+      headers.push_back(m.instantiate<Descriptor>()->header);
+  }
+  ASSERT_EQ(headers.size(), outcomes.size());
+  rosbag::Bag out(bag_path, rosbag::bagmode::Append);
+  for (size_t k = 0; k < headers.size(); ++k) {
+    Belief b;
+    b.header = headers[k];
+    b.header.stamp += restamp;
+    b.method = method;
+    b.num_places = num_places;
+    b.set_names = set_names;
+    b.place_ids = outcomes[k].top_places;
+    b.match = outcomes[k].match;
+    b.confidence = outcomes[k].confidence;
+    b.accepted = outcomes[k].accepted;
+    out.write("/bsf_vpr/belief", headers[k].stamp + ros::Duration(0.01), b);
+  }
+}
+
+TEST_F(EvaluateByPosition, MetresFromAResultsBagEqualMetresOffline) {
+  // The replay: the query bag with the poses of dir/poses.csv on /vpr/query_pose and the
+  // recorded ground truth of +-3 frames, plus the beliefs the node would publish.
+  const std::string bag = dir_ + "/results.bag";
+  const Result made =
+      RunCommand(std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + kGardens +
+                 "night_right.npy --tolerance 3 --poses " + dir_ + "/poses.csv --out " + bag);
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::vector<QueryOutcome> outcomes = OfflineOutcomes(day_, night_, "bsf");
+  AppendBeliefs(bag, "bsf", {"day"}, day_.size(), outcomes);
+  const Result offline = Evaluate("--reference day=" + dir_ + "/day.yaml --query " + kGardens +
+                                  "night_right.npy --methods bsf --no-progress --query-poses " +
+                                  dir_ + "/poses.csv --tolerance-m 3.5 --out " + dir_ + "/off");
+  ASSERT_EQ(offline.exit_code, 0) << offline.output;
+  const Result metres = Evaluate("--results-bag " + bag + " --reference day=" + dir_ +
+                                 "/day.yaml --tolerance-m 3.5 --out " + dir_ + "/m");
+  ASSERT_EQ(metres.exit_code, 0) << metres.output;
+  EXPECT_NE(metres.output.find("query poses from /vpr/query_pose"), std::string::npos)
+      << metres.output;
+  EXPECT_EQ(metres.output.find("without a query pose"), std::string::npos) << metres.output;
+  const std::vector<std::string> summary = Lines(dir_ + "/off/summary.csv");
+  ASSERT_EQ(summary.size(), 2u);
+  EXPECT_EQ(Lines(dir_ + "/m/summary.csv"), summary);
+  EXPECT_EQ(Lines(dir_ + "/m/pr/bsf.csv"), Lines(dir_ + "/off/pr/bsf.csv"));
+  EXPECT_EQ(Lines(dir_ + "/m/matches/bsf.csv"), Lines(dir_ + "/off/matches/bsf.csv"));
+  // By frames, with the recorded ground truth: the same scores.
+  const Result frames = Evaluate("--results-bag " + bag + " --out " + dir_ + "/f");
+  ASSERT_EQ(frames.exit_code, 0) << frames.output;
+  EXPECT_NE(frames.output.find("ground truth: the correct places recorded on /vpr/ground_truth"),
+            std::string::npos)
+      << frames.output;
+  EXPECT_EQ(Lines(dir_ + "/f/summary.csv"), summary);
+
+  // Queries 10..12 without a pose (a GPS outage), in a bag without recorded ground truth
+  // (the k-th belief is query k): they are left out of every score, and said so; their
+  // matches are still listed.
+  std::vector<std::string> rows = Lines(dir_ + "/poses.csv");
+  rows.erase(rows.begin() + 11, rows.begin() + 14);  // line 0 is the header
+  std::ofstream gaps(dir_ + "/gaps.csv");
+  for (const std::string& r : rows) gaps << r << '\n';
+  gaps.close();
+  const std::string gap_bag = dir_ + "/gaps.bag";
+  ASSERT_EQ(RunCommand(std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + kGardens +
+                       "night_right.npy --poses " + dir_ + "/gaps.csv --out " + gap_bag)
+                .exit_code,
+            0);
+  AppendBeliefs(gap_bag, "bsf", {"day"}, day_.size(), outcomes);
+  const Result gap = Evaluate("--results-bag " + gap_bag + " --reference day=" + dir_ +
+                              "/day.yaml --tolerance-m 3.5 --out " + dir_ + "/gap");
+  ASSERT_EQ(gap.exit_code, 0) << gap.output;
+  EXPECT_NE(gap.output.find("200 queries, method bsf, 3 without a query pose on /vpr/query_pose "
+                            "(left out of the scores)"),
+            std::string::npos)
+      << gap.output;
+  EXPECT_NE(gap.output.find("197 of 197 queries have a true match"), std::string::npos)
+      << gap.output;
+  EXPECT_EQ(Lines(dir_ + "/gap/matches/bsf.csv").size(), 201u);
+  std::vector<PlacePose> kept_poses;
+  std::vector<QueryOutcome> kept;
+  for (size_t q = 0; q < outcomes.size(); ++q) {
+    if (q >= 10 && q <= 12) continue;
+    kept_poses.push_back(query_poses_[q]);
+    kept.push_back(outcomes[q]);
+  }
+  const std::vector<std::optional<PlacePose>> places(day_.poses.begin(), day_.poses.end());
+  const Metrics expected =
+      ScoreOutcomes(kept, GroundTruth::FromMetricTolerance(kept_poses, places, 3.5));
+  const auto s = Summary(dir_ + "/gap").at("bsf");
+  EXPECT_EQ(s.at("n_queries"), 197);
+  EXPECT_NEAR(s.at("auc"), expected.auc, 1e-8);
+  EXPECT_NEAR(s.at("r_at_100p"), expected.recall_at_full_precision, 1e-8);
+  EXPECT_NEAR(s.at("r_at_1"), expected.recall_at_1, 1e-8);
+  EXPECT_NEAR(s.at("r_at_10"), expected.recall_at_10, 1e-8);
+}
+
+TEST_F(EvaluateByPosition, ResultsBagMetresNeedTheQueryPosesAndEverySetOfTheNode) {
+  ReferenceSet half = day_;
+  half.descriptors = day_.descriptors.topRows(100).eval();
+  half.place_ids.resize(100);
+  half.poses.resize(100);
+  SaveReferenceSet(half, dir_ + "/half.yaml");
+  // Five queries with poses and beliefs; the same beliefs stamped apart from the poses; and
+  // without poses.
+  const std::string bag = dir_ + "/results.bag", restamped = dir_ + "/restamped.bag",
+                    no_poses = dir_ + "/no_poses.bag";
+  const std::string make = std::string(BSF_MAKE_BAG_PATH) + " --descriptors " + kGardens +
+                           "night_right.npy --limit 5 --out ";
+  std::ofstream(dir_ + "/five.csv") << "query,x,y,z,yaw\n0,0,0,0,0\n1,1,0,0,0\n2,2,0,0,0\n"
+                                    << "3,3,0,0,0\n4,4,0,0,0\n";
+  const Result made = RunCommand(make + bag + " --poses " + dir_ + "/five.csv");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  fs::copy_file(bag, restamped);
+  ASSERT_EQ(RunCommand(make + no_poses).exit_code, 0);
+  QueryOutcome o;
+  o.match = 0;
+  o.top_places = {0};
+  const std::vector<QueryOutcome> five(5, o);
+  AppendBeliefs(bag, "bsf", {"day"}, 200, five);
+  AppendBeliefs(restamped, "bsf", {"day"}, 200, five, ros::Duration(0.05));
+  AppendBeliefs(no_poses, "bsf", {"day"}, 200, five);
+
+  const std::string day = " --reference day=" + dir_ + "/day.yaml";
+  const std::string replay = "--results-bag " + bag + " --tolerance-m 3";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replay, "needs place poses: give --reference NAME=PATH.yaml for each set"},
+      {replay + " --reference night=" + dir_ + "/day.yaml",
+       "the node of this replay had no set 'night' (its sets: day)"},
+      {replay + " --reference day=" + dir_ + "/half.yaml",
+       "the reference sets given make 100 places, the beliefs have 200"},
+      {replay + day + " --query-poses " + dir_ + "/poses.csv",
+       "--query-poses is for offline queries"},
+      {replay + day + " --tolerance 2", "at most one of"},
+      {"--results-bag " + no_poses + " --tolerance-m 3" + day,
+       "holds no geometry_msgs/PoseStamped on /vpr/query_pose"},
+      {replay + day + " --pose-topic /gps", "holds no geometry_msgs/PoseStamped on /gps"},
+      {"--results-bag " + restamped + " --tolerance-m 3" + day,
+       "no belief in '" + restamped + "' has a pose on /vpr/query_pose with its header stamp"},
+      {"--results-bag " + bag + day + " --tolerance 2",
+       "--results-bag goes without --reference except to give the place poses"},
+      {"--results-bag " + bag + " --tolerance 2 --pose-topic /gps",
+       "--pose-topic goes with --results-bag and --tolerance-m"},
+      {"--reference day=" + dir_ + "/day.yaml --query " + kGardens + "night_right.npy " +
+           "--tolerance-m 3 --query-poses " + dir_ + "/poses.csv --pose-topic /pose",
+       "--pose-topic goes with --results-bag and --tolerance-m"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    const Result r = Evaluate(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  const Result ok = Evaluate(replay + day);
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
 TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {

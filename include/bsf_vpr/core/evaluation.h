@@ -19,8 +19,10 @@ class GroundTruth {
   // Frame-aligned traversals: query q shows place q; a match m is correct when
   // |m - q| <= tolerance_frames. Queries q >= num_places have no true match.
   static GroundTruth FromFrameTolerance(int num_queries, int num_places, int tolerance_frames);
-  // A match is correct when its place pose lies within tolerance_m (3-D Euclidean, metres)
-  // of the query's pose. place_poses[i] is place i's pose, or nullopt if unknown.
+  // A match is correct when its place pose lies within tolerance_m metres of the query's
+  // pose, by planar distance (x, y: PlanarDistance in place_index.h; height and heading are
+  // not compared). place_poses[i] is place i's pose, or nullopt if unknown: a place without
+  // a pose is never correct.
   static GroundTruth FromMetricTolerance(const std::vector<PlacePose>& query_poses,
                                          const std::vector<std::optional<PlacePose>>& place_poses,
                                          double tolerance_m);

@@ -37,15 +37,8 @@ using testing::Result;
 using testing::RunCommand;
 using testing::Summary;
 
-class EvaluateTool : public ::testing::Test {
- protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/bsf_eval_XXXXXX";
-    dir_ = mkdtemp(tmpl);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string dir_;
-};
+// A fresh temporary folder dir_ per test (test_util.h).
+class EvaluateTool : public testing::TempDirTest {};
 
 TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   const Result r =

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../core/test_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "tool_test_util.h"
 
@@ -22,15 +23,8 @@ using testing::Lines;
 using testing::Result;
 using testing::RunCommand;
 
-class MakeTools : public ::testing::Test {
- protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/bsf_make_XXXXXX";
-    dir_ = mkdtemp(tmpl);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string dir_;
-};
+// A fresh temporary folder dir_ per test (test_util.h).
+class MakeTools : public testing::TempDirTest {};
 
 TEST_F(MakeTools, MakeReferenceAndMakeBagWriteFilesOrFailCleanly) {
   const std::string mk_ref = BSF_MAKE_REFERENCE_PATH, mk_bag = BSF_MAKE_BAG_PATH;

@@ -123,9 +123,8 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
-  odometry_ = std::make_unique<OdometryTracker>(nh_, params_.odometry_source,
-                                               params_.odometry_topic, params_.odom_frame,
-                                               params_.base_frame);
+  odometry_ = std::make_unique<OdometryTracker>(
+      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
   robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
                                                   params_.map_frame, params_.base_frame);
   // Always subscribed: the belief is state that must follow every query.
@@ -161,11 +160,17 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
   // Recording by localisation waits for the match; the other modes record every descriptor.
-  const bool localized = recording_->recording() &&
-                         recording_->places() == RecordingPlaces::kLocalized;
+  const bool localized =
+      recording_->recording() && recording_->places() == RecordingPlaces::kLocalized;
   if (recording_->recording() && !localized) {
     try {
       const std::optional<PlacePose> pose = robot_pose_->PoseAt(msg->header.stamp);
+      if (!pose && recording_->places() == RecordingPlaces::kPose) {
+        throw std::invalid_argument(
+            "by pose: no pose of the robot at the descriptor's stamp "
+            "from " +
+            robot_pose_->Describe() + "; not recorded");
+      }
       recording_->Add(d, msg->descriptor_type, pose);
     } catch (const std::exception& e) {
       // Reported; recognition goes on (a recording must not stop localisation).

@@ -16,13 +16,22 @@ PlacePose ToPlacePose(double x, double y, double z, double qx, double qy, double
 RobotPoseSource::RobotPoseSource(ros::NodeHandle nh, const std::string& source,
                                  const std::string& topic, std::string map_frame,
                                  std::string base_frame)
-    : source_(source), map_frame_(std::move(map_frame)), base_frame_(std::move(base_frame)) {
+    : source_(source),
+      topic_(topic),
+      map_frame_(std::move(map_frame)),
+      base_frame_(std::move(base_frame)) {
   if (source_ == "tf") {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
   } else if (source_ == "topic") {
     sub_ = nh.subscribe(topic, 10, &RobotPoseSource::OnOdometry, this);
   }
+}
+
+std::string RobotPoseSource::Describe() const {
+  if (source_ == "tf") return "tf " + map_frame_ + " -> " + base_frame_;
+  if (source_ == "topic") return "topic " + topic_;
+  return "nowhere (pose_source none)";
 }
 
 void RobotPoseSource::OnOdometry(const nav_msgs::Odometry::ConstPtr& msg) {

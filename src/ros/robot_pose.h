@@ -27,11 +27,13 @@ class RobotPoseSource {
   // is at most 1 s older or newer. nullopt when there is none (never waits).
   std::optional<PlacePose> PoseAt(const ros::Time& stamp);
   const std::string& source() const { return source_; }
+  // Where poses come from, for messages: "tf map -> base_link", "topic odometry/map".
+  std::string Describe() const;
 
  private:
   void OnOdometry(const nav_msgs::Odometry::ConstPtr& msg);
 
-  std::string source_, map_frame_, base_frame_;
+  std::string source_, topic_, map_frame_, base_frame_;
   ros::Subscriber sub_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -39,8 +39,10 @@ std::vector<Traversal> ReadAll(const ImportArgs& a) {
     const Traversal& t = all.back();
     if (t.frames.empty()) {
       throw std::runtime_error(std::string(kind) + " '" + s.name + "' has no frame with a pose (" +
-                               std::to_string(t.without_pose) + " outside the pose log, " +
-                               std::to_string(t.not_downloaded) + " timestamps without an image)");
+                               std::to_string(t.without_pose) + " frames outside the pose log" +
+                               (t.not_downloaded > 0 ? ", " + std::to_string(t.not_downloaded) +
+                                                           " timestamps without an image)"
+                                                     : ")"));
     }
   };
   for (const NamedSpec& s : a.references) read_one(s, "reference");

@@ -34,6 +34,7 @@ TEST_F(ImportErrors, BadInputIsOneLineNamingTheFileAndNothingIsWritten) {
   std::ofstream(dir_ + "/back.csv") << "timestamp,x,y,z,yaw\n2,0,0,0,0\n1,1,0,0,0\n";
   std::ofstream(dir_ + "/far.csv") << "timestamp,x,y,z,yaw\n1,500,0,0,0\n2,501,0,0,0\n";
   std::ofstream(dir_ + "/nolat.csv") << "frame,lon\n1,14\n";
+  std::ofstream(dir_ + "/later.csv") << "frame,lat,lon\n1000,67,14\n1001,67,14.0001\n";
   fs::create_directories(dir_ + "/two");
   fs::copy_file(images[0], dir_ + "/two/a.png");
   fs::copy_file(images[1], dir_ + "/two/b.png");
@@ -68,6 +69,8 @@ TEST_F(ImportErrors, BadInputIsOneLineNamingTheFileAndNothingIsWritten) {
       {gen + " --tolerance 3" + out, "--tolerance is for traversals without poses"},
       {"--layout nordland --reference n=" + dir_ + "/img --tolerance-m 3" + out,
        "--tolerance-m needs poses: these traversals have none"},
+      {"--layout nordland --reference n=" + dir_ + "/img," + dir_ + "/later.csv" + out,
+       "reference 'n' has no frame with a pose (20 frames outside the pose log)"},
       {"--layout nordland --reference n=" + dir_ + "/img," + dir_ + "/nolat.csv" + out,
        "'" + dir_ + "/nolat.csv' line 1: no column 'latitude' or 'lat'"},
       {"--layout robotcar --reference r=" + rc + out,

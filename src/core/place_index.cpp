@@ -65,9 +65,33 @@ void PlaceIndexOptions::Validate() const {
   if (!(association_radius_m > 0) || !std::isfinite(association_radius_m)) {
     throw std::invalid_argument("association_radius_m must be a finite number > 0");
   }
-  if (!(max_yaw_difference_rad >= 0)) {
-    throw std::invalid_argument("max_yaw_difference must be >= 0");
+  if (!(max_yaw_difference_deg >= 0)) {
+    throw std::invalid_argument("max_yaw_difference_deg must be >= 0");
   }
+}
+
+const OptionTable<PlaceIndexOptions>& PlaceIndexOptionsTable() {
+  static const OptionTable<PlaceIndexOptions> kTable =
+      OptionTable<PlaceIndexOptions>()
+          .Add(
+              "place_spacing_m", [](auto& o) -> auto& { return o.place_spacing_m; },
+              "distance between places along a route that makes new places (the paper: 1)", "m",
+              Above(0))
+          .Add(
+              "association_radius_m", [](auto& o) -> auto& { return o.association_radius_m; },
+              "a traversal's frame describes a place of the map when it lies within this "
+              "distance of it (the nearest such frame)",
+              "m", Above(0))
+          .Add(
+              "max_yaw_difference_deg", [](auto& o) -> auto& { return o.max_yaw_difference_deg; },
+              "a frame whose heading differs more from a place's is not a view of it (a place "
+              "seen in the opposite direction is another place)",
+              "degrees", Between(0, 180))
+          .Add(
+              "add_new_places", [](auto& o) -> auto& { return o.add_new_places; },
+              "route of a traversal beyond the map's places becomes new places (else it is "
+              "left out)");
+  return kTable;
 }
 
 double PlanarDistance(const PlacePose& a, const PlacePose& b) {
@@ -116,6 +140,7 @@ PlaceAssignment AssociateWithPlaces(const std::vector<PlacePose>& frame_poses,
   options.Validate();
   CheckPoses(frame_poses, "frame");
   const double radius = options.association_radius_m;
+  const double max_yaw_rad = options.max_yaw_difference_deg * kPi / 180;
   const PlaceGrid grid(place_poses, radius);
   std::vector<int> best_frame(place_poses.size(), -1);
   std::vector<double> best_distance(place_poses.size(), 0.0);
@@ -125,7 +150,7 @@ PlaceAssignment AssociateWithPlaces(const std::vector<PlacePose>& frame_poses,
     grid.ForNear(fp.x_m, fp.y_m, [&](int place) {
       const PlacePose& pp = *place_poses[static_cast<size_t>(place)];
       const double d = PlanarDistance(fp, pp);
-      if (d > radius || YawDifference(fp.yaw_rad, pp.yaw_rad) > options.max_yaw_difference_rad) {
+      if (d > radius || YawDifference(fp.yaw_rad, pp.yaw_rad) > max_yaw_rad) {
         return;
       }
       near_a_place[f] = true;
@@ -141,7 +166,7 @@ PlaceAssignment AssociateWithPlaces(const std::vector<PlacePose>& frame_poses,
     if (best_frame[p] < 0) continue;
     out.place_ids.push_back(static_cast<int>(p));
     out.frames.push_back(best_frame[p]);
-    out.place_poses.push_back(*place_poses[p]);
+    out.place_poses.push_back(frame_poses[static_cast<size_t>(best_frame[p])]);
   }
   if (!options.add_new_places) return out;
   // Each stretch of frames near no place becomes new places along its own route.

@@ -4,8 +4,11 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <type_traits>
+
+#include "bsf_vpr/core/place_index.h"
 
 namespace bsf_vpr {
 
@@ -98,6 +101,7 @@ void ReferenceMap::Add(ReferenceSet set) {
         ", far beyond its " + std::to_string(set.size()) + " descriptors and the map's " +
         std::to_string(num_places_) + " places (at most " + std::to_string(limit - 1) + ")");
   }
+  CheckPlacePoses(set);
   // Everything that can throw happens aside (encoding, copies); the map changes only by
   // moves below.
   StoredReferenceSet stored(std::move(set), storage_);
@@ -113,6 +117,24 @@ void ReferenceMap::Add(ReferenceSet set) {
   num_places_ = num_places;
   place_poses_ = std::move(poses);
   median_spacing_ = spacing;
+}
+
+void ReferenceMap::CheckPlacePoses(const ReferenceSet& set) const {
+  std::vector<std::optional<PlacePose>> theirs(place_poses_.size());
+  for (size_t k = 0; k < set.poses.size(); ++k) {
+    const size_t place = static_cast<size_t>(set.place_ids[k]);
+    if (place < theirs.size()) theirs[place] = set.poses[k];
+  }
+  const std::optional<PoseConflict> c =
+      FindPoseConflict(place_poses_, theirs, place_pose_tolerance_m_);
+  if (c) {
+    std::ostringstream m;
+    m.precision(1);
+    m << std::fixed << "reference set '" << set.name << "' puts place " << c->place << " "
+      << c->distance_m << " m from where the loaded sets have it (tolerance "
+      << place_pose_tolerance_m_ << " m): its place ids do not belong to this map's place index";
+    throw std::invalid_argument(m.str());
+  }
 }
 
 void ReferenceMap::IndexPoses(const StoredReferenceSet& set,

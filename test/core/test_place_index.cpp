@@ -57,7 +57,7 @@ TEST(PlaceIndex, AssociatesTheNearestFrameAndLeavesOthersUncovered) {
   EXPECT_EQ(a.place_ids.size(), 16u);
   for (size_t k = 0; k < a.place_ids.size(); ++k) {
     EXPECT_LE(std::abs(drive[static_cast<size_t>(a.frames[k])].x_m - a.place_ids[k]), 0.15 + 1e-9);
-    EXPECT_EQ(a.place_poses[k].x_m, map[static_cast<size_t>(a.place_ids[k])]->x_m);
+    EXPECT_EQ(a.place_poses[k].x_m, drive[static_cast<size_t>(a.frames[k])].x_m);  // as seen
   }
   EXPECT_EQ(a.new_places, 0);
 }
@@ -85,7 +85,7 @@ TEST(PlaceIndex, OppositeHeadingIsAnotherViewAndDetoursAddPlaces) {
   EXPECT_EQ(grown.place_ids[11], 21);
   EXPECT_NEAR(grown.place_poses[11].y_m, 30, 1e-9);
   EXPECT_NEAR(grown.place_poses.back().yaw_rad, kPi, 1e-9);
-  o.max_yaw_difference_rad = kPi;  // heading ignored: the westward stretch is the route
+  o.max_yaw_difference_deg = 180;  // heading ignored: the westward stretch is the route
   EXPECT_EQ(AssociateWithPlaces(drive, map, o).new_places, 11);
 }
 

@@ -47,6 +47,34 @@ TEST(ReferenceMap, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
   EXPECT_FALSE(map.PoseOf(0).has_value());
 }
 
+TEST(ReferenceMap, RefusesSetsThatPutAPlaceElsewhere) {
+  ReferenceMap map;
+  ReferenceSet summer = MakeReferenceSet("summer", testing::RandomMatrix(3, 4, 1));
+  summer.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}};
+  map.Add(summer);
+  ReferenceSet elsewhere = MakeReferenceSet("elsewhere", testing::RandomMatrix(3, 4, 2));
+  elsewhere.poses = {{0, 3, 0, 0}, {501, 0, 0, 0}, {2, 0, 0, 0}};  // place 1: 500 m away
+  try {
+    map.Add(elsewhere);
+    ADD_FAILURE() << "a set 500 m off was loaded";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("puts place 1 500.0 m from where the loaded sets have "
+                                         "it (tolerance 25.0 m)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(map.num_sets(), 1);
+  // Places the map has no pose for, and sets without poses, are not checked.
+  ReferenceSet beyond = MakeReferenceSet("beyond", testing::RandomMatrix(2, 4, 3));
+  beyond.place_ids = {3, 4};
+  beyond.poses = {{900, 0, 0, 0}, {901, 0, 0, 0}};
+  map.Add(beyond);
+  map.Add(MakeReferenceSet("no_poses", testing::RandomMatrix(3, 4, 4)));
+  map.SetPlacePoseTolerance(std::numeric_limits<double>::infinity());
+  map.Add(elsewhere);
+  EXPECT_EQ(map.num_sets(), 4);
+}
+
 TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
   ReferenceMap map;
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));

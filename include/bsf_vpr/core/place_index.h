@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -25,17 +26,20 @@ struct PlaceIndexOptions {
   double place_spacing_m = 1.0;       // distance between places along the route (paper: 1)
   double association_radius_m = 5.0;  // a frame farther than this from a place is not it
   // A frame whose heading differs from the place's by more than this is not a view of it.
-  double max_yaw_difference_rad = 0.7854;  // 45 degrees
-  bool add_new_places = false;             // route beyond the map becomes new places
+  double max_yaw_difference_deg = 45;
+  bool add_new_places = false;  // route beyond the map becomes new places
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
+
+// The options of PlaceIndexOptions (options.h), for the tools and the fusion node.
+const OptionTable<PlaceIndexOptions>& PlaceIndexOptionsTable();
 
 // Which frame describes which place.
 struct PlaceAssignment {
   std::vector<int> place_ids;          // one per chosen frame, ascending
   std::vector<int> frames;             // frames[k] is the frame that describes place_ids[k]
-  std::vector<PlacePose> place_poses;  // the pose of place_ids[k] (the frame's pose)
+  std::vector<PlacePose> place_poses;  // the pose of frames[k], where place_ids[k] was seen
   int new_places = 0;                  // how many of place_ids were added beyond the map
 };
 
@@ -48,7 +52,7 @@ PlaceAssignment MakePlacesAlongRoute(const std::vector<PlacePose>& frame_poses,
 
 // The places of a map (`place_poses[i]` is place i's pose, nullopt for a place without one)
 // that the traversal passes: each place gets the frame nearest to it within
-// association_radius_m whose yaw is within max_yaw_difference_rad of the place's; a place
+// association_radius_m whose yaw is within max_yaw_difference_deg of the place's; a place
 // with none is uncovered. With add_new_places, the stretches of frames that are near no
 // place (by position and heading) become new places along their own route, numbered from
 // place_poses.size(). Uses a grid over the places: O(frames + places) for a route.

@@ -64,11 +64,19 @@ class ReferenceMap {
   // reduced precision keeps only its encoded rows: its float32 values are released.
   void SetStoragePrecision(StoragePrecision precision) { storage_ = precision; }
   StoragePrecision storage_precision() const { return storage_; }
+  // Two sets that put one place more than this far apart (metres, planar) do not share a
+  // place index: Add refuses the second. Default 25 m; +infinity turns the check off.
+  void SetPlacePoseTolerance(double metres) { place_pose_tolerance_m_ = metres; }
+  double place_pose_tolerance_m() const { return place_pose_tolerance_m_; }
+  // Throws std::invalid_argument naming the place and the distance when `set` puts a place
+  // farther than place_pose_tolerance_m() from the pose the map has for it.
+  void CheckPlacePoses(const ReferenceSet& set) const;
 
   // Adds a set after validating it, held from now on as a StoredReferenceSet at
   // storage_precision(). Throws std::invalid_argument if it is invalid, if its name is
   // taken, if its dimension differs from the sets already held, if a place id lies far
-  // beyond the set and the map (kMaxPlaceIdGrowth), or if float16 cannot hold a value; the
+  // beyond the set and the map (kMaxPlaceIdGrowth), if its poses contradict the map's
+  // (CheckPlacePoses), or if float16 cannot hold a value; the
   // map is unchanged whenever it throws (std::bad_alloc included).
   void Add(ReferenceSet set);
   // Removes the named set; returns false if there is none.
@@ -100,6 +108,7 @@ class ReferenceMap {
   int num_places_ = 0;
   int dimension_ = 0;
   StoragePrecision storage_ = StoragePrecision::kFloat32;
+  double place_pose_tolerance_m_ = 25;
 };
 
 }  // namespace bsf_vpr

@@ -142,8 +142,9 @@ std::vector<ReferenceSet> MakeReferenceSets(const ImportArgs& a, const std::vect
                                  "--max-yaw-difference-deg): nothing to describe");
       }
       if (r == 0) {
-        report << ", " << index->num_places() << " places every " << a.options.place_spacing_m
-               << " m (" << PlaceRange(assignment.place_ids) << ")";
+        report << ", " << index->num_places() << " places every "
+               << a.options.place_index.place_spacing_m << " m ("
+               << PlaceRange(assignment.place_ids) << ")";
       } else {
         report << ", covers " << assignment.place_ids.size() - assignment.new_places << " of "
                << before << " places";
@@ -214,7 +215,7 @@ int Run(int argc, char** argv) {
   CheckOptionsApply(a, all.front().pose_source != PoseSource::kNone);
   std::ostringstream report;
 
-  SharedPlaceIndex index(a.options.ToPlaceIndexOptions());
+  SharedPlaceIndex index(a.options.place_index);
   int aligned_places = 0;
   const std::vector<ReferenceSet> sets =
       MakeReferenceSets(a, all, frames, &index, &aligned_places, report);

@@ -14,7 +14,6 @@ namespace bsf_vpr {
 namespace tools {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxImageSidePx = 1 << 14;
 
 NamedSpec ParseNamedSpec(const std::string& flag, const std::string& value) {
@@ -72,19 +71,10 @@ void CheckCombination(const ImportArgs& a) {
   if (a.Given("frame_rate_hz") && a.layout != DatasetLayout::kNordland) {
     throw std::invalid_argument("--frame-rate-hz goes with --layout nordland");
   }
-  a.options.ToPlaceIndexOptions().Validate();
+  a.options.place_index.Validate();
 }
 
 }  // namespace
-
-PlaceIndexOptions ImportOptions::ToPlaceIndexOptions() const {
-  PlaceIndexOptions o;
-  o.place_spacing_m = place_spacing_m;
-  o.association_radius_m = association_radius_m;
-  o.max_yaw_difference_rad = max_yaw_difference_deg * kPi / 180;
-  o.add_new_places = add_new_places;
-  return o;
-}
 
 const OptionTable<ImportOptions>& ImportOptionsTable() {
   static const OptionTable<ImportOptions> kTable =
@@ -98,22 +88,8 @@ const OptionTable<ImportOptions>& ImportOptionsTable() {
               "nordland: frame number N was taken at N / this (1: the frames as distributed, "
               "one per second of video)",
               "Hz", Above(0))
-          .Add(
-              "place_spacing_m", [](auto& o) -> auto& { return o.place_spacing_m; },
-              "distance between the places the first reference makes along its route", "m",
-              Above(0))
-          .Add(
-              "association_radius_m", [](auto& o) -> auto& { return o.association_radius_m; },
-              "a frame of a further reference farther than this from a place does not cover it",
-              "m", Above(0))
-          .Add(
-              "max_yaw_difference_deg", [](auto& o) -> auto& { return o.max_yaw_difference_deg; },
-              "a frame of a further reference whose heading differs more from a place's does "
-              "not cover it",
-              "deg", Between(0, 180))
-          .Add(
-              "add_new_places", [](auto& o) -> auto& { return o.add_new_places; },
-              "a further reference's route beyond the places becomes new places")
+          .Include(
+              PlaceIndexOptionsTable(), [](auto& o) -> auto& { return o.place_index; })
           .Add(
               "tolerance_m", [](auto& o) -> auto& { return o.tolerance_m; },
               "query ground truth: the places within this planar distance of the query's pose", "m",

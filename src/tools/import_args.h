@@ -3,7 +3,6 @@
 // their usage text).
 #pragma once
 
-#include <cmath>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -20,19 +19,11 @@ namespace tools {
 struct ImportOptions {
   std::string camera = ReadOptions().camera;
   double frame_rate_hz = ReadOptions().frame_rate_hz;
-  double place_spacing_m = PlaceIndexOptions().place_spacing_m;
-  double association_radius_m = PlaceIndexOptions().association_radius_m;
-  // PlaceIndexOptions' default (0.7854 rad) in degrees, to 0.01 degree: 45.
-  double max_yaw_difference_deg =
-      std::round(PlaceIndexOptions().max_yaw_difference_rad * 180 / 3.14159265358979323846 * 100) /
-      100;
-  bool add_new_places = PlaceIndexOptions().add_new_places;
-  double tolerance_m = 10;  // the paper's Oxford RobotCar protocol
-  int tolerance = 2;        // frame-aligned (Nordland without GPS): +-places, as bsf_evaluate
-  double rate_hz = 0;       // 0: the original timestamps
+  PlaceIndexOptions place_index;  // PlaceIndexOptionsTable(): spacing, association, yaw
+  double tolerance_m = 10;        // the paper's Oxford RobotCar protocol
+  int tolerance = 2;              // frame-aligned (Nordland without GPS): +-places, as bsf_evaluate
+  double rate_hz = 0;             // 0: the original timestamps
   bool query_descriptors = false;
-
-  PlaceIndexOptions ToPlaceIndexOptions() const;
 };
 const OptionTable<ImportOptions>& ImportOptionsTable();
 

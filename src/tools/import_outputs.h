@@ -33,9 +33,10 @@ class FrameDescriber {
   cv::Size resize_;
 };
 
-// The reference set of `t`: row k describes place a.place_ids[k] with frame a.frames[k];
-// its pose is the place's pose in the shared index (with_poses), so that every set of the
-// import gives a place the same pose. Throws std::runtime_error naming an unreadable image.
+// The reference set of `t`: row k describes place a.place_ids[k] with frame a.frames[k],
+// and (with_poses) has that frame's pose, where the place was seen: a.place_poses[k],
+// within the association radius of the place's pose in the shared index. Throws
+// std::runtime_error naming an unreadable image.
 ReferenceSet MakeImportedSet(const Traversal& t, const PlaceAssignment& a,
                              const FrameDescriber& describer, bool with_poses,
                              const std::string& condition, const std::string& distance);

@@ -25,7 +25,8 @@ class SharedPlaceIndex {
   PlaceAssignment Add(const std::vector<PlacePose>& frame_poses);
 
   int num_places() const { return static_cast<int>(place_poses_.size()); }
-  // The pose of every place (each has one: the frame that made it).
+  // The pose of every place: that of the frame that made it (a later traversal's frames
+  // associated with it do not move it).
   const std::vector<std::optional<PlacePose>>& place_poses() const { return place_poses_; }
 
  private:

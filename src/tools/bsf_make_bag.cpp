@@ -1,15 +1,6 @@
 // bsf_make_bag: turns an image folder or a descriptor .npy (plus optional ground truth and
 // query poses) into a bag that replays a traversal (see --help).
-#include <bsf_vpr/Descriptor.h>
-#include <bsf_vpr/QueryGroundTruth.h>
-#include <cv_bridge/cv_bridge.h>
-#include <geometry_msgs/PoseStamped.h>
-#include <rosbag/bag.h>
-#include <sensor_msgs/image_encodings.h>
-
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
@@ -20,6 +11,7 @@
 #include "bsf_vpr/core/image_descriptor.h"
 #include "bsf_vpr/core/npy.h"
 #include "cli_util.h"
+#include "query_bag.h"
 
 namespace {
 
@@ -99,7 +91,9 @@ Args Parse(int argc, char** argv, bool* help) {
   }
   if (a.limit < 0 || a.num_places < 0)
     throw std::invalid_argument("--limit and --num-places must be >= 0");
-  if (a.topic.empty()) a.topic = a.images.empty() ? "/vpr/descriptor" : "/camera/image_raw";
+  if (a.topic.empty())
+    a.topic =
+        a.images.empty() ? bsf_vpr::tools::kQueryDescriptorTopic : bsf_vpr::tools::kQueryImageTopic;
   return a;
 }
 
@@ -155,55 +149,25 @@ int Run(int argc, char** argv) {
   const auto poses =
       a.poses.empty() ? std::vector<std::optional<PlacePose>>() : ReadPoses(a.poses, q);
 
-  tools::CreateParentFolders(a.out);
-  const std::string tmp = a.out + ".tmp";
-  try {
-    rosbag::Bag bag(tmp, rosbag::bagmode::Write);
-    for (int k = 0; k < q; ++k) {
-      std_msgs::Header header;
-      header.stamp = ros::Time(kStartTime + k / a.rate_hz);
-      header.frame_id = "camera";
-      if (!a.images.empty()) {
-        const cv::Mat img = cv::imread(files[static_cast<size_t>(k)], cv::IMREAD_COLOR);
-        if (img.empty())
-          throw std::runtime_error("cannot decode image '" + files[static_cast<size_t>(k)] + "'");
-        bag.write(a.topic, header.stamp,
-                  cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, img).toImageMsg());
-      } else {
-        Descriptor d;
-        d.header = header;
-        d.data.assign(descriptors.row(k).data(), descriptors.row(k).data() + descriptors.cols());
-        bag.write(a.topic, header.stamp, d);
-      }
-      if (truth) {
-        QueryGroundTruth g;
-        g.header = header;
-        g.query_index = k;
-        g.correct_places = truth->CorrectPlaces(k);
-        bag.write("/vpr/ground_truth", header.stamp, g);
-      }
-      if (!poses.empty() && poses[static_cast<size_t>(k)]) {
-        const PlacePose& p = *poses[static_cast<size_t>(k)];
-        geometry_msgs::PoseStamped ps;
-        ps.header = header;
-        ps.header.frame_id = a.frame;
-        ps.pose.position.x = p.x_m;
-        ps.pose.position.y = p.y_m;
-        ps.pose.position.z = p.z_m;
-        ps.pose.orientation.z = std::sin(p.yaw_rad / 2);
-        ps.pose.orientation.w = std::cos(p.yaw_rad / 2);
-        bag.write("/vpr/query_pose", header.stamp, ps);
-      }
+  tools::QueryBagWriter bag(a.out, a.topic, a.frame);
+  for (int k = 0; k < q; ++k) {
+    const ros::Time stamp(kStartTime + k / a.rate_hz);
+    if (!a.images.empty()) {
+      const cv::Mat img = cv::imread(files[static_cast<size_t>(k)], cv::IMREAD_COLOR);
+      if (img.empty())
+        throw std::runtime_error("cannot decode image '" + files[static_cast<size_t>(k)] + "'");
+      bag.WriteImage(stamp, img);
+    } else {
+      bag.WriteDescriptor(stamp, descriptors.row(k).data(), static_cast<int>(descriptors.cols()));
     }
-    bag.close();
-    std::filesystem::rename(tmp, a.out);
-  } catch (...) {
-    std::remove(tmp.c_str());  // never leave half a bag behind
-    throw;
+    if (truth) bag.WriteGroundTruth(stamp, k, truth->CorrectPlaces(k));
+    if (!poses.empty() && poses[static_cast<size_t>(k)])
+      bag.WritePose(stamp, *poses[static_cast<size_t>(k)]);
   }
+  bag.Commit();
   std::cout << "bsf_make_bag: wrote " << q << " queries at " << a.rate_hz << " Hz to " << a.out
-            << " (" << a.topic << (truth ? ", /vpr/ground_truth" : "")
-            << (poses.empty() ? "" : ", /vpr/query_pose") << ")\n";
+            << " (" << a.topic << (truth ? std::string(", ") + tools::kGroundTruthTopic : "")
+            << (poses.empty() ? "" : std::string(", ") + tools::kQueryPoseTopic) << ")\n";
   return 0;
 }
 

@@ -15,6 +15,7 @@
 #include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
 #include "cli_util.h"
+#include "import_args.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -199,9 +200,13 @@ std::string Markdown() {
          "The fusion node's parameters of the same names (`bsf_evaluate --help` lists them "
          "too).\n\n" +
          MarkdownTable(MethodOptionsTable().Infos(), true) +
-         "\n## bsf_evaluate and bsf_make_reference: image descriptor\n\n"
+         "\n## bsf_evaluate, bsf_make_reference and bsf_import: image descriptor\n\n"
          "For image folders; the descriptor_ingest parameters of the same names.\n\n" +
-         MarkdownTable(ImageDescriberOptionsTable().Infos(), true);
+         MarkdownTable(ImageDescriberOptionsTable().Infos(), true) +
+         "\n## bsf_import\n\n"
+         "Dataset layouts to reference sets and query bags (docs/import.md); also the image "
+         "descriptor flags above.\n\n" +
+         MarkdownTable(bsf_vpr::tools::ImportOptionsTable().Infos(), true);
 }
 
 std::vector<std::pair<std::string, std::string>> DerivedFiles() {

@@ -67,9 +67,7 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
   const std::string path = RecordingPath(*data_dir_, recorder_.name());
   ReferenceRecorder::Map map;
   map.options = options;
-  if (loaded) {
-    for (int i = 0; i < loaded->num_places(); ++i) map.place_poses.push_back(loaded->PoseOf(i));
-  }
+  if (loaded) map.place_poses = loaded->place_poses();
   // Built, saved, and only then forgotten: a save that fails keeps the recording.
   Saved saved{recorder_.Build(descriptor_type_, map), ""};  // throws if empty
   saved.set.distance = ToString(distance);

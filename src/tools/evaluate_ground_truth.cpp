@@ -119,8 +119,7 @@ std::vector<PlacePose> ReadQueryPosesCsv(const std::string& path, int num_querie
 }
 
 std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceMap& map) {
-  std::vector<std::optional<PlacePose>> poses;
-  for (int i = 0; i < map.num_places(); ++i) poses.push_back(map.PoseOf(i));
+  const std::vector<std::optional<PlacePose>>& poses = map.place_poses();
   if (std::none_of(poses.begin(), poses.end(), [](const auto& p) { return p.has_value(); })) {
     throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
   }

@@ -93,6 +93,8 @@ class ReferenceMap {
   // The pose of a place from the first set that has one for it (O(1): an index kept by
   // Add and Remove).
   std::optional<PlacePose> PoseOf(int place) const;
+  // PoseOf of every place: num_places() entries.
+  const std::vector<std::optional<PlacePose>>& place_poses() const { return place_poses_; }
   // Median distance (metres) between consecutive places that both have poses; nullopt if
   // no two consecutive places do. O(1): kept up to date by Add and Remove.
   std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }

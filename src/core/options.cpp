@@ -57,16 +57,11 @@ std::string ShortestDouble(double v) {
 }
 
 std::string Wrap(const std::string& text, size_t width, const std::string& indent) {
-  std::istringstream words(text);
-  std::string out, line, word;
-  while (words >> word) {
-    if (!line.empty() && line.size() + 1 + word.size() > width) {
-      out += line + "\n" + indent;
-      line.clear();
-    }
-    line += (line.empty() ? "" : " ") + word;
+  std::string out;
+  for (const std::string& line : WrapWords(text, width)) {
+    out += (out.empty() ? "" : "\n" + indent) + line;
   }
-  return out + line;
+  return out;
 }
 
 }  // namespace
@@ -76,6 +71,21 @@ double FloatAsDecimal(float f) {
   char buffer[64];
   const std::to_chars_result r = std::to_chars(buffer, buffer + sizeof(buffer), f);
   return std::strtod(std::string(buffer, r.ptr).c_str(), nullptr);
+}
+
+std::vector<std::string> WrapWords(const std::string& text, size_t width) {
+  std::istringstream words(text);
+  std::vector<std::string> lines;
+  std::string line, word;
+  while (words >> word) {
+    if (!line.empty() && line.size() + 1 + word.size() > width) {
+      lines.push_back(line);
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + word;
+  }
+  if (!line.empty()) lines.push_back(line);
+  return lines;
 }
 
 std::string OptionFlag(const std::string& name) {

@@ -41,16 +41,8 @@ bad arguments.
 }
 
 std::string Wrapped(const std::string& text, size_t width, const std::string& prefix) {
-  std::istringstream words(text);
-  std::string out, line, word;
-  while (words >> word) {
-    if (!line.empty() && line.size() + 1 + word.size() > width) {
-      out += prefix + line + "\n";
-      line.clear();
-    }
-    line += (line.empty() ? "" : " ") + word;
-  }
-  if (!line.empty()) out += prefix + line + "\n";
+  std::string out;
+  for (const std::string& line : WrapWords(text, width)) out += prefix + line + "\n";
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
+#include "query_bag.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -27,8 +28,8 @@ struct EvaluateArgs {
   std::vector<NamedPath> similarities;  // --similarities NAME=PATH
   std::string results_bag;              // --results-bag PATH
   std::string belief_topic = "/bsf_vpr/belief";
-  std::string truth_topic = "/vpr/ground_truth";
-  std::string pose_topic = "/vpr/query_pose";  // geometry_msgs/PoseStamped, for --tolerance-m
+  std::string truth_topic = kGroundTruthTopic;
+  std::string pose_topic = kQueryPoseTopic;  // geometry_msgs/PoseStamped, for --tolerance-m
   // --distance; when not given: the distance the reference sets (and a query YAML) declare,
   // if they agree, else euclidean (evaluate_inputs.h).
   std::optional<DistanceMetric> metric;

@@ -92,6 +92,9 @@ class OptionSource {
   virtual std::string Describe(const std::string& name) const = 0;
 };
 
+// `text`'s words in lines of at most `width` characters (a longer word has a line of its own).
+std::vector<std::string> WrapWords(const std::string& text, size_t width);
+
 // The usage lines of `options` for a tool's --help: the flag at column 3, the text at
 // column 27, with default, unit and range.
 std::string OptionsUsage(const std::vector<OptionInfo>& options);

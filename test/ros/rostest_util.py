@@ -1,6 +1,8 @@
 """Helpers shared by the bsf_vpr rostest nodes: waiting on conditions with deadlines (no
 fixed sleeps), and small .npy / reference-set writers."""
+import csv
 import os
+import subprocess
 import time
 
 import numpy as np
@@ -16,6 +18,28 @@ def wait_for(condition, timeout_s, what):
         if rospy.is_shutdown():
             raise AssertionError("ROS shut down while waiting for %s" % what)
         time.sleep(0.002)
+
+
+def read_csv(path):
+    """The rows of a CSV file with a header, as dicts."""
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def run_tool(tool, *args):
+    """Runs `rosrun bsf_vpr TOOL ARGS`; returns its stdout, failing the test (with the
+    tool's output) on a non-zero exit."""
+    r = subprocess.run(["rosrun", "bsf_vpr", tool] + [str(a) for a in args],
+                       capture_output=True, text=True, check=False)
+    if r.returncode != 0:
+        raise AssertionError("%s %s failed (exit %d): %s %s"
+                             % (tool, " ".join(map(str, args)), r.returncode, r.stdout, r.stderr))
+    return r.stdout
+
+
+def evaluate(*args):
+    """Runs bsf_evaluate (without progress output); returns its stdout."""
+    return run_tool("bsf_evaluate", "--no-progress", *args)
 
 
 def write_reference_set(directory, name, descriptors, distance="cosine", poses=None):
@@ -45,3 +69,43 @@ def attach_fusion_services(target, ns="/bsf_vpr/"):
     for attribute, (name, kind) in services.items():
         rospy.wait_for_service(ns + name, timeout=60)
         setattr(target, attribute, rospy.ServiceProxy(ns + name, kind))
+
+
+def replay_lockstep(bag_path, results_path, image_topic="/camera/image_raw",
+                    belief_topic="/bsf_vpr/belief"):
+    """Replays the images of a query bag (bsf_make_bag, bsf_import) one at a time: each is
+    published once its predecessor's belief has arrived, so nothing depends on timing and no
+    message is dropped. Writes the beliefs, and the bag's /vpr/ground_truth and
+    /vpr/query_pose messages, into results_path as launch/replay.launch records them.
+    Returns {image stamp: Belief}."""
+    import threading
+
+    import rosbag
+    from sensor_msgs.msg import Image
+
+    from bsf_vpr.msg import Belief
+
+    lock = threading.Lock()
+    beliefs = {}
+
+    def on_belief(msg):
+        with lock:
+            beliefs[msg.header.stamp] = msg
+
+    sub = rospy.Subscriber(belief_topic, Belief, on_belief, queue_size=100)
+    pub = rospy.Publisher(image_topic, Image, queue_size=10)
+    wait_for(lambda: pub.get_num_connections() > 0, 60, "the ingest node to subscribe")
+    wait_for(lambda: sub.get_num_connections() > 0, 60, "the fusion node's belief publisher")
+    with rosbag.Bag(bag_path) as bag, rosbag.Bag(results_path, "w") as results:
+        for topic, msg, t in bag.read_messages():
+            if topic != image_topic:
+                results.write(topic, msg, t)
+                continue
+            pub.publish(msg)
+            stamp = msg.header.stamp
+            wait_for(lambda: stamp in beliefs, 30, "the belief of the image at %s" % stamp)
+            with lock:
+                results.write(belief_topic, beliefs[stamp], t)
+    sub.unregister()
+    pub.unregister()
+    return beliefs

@@ -4,73 +4,33 @@
 Parameters (see replay_nordland.test, replay_nordland100.test): ~fixture (folder of the
 reference YAMLs and the bag), ~bag (file name in it), ~queries (how many), ~query_dir (the
 query images, for the offline run), ~references (NAME=FILE.yaml ... in the fixture)."""
-import csv
 import os
 import subprocess
 import sys
 import tempfile
-import threading
 import unittest
 
-import rosbag
 import rospy
 import rostest
-from sensor_msgs.msg import Image
 
-from bsf_vpr.msg import Belief, Match
+from bsf_vpr.msg import Match
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for  # noqa: E402
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
-def evaluate(*args):
-    """Runs bsf_evaluate; returns its stdout, failing the test on a non-zero exit."""
-    r = subprocess.run(["rosrun", "bsf_vpr", "bsf_evaluate", "--no-progress"] + list(args),
-                       capture_output=True, text=True, check=False)
-    if r.returncode != 0:
-        raise AssertionError("bsf_evaluate %s failed: %s %s" % (args, r.stdout, r.stderr))
-    return r.stdout
+from rostest_util import evaluate, read_csv, replay_lockstep, wait_for  # noqa: E402
 
 
 class ReplayNordland(unittest.TestCase):
     def test_replay_gives_the_offline_matches_and_auc(self):
         rospy.init_node("test_replay_nordland")
         fixture = rospy.get_param("~fixture")
-        lock = threading.Lock()
-        beliefs = {}
-
-        def on_belief(msg):
-            with lock:
-                beliefs[msg.header.stamp] = msg
-
         matches = []
-        rospy.Subscriber("/bsf_vpr/belief", Belief, on_belief, queue_size=100)
         rospy.Subscriber("/bsf_vpr/match", Match, matches.append, queue_size=100)
-        pub = rospy.Publisher("/camera/image_raw", Image, queue_size=10)
-        wait_for(lambda: pub.get_num_connections() > 0, 60, "the ingest node to subscribe")
         out = tempfile.mkdtemp(prefix="bsf_replay_")
         results_path = os.path.join(out, "results.bag")
-        # Lockstep: each image is published once its predecessor's belief has arrived, so the
-        # test does not depend on timing and no message is dropped.
         n_queries = rospy.get_param("~queries")
         references = rospy.get_param("~references").split()
         names = [r.split("=")[0] for r in references]
-        with rosbag.Bag(os.path.join(fixture, rospy.get_param("~bag"))) as bag, \
-                rosbag.Bag(results_path, "w") as results:
-            for topic, msg, t in bag.read_messages():
-                if topic == "/vpr/ground_truth":
-                    results.write(topic, msg, t)
-                    continue
-                pub.publish(msg)
-                stamp = msg.header.stamp
-                wait_for(lambda: stamp in beliefs, 30, "the belief of the image at %s" % stamp)
-                with lock:
-                    results.write("/bsf_vpr/belief", beliefs[stamp], t)
+        beliefs = replay_lockstep(os.path.join(fixture, rospy.get_param("~bag")), results_path)
         self.assertEqual(len(beliefs), n_queries)
         self.assertTrue(all(sorted(b.set_names) == sorted(names) for b in beliefs.values()))
         # A match is published for exactly the accepted beliefs, with the same place.

@@ -87,10 +87,15 @@ def replay_lockstep(bag_path, results_path, image_topic="/camera/image_raw",
 
     lock = threading.Lock()
     beliefs = {}
+    with rosbag.Bag(bag_path) as bag:
+        stamps = {m.header.stamp for _, m, _ in bag.read_messages(topics=[image_topic])}
 
     def on_belief(msg):
-        with lock:
-            beliefs[msg.header.stamp] = msg
+        # Only this bag's: rospy hands a message that arrives for another subscriber of the
+        # topic in this process (still queued, say) to this callback too.
+        if msg.header.stamp in stamps:
+            with lock:
+                beliefs[msg.header.stamp] = msg
 
     sub = rospy.Subscriber(belief_topic, Belief, on_belief, queue_size=100)
     pub = rospy.Publisher(image_topic, Image, queue_size=10)

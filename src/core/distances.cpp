@@ -187,12 +187,14 @@ std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrix
 }
 
 std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,
-                                        const std::vector<const std::vector<int>*>& place_ids) {
+                                        const std::vector<const std::vector<int>*>& place_ids,
+                                        const std::vector<int>& groups) {
   std::vector<SetDistances> views(per_set.size());
   for (size_t u = 0; u < per_set.size(); ++u) {
     views[u].values = per_set[u].row(query).data();
     views[u].count = static_cast<int>(per_set[u].cols());
     views[u].place_ids = (u < place_ids.size() && place_ids[u]) ? place_ids[u]->data() : nullptr;
+    views[u].group = u < groups.size() ? groups[u] : 0;
   }
   return views;
 }

@@ -43,7 +43,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     }
     for (size_t k = 0; k < methods.size(); ++k) {
       const auto run = [&](MethodRunner& runner, int q) {
-        const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids);
+        const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids, input.groups);
         const PlaceBelief b = runner.Step(views, input.num_places, nullptr, std::nullopt, true);
         QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
         o.match = b.match;

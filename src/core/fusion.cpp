@@ -101,50 +101,59 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places) {
   if (!any) throw std::invalid_argument("prior gives every place probability zero");
 }
 
-void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
-               const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-               const Threshold& threshold, int top_k, PlaceBelief* out,
-               const std::vector<DistanceStats>* set_stats) {
-  if (set_stats != nullptr && set_stats->size() != sets.size()) {
-    throw std::invalid_argument("FuseBayes: " + std::to_string(set_stats->size()) +
-                                " set statistics for " + std::to_string(sets.size()) + " sets");
-  }
+namespace {
+
+// Starts a log posterior from the prior (null: uniform).
+void StartFromPrior(const Eigen::VectorXd* log_prior, int num_places, PlaceBelief* out) {
   if (log_prior) {
     ValidateLogPrior(*log_prior, num_places);
     out->log_posterior = *log_prior;
   } else {
     out->log_posterior = Eigen::VectorXd::Zero(num_places);
   }
-  // Each used set's log-likelihoods, computed in parallel when there is enough work, then
-  // added in set order (so the sum is the same on any number of threads).
+}
+
+// Each of the sets `use`'s log-likelihoods (ll[i] for set use[i], one entry per value),
+// with the statistics stats_of(u); in parallel when there is enough work. `shifted` false
+// leaves out the per-set constant where it cancels (a set that covers every place once).
+template <typename StatsOf>
+std::vector<std::vector<double>> SetLogLikelihoods(const std::vector<SetDistances>& sets,
+                                                   const std::vector<int>& use, int num_places,
+                                                   const LikelihoodOptions& likelihood,
+                                                   const StatsOf& stats_of, bool shifted) {
   std::vector<std::vector<double>> ll(use.size());
   const auto likelihood_of = [&](int i) {
     const int u = use[static_cast<size_t>(i)];
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     std::vector<double>& l = ll[static_cast<size_t>(i)];
     l.resize(static_cast<size_t>(d.count));
-    const DistanceStats stats =
-        set_stats ? (*set_stats)[static_cast<size_t>(u)] : ComputeDistanceStats(d);
-    if (d.count == num_places && CoversEachPlaceInOrder(d)) {
-      // Covers every place once: the per-set shift cancels in the normalisation below.
-      UnnormalisedPlaceMatchLogLikelihood(d, stats, likelihood, l.data());
+    if (!shifted && d.count == num_places && CoversEachPlaceInOrder(d)) {
+      UnnormalisedPlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
     } else {
-      PlaceMatchLogLikelihood(d, stats, likelihood, l.data());
+      PlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
     }
   };
   int64_t work = 0;
   for (int u : use) work += sets.at(static_cast<size_t>(u)).count;
   RunParallel(static_cast<int>(use.size()), work >= 50000 ? DistanceThreads() : 1, likelihood_of);
-  for (size_t i = 0; i < use.size(); ++i) {
-    const SetDistances& d = sets.at(static_cast<size_t>(use[i]));
-    if (d.count == num_places && CoversEachPlaceInOrder(d)) {
-      out->log_posterior += Eigen::Map<const Eigen::VectorXd>(ll[i].data(), d.count);
-    } else {
-      for (int k = 0; k < d.count; ++k) {
-        out->log_posterior(CheckedPlace(d, k, num_places)) += ll[i][static_cast<size_t>(k)];
-      }
+  return ll;
+}
+
+// Adds log-likelihood values (one per value of d) at their places.
+void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int num_places,
+                 Eigen::VectorXd* to) {
+  if (d.count == num_places && CoversEachPlaceInOrder(d)) {
+    *to += Eigen::Map<const Eigen::VectorXd>(values.data(), d.count);
+  } else {
+    for (int k = 0; k < d.count; ++k) {
+      (*to)(CheckedPlace(d, k, num_places)) += values[static_cast<size_t>(k)];
     }
   }
+}
+
+// The decision from an unnormalised log posterior in out->log_posterior: match, confidence,
+// accepted, top places; then normalises it and sets the cost.
+void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
   if (out->log_posterior.hasNaN()) {
     // Only values out of range can get here (descriptors are checked on the way in); a NaN
     // belief must never be published, let alone accepted.
@@ -169,6 +178,140 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
   // Normalise: log P(X = i | D^S) = l_i - logsumexp(l), logsumexp(l) = l_best + log(1 + rest).
   out->log_posterior.array() -= max_l + std::log1p(rest);
   out->cost = -out->log_posterior;
+}
+
+// The statistics of all the distances of the sets `members` together, from theirs: the
+// count-weighted mean, and the variance as the mean of the sets' variances plus the spread
+// of their means.
+DistanceStats PooledStats(const std::vector<SetDistances>& sets,
+                          const std::vector<DistanceStats>& stats,
+                          const std::vector<int>& members) {
+  double n = 0, sum = 0;
+  for (int u : members) {
+    n += sets[static_cast<size_t>(u)].count;
+    sum += sets[static_cast<size_t>(u)].count * stats[static_cast<size_t>(u)].mean;
+  }
+  DistanceStats pooled;
+  pooled.mean = sum / n;
+  double ss = 0;
+  for (int u : members) {
+    const DistanceStats& st = stats[static_cast<size_t>(u)];
+    const double e = st.mean - pooled.mean;
+    ss += sets[static_cast<size_t>(u)].count * (st.stddev * st.stddev + e * e);
+  }
+  pooled.stddev = std::sqrt(ss / n);
+  return pooled;
+}
+
+}  // namespace
+
+FusionRule ParseFusionRule(const std::string& name) {
+  if (name == "mixture") return FusionRule::kMixture;
+  if (name == "product") return FusionRule::kProduct;
+  throw std::invalid_argument("fusion must be mixture or product, got '" + name + "'");
+}
+
+std::string ToString(FusionRule rule) {
+  return rule == FusionRule::kMixture ? "mixture" : "product";
+}
+
+void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
+               const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
+               const Threshold& threshold, int top_k, PlaceBelief* out,
+               const std::vector<DistanceStats>* set_stats) {
+  if (set_stats != nullptr && set_stats->size() != sets.size()) {
+    throw std::invalid_argument("FuseBayes: " + std::to_string(set_stats->size()) +
+                                " set statistics for " + std::to_string(sets.size()) + " sets");
+  }
+  StartFromPrior(log_prior, num_places, out);
+  // Added in set order, so the sum is the same on any number of threads.
+  const std::vector<std::vector<double>> ll = SetLogLikelihoods(
+      sets, use, num_places, likelihood,
+      [&](int u) {
+        return set_stats ? (*set_stats)[static_cast<size_t>(u)]
+                         : ComputeDistanceStats(sets.at(static_cast<size_t>(u)));
+      },
+      false);
+  for (size_t i = 0; i < use.size(); ++i) {
+    AddAtPlaces(sets.at(static_cast<size_t>(use[i])), ll[i], num_places, &out->log_posterior);
+  }
+  Decide(threshold, top_k, out);
+}
+
+void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double>& weights,
+                 int num_places, const LikelihoodOptions& likelihood,
+                 const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
+                 PlaceBelief* out, const std::vector<DistanceStats>& set_stats) {
+  if (weights.size() != sets.size() || set_stats.size() != sets.size()) {
+    throw std::invalid_argument("FuseMixture: " + std::to_string(weights.size()) + " weights and " +
+                                std::to_string(set_stats.size()) + " set statistics for " +
+                                std::to_string(sets.size()) + " sets");
+  }
+  StartFromPrior(log_prior, num_places, out);
+  // The groups, in order of first appearance; per group all its sets (for the pooled
+  // statistics) and those of non-zero weight (the mixture's components).
+  std::vector<int> group_ids;
+  std::vector<std::vector<int>> members, components;
+  for (size_t u = 0; u < sets.size(); ++u) {
+    if (!(weights[u] >= 0 && weights[u] <= 1)) {
+      throw std::invalid_argument("FuseMixture: weight " + std::to_string(weights[u]) + " of set " +
+                                  std::to_string(u) + " is not in [0, 1]");
+    }
+    const auto it = std::find(group_ids.begin(), group_ids.end(), sets[u].group);
+    const size_t g = static_cast<size_t>(it - group_ids.begin());
+    if (it == group_ids.end()) {
+      group_ids.push_back(sets[u].group);
+      members.emplace_back();
+      components.emplace_back();
+    }
+    members[g].push_back(static_cast<int>(u));
+    if (weights[u] > 0) components[g].push_back(static_cast<int>(u));
+  }
+  std::vector<DistanceStats> pooled(sets.size());
+  std::vector<int> use;
+  for (size_t g = 0; g < group_ids.size(); ++g) {
+    const DistanceStats p = PooledStats(sets, set_stats, members[g]);
+    for (int u : components[g]) {
+      pooled[static_cast<size_t>(u)] = p;
+      use.push_back(u);
+    }
+  }
+  std::sort(use.begin(), use.end());
+  const std::vector<std::vector<double>> ll = SetLogLikelihoods(
+      sets, use, num_places, likelihood, [&](int u) { return pooled[static_cast<size_t>(u)]; },
+      true);
+  std::vector<size_t> slot(sets.size());  // set u's entry in `use` and `ll`
+  for (size_t i = 0; i < use.size(); ++i) slot[static_cast<size_t>(use[i])] = i;
+  // Per group: log sum_u (w_u / W) L_u(i), with L_u(i) = 1 (log 0) where u does not cover i.
+  Eigen::MatrixXd l(num_places, 1);
+  for (size_t g = 0; g < group_ids.size(); ++g) {
+    const std::vector<int>& c = components[g];
+    if (c.empty()) continue;
+    if (c.size() == 1) {  // one component: its own likelihood
+      AddAtPlaces(sets[static_cast<size_t>(c[0])], ll[slot[static_cast<size_t>(c[0])]], num_places,
+                  &out->log_posterior);
+      continue;
+    }
+    double total = 0;
+    for (int u : c) total += weights[static_cast<size_t>(u)];
+    l.setZero(num_places, static_cast<Eigen::Index>(c.size()));
+    for (size_t j = 0; j < c.size(); ++j) {
+      Eigen::VectorXd column = Eigen::VectorXd::Zero(num_places);
+      AddAtPlaces(sets[static_cast<size_t>(c[j])], ll[slot[static_cast<size_t>(c[j])]], num_places,
+                  &column);
+      l.col(static_cast<Eigen::Index>(j)) = column;
+    }
+    for (Eigen::Index i = 0; i < num_places; ++i) {
+      const double top = l.row(i).maxCoeff();
+      double sum = 0;
+      for (size_t j = 0; j < c.size(); ++j) {
+        sum += weights[static_cast<size_t>(c[j])] / total *
+               std::exp(l(i, static_cast<Eigen::Index>(j)) - top);
+      }
+      out->log_posterior(i) += top + std::log(sum);
+    }
+  }
+  Decide(threshold, top_k, out);
 }
 
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,

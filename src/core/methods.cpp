@@ -132,13 +132,21 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "gamma_fraction", [](auto& o) -> auto& { return o.selection.gamma_fraction; },
               "selection fraction gamma: with selection relative, a set is selected when its "
               "minimum distance is within (1 + gamma) of the best set's (paper, Eq. "
-              "reference_selection)",
+              "reference_selection); with fusion mixture, the scale of the sets' soft weights "
+              "(weight e^-1 at that boundary)",
               "", AtLeast(0), kLive)
           .AddChoice(
               "selection", [](auto& o) -> auto& { return o.selection.rule; },
               "selection rule: relative (the paper's) or standardized (scale-free, on "
               "each set's standardised minimum)",
               {"relative", "standardized"}, ParseSelectionRule, kLive)
+          .AddChoice(
+              "fusion", [](auto& o) -> auto& { return o.fusion; },
+              "how bsf fuses the sets: mixture (sets of one descriptor are alternative "
+              "conditions of the query: their likelihoods are mixed, weighted by the soft form "
+              "of the selection rule, with the non-match statistics pooled; README) or "
+              "product (exactly the paper: the selected sets' likelihoods multiply)",
+              {"mixture", "product"}, ParseFusionRule, kLive)
           .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
@@ -213,9 +221,19 @@ void MethodOptions::Validate() const {
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
                       const MethodOptions& options, const Eigen::VectorXd* log_prior) {
   PlaceBelief out;
+  const bool mixture = method.kind == MethodKind::kBsf && options.fusion == FusionRule::kMixture;
   // Selection is computed for every method: it is cheap and its statistics (u*, min D^u)
-  // are reported with every belief.
-  out.selection = SelectReferenceSets(sets, options.selection);
+  // are reported with every belief. The mixture selects within each descriptor group.
+  out.selection = SelectReferenceSets(sets, options.selection, mixture);
+  if (mixture) {
+    out.set_weights = ConditionWeights(sets, out.selection.set_stats, options.selection);
+    for (size_t u = 0; u < sets.size(); ++u) {
+      if (out.set_weights[u] > 0) out.used_sets.push_back(static_cast<int>(u));
+    }
+    FuseMixture(sets, out.set_weights, num_places, options.likelihood, log_prior, options.threshold,
+                options.top_k, &out, out.selection.set_stats);
+    return out;
+  }
   std::vector<int> use;
   switch (method.kind) {
     case MethodKind::kNearestNeighbour:
@@ -237,6 +255,8 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
       break;
   }
   out.used_sets = use;
+  out.set_weights.assign(sets.size(), 0.0);
+  for (int u : use) out.set_weights.at(static_cast<size_t>(u)) = 1.0;
   if (method.IsBayesian()) {
     // The statistics selection computed for every set are the likelihood's too.
     FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,

@@ -45,20 +45,43 @@ DistanceStats ComputeDistanceStats(const SetDistances& d) {
   return s;
 }
 
+namespace {
+
+// The rule's score of a set: lower is better for both rules (relative: min D^u;
+// standardized: -s_u).
+double Score(const DistanceStats& st, SelectionRule rule) {
+  if (rule == SelectionRule::kRelative) return st.min;
+  return st.stddev > 0 ? -(st.mean - st.min) / st.stddev : 0.0;
+}
+
+// Per set, the index of the best-scoring set of its group (all sets one group when
+// `within_groups` is false).
+std::vector<size_t> BestOfGroup(const std::vector<SetDistances>& sets,
+                                const std::vector<double>& score, bool within_groups) {
+  std::vector<size_t> best(sets.size());
+  for (size_t u = 0; u < sets.size(); ++u) {
+    best[u] = u;
+    for (size_t v = 0; v < sets.size(); ++v) {
+      const bool same = !within_groups || sets[v].group == sets[u].group;
+      if (same && (score[v] < score[best[u]] || (score[v] == score[best[u]] && v < best[u]))) {
+        best[u] = v;
+      }
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
-                              const SelectionOptions& options) {
+                              const SelectionOptions& options, bool within_groups) {
   if (sets.empty()) throw std::invalid_argument("selection needs at least one reference set");
   const size_t m = sets.size();
   Selection out;
-  std::vector<double> score(m);  // lower is better for both rules
+  std::vector<double> score(m);
   for (size_t u = 0; u < m; ++u) {
-    const DistanceStats st = ComputeDistanceStats(sets[u]);
-    out.set_stats.push_back(st);
-    if (options.rule == SelectionRule::kRelative) {
-      score[u] = st.min;
-    } else {
-      score[u] = st.stddev > 0 ? -(st.mean - st.min) / st.stddev : 0.0;
-    }
+    out.set_stats.push_back(ComputeDistanceStats(sets[u]));
+    score[u] = Score(out.set_stats.back(), options.rule);
   }
   size_t best = 0;
   for (size_t u = 1; u < m; ++u) {
@@ -68,11 +91,33 @@ Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
   // Relative: score = min, reference |score*| = min*. Standardized: score = -s_u, and
   // s_u* - s_u = score_u - score*, reference s_u* = -score*. Both: score_u - score* <=
   // gamma*|score*|.
-  const double slack = options.gamma_fraction * std::abs(score[best]);
+  const std::vector<size_t> group_best = BestOfGroup(sets, score, within_groups);
   for (size_t u = 0; u < m; ++u) {
-    if (u == best || score[u] - score[best] <= slack) out.selected.push_back(static_cast<int>(u));
+    const double ref = score[group_best[u]];
+    if (u == group_best[u] || score[u] - ref <= options.gamma_fraction * std::abs(ref)) {
+      out.selected.push_back(static_cast<int>(u));
+    }
   }
   return out;
+}
+
+std::vector<double> ConditionWeights(const std::vector<SetDistances>& sets,
+                                     const std::vector<DistanceStats>& stats,
+                                     const SelectionOptions& options) {
+  if (stats.size() != sets.size()) {
+    throw std::invalid_argument("ConditionWeights: " + std::to_string(stats.size()) +
+                                " set statistics for " + std::to_string(sets.size()) + " sets");
+  }
+  std::vector<double> score(sets.size());
+  for (size_t u = 0; u < sets.size(); ++u) score[u] = Score(stats[u], options.rule);
+  const std::vector<size_t> group_best = BestOfGroup(sets, score, true);
+  std::vector<double> w(sets.size());
+  for (size_t u = 0; u < sets.size(); ++u) {
+    const double excess = score[u] - score[group_best[u]];  // >= 0
+    const double scale = options.gamma_fraction * std::abs(score[group_best[u]]);
+    w[u] = excess <= 0 ? 1.0 : (scale > 0 ? std::exp(-excess / scale) : 0.0);
+  }
+  return w;
 }
 
 }  // namespace bsf_vpr

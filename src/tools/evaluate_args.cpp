@@ -23,6 +23,10 @@ Inputs (either descriptors, or precomputed per-source matrices):
                           one source (lower is better). Repeatable.
   --similarities NAME=PATH  the same with similarities (higher is better); they become
                           distances c - s with c = max(1, largest similarity of all sources)
+  --same-descriptor true|false  the --distances/--similarities sources are one descriptor
+                          under several reference conditions, on one scale (true), or each
+                          its own descriptor or technique (false, the default): bsf's
+                          selection and mixture compare sets only within one descriptor
   --distance euclidean|cosine   distance between descriptors (default: the distance the
                           reference-set YAMLs declare when they agree, else euclidean; sets
                           that declare another distance than this are refused)
@@ -105,6 +109,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.distances.push_back(ParseNamedPath(flag, value));
     } else if (flag == "--similarities") {
       a.similarities.push_back(ParseNamedPath(flag, value));
+    } else if (flag == "--same-descriptor") {
+      if (value != "true" && value != "false") {
+        throw std::invalid_argument("--same-descriptor takes true or false, got '" + value + "'");
+      }
+      a.same_descriptor = value == "true";
     } else if (flag == "--results-bag") {
       a.results_bag = value;
     } else if (flag == "--belief-topic") {
@@ -152,6 +161,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
 void CheckCombination(const EvaluateArgs& a) {
   const bool descriptor_mode = !a.references.empty() || !a.query.empty();
   const bool matrix_mode = !a.distances.empty() || !a.similarities.empty();
+  if (a.same_descriptor && !matrix_mode) {
+    throw std::invalid_argument(
+        "--same-descriptor goes with --distances/--similarities (reference sets compared with "
+        "one --query are one descriptor already)");
+  }
   const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   if (!a.query_poses.empty() && a.tolerance_m < 0) {
     throw std::invalid_argument("--query-poses goes with --tolerance-m R");

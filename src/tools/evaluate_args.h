@@ -26,6 +26,7 @@ struct EvaluateArgs {
   std::string query;                    // --query PATH
   std::vector<NamedPath> distances;     // --distances NAME=PATH
   std::vector<NamedPath> similarities;  // --similarities NAME=PATH
+  bool same_descriptor = false;         // --same-descriptor: the sources are one descriptor's
   std::string results_bag;              // --results-bag PATH
   std::string belief_topic = "/bsf_vpr/belief";
   std::string truth_topic = kGroundTruthTopic;

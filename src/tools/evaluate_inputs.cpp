@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <numeric>
 #include <optional>
 #include <stdexcept>
 
@@ -148,6 +149,9 @@ void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
   data->input.num_queries = static_cast<int>(data->matrices[0].rows());
   data->input.num_places = static_cast<int>(data->matrices[0].cols());
   data->input.place_ids.assign(data->matrices.size(), {});
+  // Matrices of different techniques are different descriptors, each its own group.
+  data->input.groups.assign(data->matrices.size(), 0);
+  if (!args.same_descriptor) std::iota(data->input.groups.begin(), data->input.groups.end(), 0);
   data->input.distances = [data](int begin, int end, std::vector<RowMatrixXf>* block) {
     block->resize(data->matrices.size());
     for (size_t u = 0; u < data->matrices.size(); ++u) {

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numeric>
 
 #include "bsf_vpr/core/methods.h"
 #include "test_util.h"
@@ -49,6 +50,7 @@ TEST(Methods, SelectedAndUsedSetsAreKeptApart) {
   // What the rule selected is reported for every method; what the method fused beside it.
   Data data(120, 7);
   MethodOptions narrow;
+  narrow.fusion = FusionRule::kProduct;
   narrow.selection.gamma_fraction = 0.0;  // S = {u*}
   const PlaceBelief bsf = RunMethod(ParseMethod("bsf", kNames), data.views, 120, narrow);
   ASSERT_EQ(bsf.selection.selected.size(), 1u);
@@ -73,7 +75,8 @@ TEST(Methods, SelectedAndUsedSetsAreKeptApart) {
 
 TEST(Methods, BsfWithLargeGammaIsBayesFullAndWithZeroGammaTheBestSetAlone) {
   Data data(150, 9);
-  MethodOptions wide;
+  MethodOptions wide;  // the paper's product fusion
+  wide.fusion = FusionRule::kProduct;
   wide.selection.gamma_fraction = 1e9;
   const PlaceBelief all = RunMethod(ParseMethod("bsf", kNames), data.views, 150, wide);
   const PlaceBelief full = RunMethod(ParseMethod("bayes_full", kNames), data.views, 150, {});
@@ -81,6 +84,7 @@ TEST(Methods, BsfWithLargeGammaIsBayesFullAndWithZeroGammaTheBestSetAlone) {
   EXPECT_TRUE(all.log_posterior.isApprox(full.log_posterior));
 
   MethodOptions narrow;
+  narrow.fusion = FusionRule::kProduct;
   narrow.selection.gamma_fraction = 0.0;
   const PlaceBelief one = RunMethod(ParseMethod("bsf", kNames), data.views, 150, narrow);
   ASSERT_EQ(one.selection.selected.size(), 1u);
@@ -158,6 +162,117 @@ TEST(Methods, ANanDistanceNeverGivesAnAcceptedBelief) {
   } catch (const std::invalid_argument&) {
     // Refusing the query is as good: nothing is published.
   }
+}
+
+// The mixture fusion (the default bsf) against its equation, computed the straightforward way:
+// pooled statistics over the group, each set's likelihood scaled to mean 1 over the places
+// it covers (1 where it covers none), mixed with the soft selection weights; two groups
+// multiply. Sets cover different places (place ids), and the prior is not uniform.
+TEST(Methods, MixtureFusionMatchesItsEquation) {
+  const int n = 60;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    std::vector<std::vector<float>> d;
+    std::vector<std::vector<int>> ids;
+    for (int u = 0; u < 4; ++u) {
+      d.push_back(testing::RandomDistances(n - 10 * (u % 2), seed * 10 + u));
+      for (float& v : d.back()) v *= 1.0f + 0.02f * static_cast<float>(u);  // close minima
+      ids.emplace_back();
+      for (int k = 0; k < static_cast<int>(d.back().size()); ++k)
+        ids.back().push_back((k + 7 * u) % n);
+    }
+    std::vector<SetDistances> views;
+    for (int u = 0; u < 4; ++u) {
+      views.push_back({d[u].data(), ids[u].data(), static_cast<int>(d[u].size()), u < 3 ? 0 : 1});
+    }
+    Eigen::VectorXd prior(n);
+    for (int i = 0; i < n; ++i) prior(i) = -0.01 * i;
+    MethodOptions options;
+    options.selection.gamma_fraction = 0.05;
+    const std::vector<std::string> names = {"a", "b", "c", "d"};
+    const PlaceBelief b = RunMethod(ParseMethod("bsf", names), views, n, options, &prior);
+
+    Eigen::VectorXd expected = prior;
+    for (const std::vector<int> group : {std::vector<int>{0, 1, 2}, std::vector<int>{3}}) {
+      double sum = 0, count = 0;
+      for (int u : group) {
+        for (float v : d[u]) sum += v, ++count;
+      }
+      const double mean = sum / count;
+      double ss = 0;
+      for (int u : group) {
+        for (float v : d[u]) ss += (v - mean) * (v - mean);
+      }
+      const double var = ss / count;
+      double best_min = INFINITY;
+      for (int u : group)
+        best_min = std::min<double>(best_min, *std::min_element(d[u].begin(), d[u].end()));
+      std::vector<double> w;
+      for (int u : group) {
+        const double m = *std::min_element(d[u].begin(), d[u].end());
+        w.push_back(std::exp(-(m - best_min) / (0.05 * best_min)));
+        EXPECT_NEAR(b.set_weights[static_cast<size_t>(u)], w.back(), 1e-9);
+      }
+      const double total = std::accumulate(w.begin(), w.end(), 0.0);
+      Eigen::VectorXd mix = Eigen::VectorXd::Zero(n);
+      for (size_t j = 0; j < group.size(); ++j) {
+        const std::vector<float>& x = d[group[j]];
+        std::vector<double> l(x.size());
+        double mean_exp = 0;
+        for (size_t k = 0; k < x.size(); ++k) {
+          const double e = std::min(0.0, x[k] - mean);
+          l[k] = std::log(static_cast<double>(testing::RankCountOracle(x, k))) + e * e / (2 * var);
+          mean_exp += std::exp(l[k]) / static_cast<double>(x.size());
+        }
+        Eigen::VectorXd like = Eigen::VectorXd::Ones(n);  // 1 where the set covers nothing
+        for (size_t k = 0; k < x.size(); ++k) like(ids[group[j]][k]) = std::exp(l[k]) / mean_exp;
+        mix += w[j] / total * like;
+      }
+      expected += mix.array().log().matrix();
+    }
+    expected.array() -= std::log(expected.array().exp().sum());
+    ASSERT_EQ(b.log_posterior.size(), n);
+    for (int i = 0; i < n; ++i)
+      ASSERT_NEAR(b.log_posterior(i), expected(i), 1e-9) << "seed " << seed << " i " << i;
+    Eigen::Index best = 0;
+    expected.maxCoeff(&best);
+    EXPECT_EQ(b.match, best);
+  }
+}
+
+TEST(Methods, MixtureOfOneSetPerGroupIsBayesFullAndSelectionIsPerGroup) {
+  Data data(90, 5);
+  for (size_t u = 0; u < 3; ++u) data.views[u].group = static_cast<int>(u);
+  const PlaceBelief mix = RunMethod(ParseMethod("bsf", kNames), data.views, 90, {});
+  const PlaceBelief full = RunMethod(ParseMethod("bayes_full", kNames), data.views, 90, {});
+  EXPECT_TRUE(mix.log_posterior.isApprox(full.log_posterior, 1e-12));
+  // Each set is the best of its own group: all selected, all of weight 1, all used.
+  EXPECT_EQ(mix.selection.selected, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(mix.used_sets, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(mix.set_weights, (std::vector<double>{1, 1, 1}));
+  // The product fusion (the paper) ignores groups: its rule compares every set.
+  MethodOptions paper;
+  paper.fusion = FusionRule::kProduct;
+  const PlaceBelief product = RunMethod(ParseMethod("bsf", kNames), data.views, 90, paper);
+  EXPECT_EQ(product.selection.selected, SelectReferenceSets(data.views, {}).selected);
+}
+
+TEST(Methods, ConditionWeightsAreTheSoftFormOfTheSelectionRule) {
+  // Minima 1.0, 1.04 (on the boundary of gamma 0.04), 1.2 and 0 in another group.
+  std::vector<std::vector<float>> d = {{1.0f, 3.0f}, {1.04f, 3.0f}, {1.2f, 3.0f}, {0.0f, 1.0f}};
+  std::vector<SetDistances> views;
+  for (size_t u = 0; u < d.size(); ++u) views.push_back({d[u].data(), nullptr, 2, u < 3 ? 0 : 1});
+  SelectionOptions o;
+  o.gamma_fraction = 0.04;
+  const Selection s = SelectReferenceSets(views, o, true);
+  const std::vector<double> w = ConditionWeights(views, s.set_stats, o);
+  EXPECT_DOUBLE_EQ(w[0], 1.0);
+  EXPECT_NEAR(w[1], std::exp(-1.0), 1e-6);  // float minima: 1.04f is not exactly 1.04
+  EXPECT_NEAR(w[2], std::exp(-5.0), 1e-5);
+  EXPECT_DOUBLE_EQ(w[3], 1.0);  // the best of its group, though its minimum is 0
+  EXPECT_EQ(s.selected, (std::vector<int>{0, 1, 3}));
+  o.gamma_fraction = 0;  // hard: only ties with the best
+  const std::vector<double> hard = ConditionWeights(views, s.set_stats, o);
+  EXPECT_EQ(hard, (std::vector<double>{1, 0, 0, 1}));
 }
 
 }  // namespace

@@ -26,6 +26,12 @@ struct SetDistances {
   const float* values = nullptr;
   const int* place_ids = nullptr;
   int count = 0;
+  // Sets of one group hold distances of one descriptor, on one scale (reference sets compared
+  // with the same query descriptor); sets of different groups come from different
+  // descriptors (precomputed matrices of several techniques). Selection compares minimum
+  // distances only within a group, and the mixture fusion mixes within a group and
+  // multiplies across groups.
+  int group = 0;
 
   int PlaceAt(int k) const { return place_ids ? place_ids[k] : k; }
 };
@@ -60,9 +66,11 @@ RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                                           const ReferenceMap& map);
 
-// Views on row `query` of each per-set matrix, with each set's place ids.
+// Views on row `query` of each per-set matrix, with each set's place ids and group (`groups`
+// empty: every set in group 0).
 std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,
-                                        const std::vector<const std::vector<int>*>& place_ids);
+                                        const std::vector<const std::vector<int>*>& place_ids,
+                                        const std::vector<int>& groups = {});
 
 // Turns a Q x N similarity matrix (higher is more similar) into non-negative distances
 // c - s with c = max(1, largest similarity): for cosine similarities this is exactly the

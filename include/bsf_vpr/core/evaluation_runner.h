@@ -36,6 +36,7 @@ struct EvaluationInput {
   int num_places = 0;
   std::vector<std::string> set_names;
   std::vector<std::vector<int>> place_ids;  // per set; an empty vector means row k is place k
+  std::vector<int> groups;  // per set its descriptor group (SetDistances::group); empty: all 0
   DistanceBlockFn distances;
 };
 

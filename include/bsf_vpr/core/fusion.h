@@ -29,6 +29,22 @@ struct Threshold {
 Threshold::Kind ParseThresholdKind(const std::string& name);  // probability | log_odds
 std::string ToString(Threshold::Kind kind);
 
+// How bsf fuses the sets it relies on (MethodOptions::fusion; README, "Fusion that never
+// loses").
+enum class FusionRule {
+  // The default. Sets of one descriptor are alternative conditions of the query: the query
+  // shows (at most) one of them, which one is uncertain, so their likelihoods are mixed,
+  // weighted by ConditionWeights (the soft form of the selection rule), with the non-match
+  // statistics pooled over the group (FuseMixture). Groups of different descriptors are
+  // conditionally independent evidence and multiply.
+  kMixture,
+  // The paper (Eq. product_form): the selected sets' likelihoods multiply, each with its own
+  // statistics.
+  kProduct,
+};
+FusionRule ParseFusionRule(const std::string& name);  // mixture | product
+std::string ToString(FusionRule rule);
+
 // The outcome of one query under one method.
 struct PlaceBelief {
   int match = -1;  // the place decided on
@@ -50,6 +66,11 @@ struct PlaceBelief {
   Selection selection;         // what the selection rule chose (S, u*), min D^u of every set
   std::vector<int> used_sets;  // the sets the method fused, ascending: S for bsf and
                                // med_selective, all for bayes_full and med, one for nn:/bayes:
+                               // (bsf with fusion mixture: every set of non-zero weight)
+  // Per set (one entry per set passed in): the weight the method gave it, in [0, 1]. The
+  // mixture's ConditionWeights for bsf with fusion mixture; else 1 for a used set, 0 for
+  // the others.
+  std::vector<double> set_weights;
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against
@@ -74,6 +95,19 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
                const Threshold& threshold, int top_k, PlaceBelief* out,
                const std::vector<DistanceStats>* set_stats = nullptr);
+
+// Bayesian fusion by FusionRule::kMixture: with w_u = weights[u] (sets of weight 0 are left
+// out) and, per group g of sets (SetDistances::group), mu_g and sigma_g the mean and
+// standard deviation of all the group's distances together (`set_stats` holds every set's
+// ComputeDistanceStats; they are pooled from it),
+//   log P(X = i | D) = log P(X = i) + sum_g log( sum_{u in g} w_u L_u(i) / sum_{u in g} w_u )
+// + const, where L_u(i) is set u's likelihood (PlaceMatchLogLikelihood with mu_g, sigma_g,
+// scaled to mean 1 over the places u covers, and 1 at places it does not cover). Fills `out`
+// as FuseBayes does.
+void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double>& weights,
+                 int num_places, const LikelihoodOptions& likelihood,
+                 const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
+                 PlaceBelief* out, const std::vector<DistanceStats>& set_stats);
 
 // Minimum ensemble distance over the sets `use`: the place with the smallest mean distance
 // over the used sets that cover it (with full coverage exactly Eq. MED: argmin of the sum).

@@ -52,6 +52,7 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
 struct MethodOptions {
   SelectionOptions selection;
   LikelihoodOptions likelihood;
+  FusionRule fusion = FusionRule::kMixture;  // how bsf fuses the sets (fusion.h)
   // What makes a match accepted (PlaceBelief::accepted), per kind of method:
   Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
   // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of

@@ -24,7 +24,9 @@ SelectionRule ParseSelectionRule(const std::string& name);  // "relative" | "sta
 std::string ToString(SelectionRule rule);
 
 struct SelectionOptions {
-  double gamma_fraction = 0.04;  // gamma of the paper, a fraction >= 0
+  // gamma of the paper, a fraction >= 0: the selection boundary, and the scale of the
+  // mixture fusion's soft weights (ConditionWeights)
+  double gamma_fraction = 0.04;
   SelectionRule rule = SelectionRule::kRelative;
 
   // Throws std::invalid_argument naming the bad field.
@@ -47,8 +49,22 @@ struct Selection {
 };
 
 // Selects among `sets` (each with count > 0). Throws std::invalid_argument if `sets` is
-// empty or one of them has no distances.
+// empty or one of them has no distances. `within_groups` false: the paper's rule over all
+// sets, groups ignored. true: the rule within each group of sets (SetDistances::group):
+// minimum distances of different descriptors are not compared; `best` is still the best
+// set overall.
 Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
-                              const SelectionOptions& options);
+                              const SelectionOptions& options, bool within_groups = false);
+
+// The soft form of selection that the mixture fusion weights sets by: within each group,
+// set u gets w_u = exp(-(score_u - score*) / (gamma |score*|)), with score the rule's (the
+// minimum distance for relative, minus s_u for standardized) and score* the group's best.
+// The best set of a group gets 1 and a set on the paper's selection boundary e^-1, so the
+// sets with w_u >= e^-1 are exactly those SelectReferenceSets(..., true) selects. With
+// gamma = 0 or score* = 0 the weights are 1 for the sets that tie with the best, else 0.
+// `stats` holds ComputeDistanceStats of every set (as Selection::set_stats).
+std::vector<double> ConditionWeights(const std::vector<SetDistances>& sets,
+                                     const std::vector<DistanceStats>& stats,
+                                     const SelectionOptions& options);
 
 }  // namespace bsf_vpr

@@ -52,6 +52,8 @@ CurationReport Curate(const std::vector<QueryRecord>& records, const CurationOpt
   const std::vector<std::string>& names = records.front().set_names;
   const size_t m = names.size();
   std::vector<long> selected(m, 0), best(m, 0);
+  std::vector<double> weight(m, 0.0);
+  bool weighted = true;
   // together[a][b]: queries where a was selected together with b, and b was closer.
   std::vector<std::vector<long>> covered(m, std::vector<long>(m, 0));
   std::vector<double> best_distance;
@@ -70,6 +72,8 @@ CurationReport Curate(const std::vector<QueryRecord>& records, const CurationOpt
         std::min_element(r.set_min_distances.begin(), r.set_min_distances.end()) -
         r.set_min_distances.begin());
     ++best[u_best];
+    weighted = weighted && r.set_weights.size() == m;
+    for (size_t a = 0; weighted && a < m; ++a) weight[a] += r.set_weights[a];
     best_distance.push_back(r.set_min_distances[u_best]);
     for (size_t a = 0; a < m; ++a) {
       if (!sel[a]) continue;
@@ -87,6 +91,7 @@ CurationReport Curate(const std::vector<QueryRecord>& records, const CurationOpt
     c.name = names[a];
     c.selected_fraction = selected[a] / n;
     c.best_fraction = best[a] / n;
+    if (weighted) c.mean_weight = weight[a] / n;
     if (c.selected_fraction < options.rarely_selected_fraction) {
       c.redundant = true;
       c.reason = "rarely selected";
@@ -112,12 +117,15 @@ std::string FormatCurationReport(const CurationReport& r) {
   size_t w = 4;
   for (const SetCuration& s : r.sets) w = std::max(w, s.name.size());
   char line[512];
-  std::snprintf(line, sizeof(line), "%-*s  selected   best  recommendation\n", static_cast<int>(w),
-                "set");
+  const bool weighted = !r.sets.empty() && r.sets.front().mean_weight >= 0;
+  std::snprintf(line, sizeof(line), "%-*s  selected   best%s  recommendation\n",
+                static_cast<int>(w), "set", weighted ? "  weight" : "");
   out << line;
   for (const SetCuration& s : r.sets) {
-    std::snprintf(line, sizeof(line), "%-*s  %7.1f%%  %5.1f%%  %s%s\n", static_cast<int>(w),
-                  s.name.c_str(), 100 * s.selected_fraction, 100 * s.best_fraction,
+    char weight[16] = "";
+    if (weighted) std::snprintf(weight, sizeof(weight), "  %6.3f", s.mean_weight);
+    std::snprintf(line, sizeof(line), "%-*s  %7.1f%%  %5.1f%%%s  %s%s\n", static_cast<int>(w),
+                  s.name.c_str(), 100 * s.selected_fraction, 100 * s.best_fraction, weight,
                   s.redundant ? "redundant: " : "", s.reason.c_str());
     out << line;
   }

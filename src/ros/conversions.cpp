@@ -40,6 +40,7 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name());
   out->used_sets.clear();
   for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name());
+  out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;

@@ -266,8 +266,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
   for (const StoredReferenceSet& s : map.sets()) {
-    status.addf("selected: " + s.name(), "%.1f%% of %ld queries",
-                100.0 * counters_.Usage(s.name()).selected_fraction, counters_.queries());
+    const ReferenceSetUsage usage = counters_.Usage(s.name());
+    status.addf("selected: " + s.name(), "%.1f%% of %ld queries, mean weight %.3f",
+                100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);
   }
   recording_->Diagnose(status);
   processed_ = rejected_ = 0;

@@ -1,5 +1,5 @@
 // How often each reference set was selected, was the closest set (u*) and supplied the
-// matched image, over the queries since start or the last reset: what
+// matched image, and the mean weight the method gave it, over the queries since start or the last reset: what
 // get_selection_statistics answers and diagnostics report.
 //
 // Not thread-safe: the fusion node holds its lock.
@@ -28,6 +28,7 @@ class SelectionCounters {
 
  private:
   std::map<std::string, long> selected_, best_, supplied_;
+  std::map<std::string, double> weight_;  // sum over the queries of Belief.set_weights
   long queries_ = 0;
 };
 

@@ -65,7 +65,7 @@ int Run(int argc, char** argv) {
   std::vector<QueryRecord> records;
   for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(topic))) {
     if (const auto b = m.instantiate<Belief>()) {
-      records.push_back({b->set_names, b->set_min_distances, b->selected_sets});
+      records.push_back({b->set_names, b->set_min_distances, b->selected_sets, b->set_weights});
     }
   }
   if (records.empty()) {

@@ -49,6 +49,24 @@ TEST(Curation, FindsRarelySelectedAndDominatedSetsAndCoverageGaps) {
   EXPECT_FALSE(Curate(Records(), o).sets[1].redundant);
 }
 
+TEST(Curation, ReportsTheMeanWeightOfEachSetWhenTheBeliefsCarryIt) {
+  std::vector<QueryRecord> records = Records();
+  EXPECT_EQ(Curate(records, {}).sets[0].mean_weight, -1);  // not recorded: not shown
+  EXPECT_EQ(FormatCurationReport(Curate(records, {})).find("weight"), std::string::npos);
+  for (size_t q = 0; q < records.size(); ++q) {
+    records[q].set_weights = {1.0f, q % 2 ? 0.5f : 0.25f, 0.0f};
+  }
+  const CurationReport rep = Curate(records, {});
+  EXPECT_NEAR(rep.sets[0].mean_weight, 1.0, 1e-12);
+  EXPECT_NEAR(rep.sets[1].mean_weight, 0.375, 1e-12);
+  EXPECT_NEAR(rep.sets[2].mean_weight, 0.0, 1e-12);
+  const std::string table = FormatCurationReport(rep);
+  EXPECT_NE(table.find("weight"), std::string::npos) << table;
+  EXPECT_NE(table.find(" 0.375"), std::string::npos) << table;
+  records[3].set_weights.clear();  // one belief without weights: the mean is unknown
+  EXPECT_EQ(Curate(records, {}).sets[1].mean_weight, -1);
+}
+
 TEST(Curation, RefusesInconsistentRecordsAndBadOptions) {
   EXPECT_THROW(Curate({}, {}), std::invalid_argument);
   std::vector<QueryRecord> r = Records();

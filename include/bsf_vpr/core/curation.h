@@ -20,6 +20,8 @@ struct QueryRecord {
   std::vector<std::string> set_names;    // every loaded set
   std::vector<float> set_min_distances;  // min D^u, one per set_names entry
   std::vector<std::string> selected;     // the selected sets S
+  std::vector<float> set_weights;        // the weight of each set (Belief.set_weights); may
+                                         // be empty (beliefs recorded before it existed)
 };
 
 struct CurationOptions {
@@ -35,6 +37,7 @@ struct SetCuration {
   std::string name;
   double selected_fraction = 0;  // of the queries
   double best_fraction = 0;      // of the queries: the set was u* (smallest minimum)
+  double mean_weight = -1;       // mean weight the method gave it (-1: not recorded)
   std::string dominated_by;      // the set that covers it, if any
   bool redundant = false;
   std::string reason;

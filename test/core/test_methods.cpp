@@ -164,6 +164,38 @@ TEST(Methods, ANanDistanceNeverGivesAnAcceptedBelief) {
   }
 }
 
+// The paper's exact method by name (--fusion product --likelihood two_sided, relative
+// selection) against the O(N^2) oracle: Eq. reference_selection by division, and the sum of
+// Eq. obsLikelihoods over the selected sets.
+TEST(Methods, PaperModeMatchesTheOracle) {
+  MethodOptions paper;
+  paper.fusion = FusionRule::kProduct;
+  paper.likelihood.variant = LikelihoodVariant::kTwoSided;
+  paper.selection.gamma_fraction = 0.1;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    Data data(70, seed + 100);
+    for (float& v : data.d[1]) v *= 1.05f;  // a second set near the first: selected sometimes
+    const PlaceBelief b = RunMethod(ParseMethod("bsf", kNames), data.views, 70, paper);
+    double best_min = INFINITY;
+    for (const auto& x : data.d)
+      best_min = std::min<double>(best_min, *std::min_element(x.begin(), x.end()));
+    std::vector<int> selected;
+    for (int u = 0; u < 3; ++u) {
+      const double m = *std::min_element(data.d[u].begin(), data.d[u].end());
+      if ((m - best_min) / best_min <= 0.1 + 1e-12) selected.push_back(u);
+    }
+    EXPECT_EQ(b.selection.selected, selected) << "seed " << seed;
+    Eigen::VectorXd expected = Eigen::VectorXd::Zero(70);
+    for (int u : selected) {
+      for (int i = 0; i < 70; ++i) expected(i) += testing::LogLikelihoodOracle(data.d[u], i, false);
+    }
+    expected.array() -=
+        std::log((expected.array() - expected.maxCoeff()).exp().sum()) + expected.maxCoeff();
+    for (int i = 0; i < 70; ++i)
+      ASSERT_NEAR(b.log_posterior(i), expected(i), 1e-9) << "seed " << seed;
+  }
+}
+
 // The mixture fusion (the default bsf) against its equation, computed the straightforward way:
 // pooled statistics over the group, each set's likelihood scaled to mean 1 over the places
 // it covers (1 where it covers none), mixed with the soft selection weights; two groups

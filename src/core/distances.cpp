@@ -189,6 +189,11 @@ std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrix
 std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,
                                         const std::vector<const std::vector<int>*>& place_ids,
                                         const std::vector<int>& groups) {
+  if (!groups.empty() && groups.size() != per_set.size()) {
+    throw std::invalid_argument("QueryRowViews: " + std::to_string(groups.size()) +
+                                " descriptor groups for " + std::to_string(per_set.size()) +
+                                " sets");
+  }
   std::vector<SetDistances> views(per_set.size());
   for (size_t u = 0; u < per_set.size(); ++u) {
     views[u].values = per_set[u].row(query).data();

@@ -301,14 +301,13 @@ void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double
                   &column);
       l.col(static_cast<Eigen::Index>(j)) = column;
     }
+    for (size_t j = 0; j < c.size(); ++j) {  // log(w_u / W) + log L_u(i): no weight underflows
+      l.col(static_cast<Eigen::Index>(j)).array() +=
+          std::log(weights[static_cast<size_t>(c[j])] / total);
+    }
     for (Eigen::Index i = 0; i < num_places; ++i) {
       const double top = l.row(i).maxCoeff();
-      double sum = 0;
-      for (size_t j = 0; j < c.size(); ++j) {
-        sum += weights[static_cast<size_t>(c[j])] / total *
-               std::exp(l(i, static_cast<Eigen::Index>(j)) - top);
-      }
-      out->log_posterior(i) += top + std::log(sum);
+      out->log_posterior(i) += top + std::log((l.row(i).array() - top).exp().sum());
     }
   }
   Decide(threshold, top_k, out);

@@ -94,8 +94,11 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   Recognition out;
   out.belief = Runner().Step(views, n, nullptr, step_places, update_state);
 
+  // The set that supplied the match: the closest image of the match among the sets the
+  // method relied on (a mixture's sets of weight at least e^-1, its selected sets).
   float best = INFINITY;
   for (int u : out.belief.used_sets) {
+    if (out.belief.set_weights.at(static_cast<size_t>(u)) < std::exp(-1.0) * (1 - 1e-12)) continue;
     const SetDistances& d = views[static_cast<size_t>(u)];
     for (int k = 0; k < d.count; ++k) {
       if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {

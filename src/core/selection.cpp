@@ -82,6 +82,10 @@ Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
   for (size_t u = 0; u < m; ++u) {
     out.set_stats.push_back(ComputeDistanceStats(sets[u]));
     score[u] = Score(out.set_stats.back(), options.rule);
+    if (std::isnan(score[u])) {
+      throw std::invalid_argument("reference set " + std::to_string(u) +
+                                  " has NaN distances: it cannot be selected or weighed");
+    }
   }
   size_t best = 0;
   for (size_t u = 1; u < m; ++u) {
@@ -109,7 +113,13 @@ std::vector<double> ConditionWeights(const std::vector<SetDistances>& sets,
                                 " set statistics for " + std::to_string(sets.size()) + " sets");
   }
   std::vector<double> score(sets.size());
-  for (size_t u = 0; u < sets.size(); ++u) score[u] = Score(stats[u], options.rule);
+  for (size_t u = 0; u < sets.size(); ++u) {
+    score[u] = Score(stats[u], options.rule);
+    if (std::isnan(score[u])) {
+      throw std::invalid_argument("reference set " + std::to_string(u) +
+                                  " has NaN distances: it cannot be weighed");
+    }
+  }
   const std::vector<size_t> group_best = BestOfGroup(sets, score, true);
   std::vector<double> w(sets.size());
   for (size_t u = 0; u < sets.size(); ++u) {

@@ -288,6 +288,22 @@ TEST(Methods, MixtureOfOneSetPerGroupIsBayesFullAndSelectionIsPerGroup) {
   EXPECT_EQ(product.selection.selected, SelectReferenceSets(data.views, {}).selected);
 }
 
+TEST(Methods, TheMixtureRefusesNaNDistancesAndSurvivesATinyWeight) {
+  Data data(50, 3);
+  data.d[0][0] = NAN;
+  EXPECT_THROW(RunMethod(ParseMethod("bsf", kNames), data.views, 50, {}), std::invalid_argument);
+  // A set far from the closest (weight e^-200, which underflows nowhere in the log domain)
+  // leaves a finite posterior.
+  Data far(50, 4);
+  for (float& v : far.d[2]) v *= 9.0f;
+  MethodOptions o;
+  o.selection.gamma_fraction = 0.01;
+  const PlaceBelief b = RunMethod(ParseMethod("bsf", kNames), far.views, 50, o);
+  EXPECT_TRUE(b.log_posterior.allFinite());
+  EXPECT_LT(b.set_weights[2], 1e-30);
+  EXPECT_EQ(b.used_sets.size(), b.set_weights[2] > 0 ? 3u : 2u);
+}
+
 TEST(Methods, ConditionWeightsAreTheSoftFormOfTheSelectionRule) {
   // Minima 1.0, 1.04 (on the boundary of gamma 0.04), 1.2 and 0 in another group.
   std::vector<std::vector<float>> d = {{1.0f, 3.0f}, {1.04f, 3.0f}, {1.2f, 3.0f}, {0.0f, 1.0f}};

@@ -109,6 +109,18 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
              {{"bsf", 0.2222}, {"bayes_full", 0.9013}, {"med", 0.9094},
               {"med_selective", 0.2680}, {"nn:HybridNet", 0.8441}, {"nn:NetVLAD", 0.5553}},
              "corridor, relative selection");
+  // The default mixture: each technique its own descriptor group, so the ten multiply
+  // (bayes_full); declared one descriptor, they are mixed and weighed by raw minima.
+  ExpectAucs(args, {{"bsf", 0.9013}}, "corridor, mixture", "");
+  ExpectAucs(args, {{"bsf", 0.2500}}, "corridor, mixture of one descriptor",
+             " --same-descriptor true");
+  const testing::Result refused =
+      Evaluate(" --reference a=" + kData + "gardens_point_hdc_delf/day_left.npy --query " + kData +
+               "gardens_point_hdc_delf/night_right.npy --tolerance 8 --same-descriptor true");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.output.find("--same-descriptor goes with --distances/--similarities"),
+            std::string::npos)
+      << refused.output;
   // The scale-free rule.
   ExpectAucs(args, {{"bsf", 0.7493}, {"med_selective", 0.7068}}, "corridor, standardized",
              " --selection standardized --gamma-fraction 0.04 --likelihood one_sided"

@@ -1,6 +1,6 @@
 #include "bsf_vpr/core/place_recognizer.h"
 
-#include <cmath>
+#include <algorithm>
 #include <stdexcept>
 
 namespace bsf_vpr {
@@ -95,10 +95,14 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   out.belief = Runner().Step(views, n, nullptr, step_places, update_state);
 
   // The set that supplied the match: the closest image of the match among the sets the
-  // method relied on (a mixture's sets of weight at least e^-1, its selected sets).
+  // method relied on (a mixture's used sets of weight below 1 only when also selected).
+  const std::vector<int>& selected = out.belief.selection.selected;
   float best = INFINITY;
   for (int u : out.belief.used_sets) {
-    if (out.belief.set_weights.at(static_cast<size_t>(u)) < std::exp(-1.0) * (1 - 1e-12)) continue;
+    if (out.belief.set_weights.at(static_cast<size_t>(u)) < 1 &&
+        !std::binary_search(selected.begin(), selected.end(), u)) {
+      continue;
+    }
     const SetDistances& d = views[static_cast<size_t>(u)];
     for (int k = 0; k < d.count; ++k) {
       if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {

@@ -88,7 +88,8 @@ def replay_lockstep(bag_path, results_path, image_topic="/camera/image_raw",
     lock = threading.Lock()
     beliefs = {}
     with rosbag.Bag(bag_path) as bag:
-        stamps = {m.header.stamp for _, m, _ in bag.read_messages(topics=[image_topic])}
+        messages = list(bag.read_messages())
+    stamps = {m.header.stamp for topic, m, _ in messages if topic == image_topic}
 
     def on_belief(msg):
         # Only this bag's: rospy hands a message that arrives for another subscriber of the
@@ -101,8 +102,8 @@ def replay_lockstep(bag_path, results_path, image_topic="/camera/image_raw",
     pub = rospy.Publisher(image_topic, Image, queue_size=10)
     wait_for(lambda: pub.get_num_connections() > 0, 60, "the ingest node to subscribe")
     wait_for(lambda: sub.get_num_connections() > 0, 60, "the fusion node's belief publisher")
-    with rosbag.Bag(bag_path) as bag, rosbag.Bag(results_path, "w") as results:
-        for topic, msg, t in bag.read_messages():
+    with rosbag.Bag(results_path, "w") as results:
+        for topic, msg, t in messages:
             if topic != image_topic:
                 results.write(topic, msg, t)
                 continue

@@ -11,6 +11,7 @@ namespace bsf_vpr {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ExpectOneLineRefusal;
 using testing::kEpochUs;
 using testing::kLat0;
 using testing::kLon0;
@@ -81,10 +82,7 @@ TEST_F(ImportErrors, BadInputIsOneLineNamingTheFileAndNothingIsWritten) {
        "no camera folder '" + dir_ + "/img/stereo/centre'"},
   };
   for (const auto& [args, fragment] : cases) {
-    const Result r = Run(args);
-    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
-    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    ExpectOneLineRefusal(Run(args), fragment, args);
     EXPECT_FALSE(fs::exists(dir_ + "/new")) << args;
   }
 

@@ -19,6 +19,7 @@ const std::string kSource = BSF_SOURCE_DIR;
 const std::string kGardens = kSource + "/data/gardens_point_hdc_delf/";
 
 using testing::Evaluate;
+using testing::ExpectOneLineRefusal;
 using testing::Lines;
 using testing::Result;
 using testing::RunCommand;
@@ -107,12 +108,8 @@ TEST_F(MakeTools, ToolsCreateTheFoldersTheyWriteInto) {
       std::string(BSF_MAKE_SYNTHETIC_PATH) + " --places 20 --out " + dir_ + "/file/sub",
   };
   for (const std::string& command : commands) {
-    const Result r = RunCommand(command);
-    EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
-    EXPECT_NE(r.output.find("cannot create folder '" + dir_ + "/file/sub'"), std::string::npos)
-        << command << "\n"
-        << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    ExpectOneLineRefusal(RunCommand(command), "cannot create folder '" + dir_ + "/file/sub'",
+                         command);
   }
   const Result bad_eval = Evaluate(in + dir_ + "/file/sub");
   EXPECT_EQ(bad_eval.exit_code, 2);
@@ -205,10 +202,7 @@ TEST_F(MakeTools, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
        "--image-descriptor describes images: it goes with --images"},
   };
   for (const auto& [args, fragment] : bad) {
-    const Result r = RunCommand(mk_ref + args);
-    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
-    EXPECT_NE(r.output.find(fragment), std::string::npos) << args << "\n" << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    ExpectOneLineRefusal(RunCommand(mk_ref + args), fragment, args);
   }
   EXPECT_FALSE(fs::exists(dir_ + "/x"));
 }

@@ -32,6 +32,28 @@ constexpr double kTolerance = 0.002;
 const std::string kPaperMode =
     " --selection relative --gamma-fraction 0.04 --likelihood one_sided --fusion product";
 
+// bsf_evaluate's inputs for Nordland-100: QUERY's frames against the other two seasons.
+std::string NordlandHundredArgs(const std::string& query, const std::string& descriptor) {
+  const std::string n100 = kData + "nordland_subset100/64x32/";
+  std::string args;
+  for (const std::string season : {"summer", "fall", "winter"}) {
+    if (season != query) args += " --reference " + season + "=" + n100 + season;
+  }
+  return args + " --query " + n100 + query + " --image-descriptor " + descriptor +
+         " --distance cosine --tolerance 2";
+}
+
+// bsf_evaluate's inputs for the Corridor: the 10 techniques' similarities and the ground truth.
+std::string CorridorArgs() {
+  const std::string corridor = kData + "vprbench_corridor/";
+  std::string args = " --ground-truth " + corridor + "ground_truth.csv";
+  for (const std::string t : {"AMOSNet", "AlexNet_VPR", "CALC", "CoHOG", "HOG", "HybridNet",
+                              "NetVLAD", "RegionVLAD", "ap-gem-r101", "denseVLAD"}) {
+    args += " --similarities " + t + "=" + corridor + t + ".npy";
+  }
+  return args;
+}
+
 struct Case {
   std::string query, descriptor;
   std::map<std::string, double> auc;  // method -> AUC
@@ -66,43 +88,48 @@ class RealData : public ::testing::Test {
 
 TEST_F(RealData, NordlandHundredFusesTwoSeasonsForTheThird) {
   const std::vector<Case> cases = {
-      {"winter", "patchnorm",
-       {{"bsf", 0.4284}, {"bayes_full", 0.4458}, {"med", 0.4003}, {"med_selective", 0.4820},
-        {"bayes:fall", 0.4676}, {"nn:fall", 0.4663}, {"bayes:summer", 0.3762}}},
-      {"winter", "hog",
-       {{"bsf", 0.8864}, {"bayes_full", 0.8920}, {"med", 0.7737}, {"med_selective", 0.7955},
-        {"bayes:fall", 0.8889}, {"nn:fall", 0.8006}}},
-      {"summer", "patchnorm",
-       {{"bsf", 1.0}, {"bayes_full", 0.9783}, {"med", 0.9772}, {"med_selective", 1.0},
+      {"winter",
+       "patchnorm",
+       {{"bsf", 0.4284},
+        {"bayes_full", 0.4458},
+        {"med", 0.4003},
+        {"med_selective", 0.4820},
+        {"bayes:fall", 0.4676},
+        {"nn:fall", 0.4663},
+        {"bayes:summer", 0.3762}}},
+      {"winter",
+       "hog",
+       {{"bsf", 0.8864},
+        {"bayes_full", 0.8920},
+        {"med", 0.7737},
+        {"med_selective", 0.7955},
+        {"bayes:fall", 0.8889},
+        {"nn:fall", 0.8006}}},
+      {"summer",
+       "patchnorm",
+       {{"bsf", 1.0},
+        {"bayes_full", 0.9783},
+        {"med", 0.9772},
+        {"med_selective", 1.0},
         {"bayes:winter", 0.4689}}},
-      {"summer", "hog",
+      {"summer",
+       "hog",
        {{"bsf", 1.0}, {"bayes_full", 0.9692}, {"med", 0.9849}, {"bayes:winter", 0.8197}}},
-      {"fall", "patchnorm",
+      {"fall",
+       "patchnorm",
        {{"bsf", 1.0}, {"bayes_full", 1.0}, {"med", 0.9770}, {"bayes:winter", 0.4406}}},
-      {"fall", "hog",
+      {"fall",
+       "hog",
        {{"bsf", 1.0}, {"bayes_full", 0.9372}, {"med", 0.9886}, {"bayes:winter", 0.8583}}},
   };
-  const std::string n100 = kData + "nordland_subset100/64x32/";
   for (const Case& c : cases) {
-    std::string refs;
-    for (const std::string season : {"summer", "fall", "winter"}) {
-      if (season != c.query) refs += " --reference " + season + "=" + n100 + season;
-    }
-    ExpectAucs(refs + " --query " + n100 + c.query + " --image-descriptor " + c.descriptor +
-                   " --distance cosine --tolerance 2",
-               c.auc, c.query + "/" + c.descriptor);
+    ExpectAucs(NordlandHundredArgs(c.query, c.descriptor), c.auc, c.query + "/" + c.descriptor);
   }
 }
 
 TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
-  const std::string corridor = kData + "vprbench_corridor/";
-  std::string sources;
-  for (const std::string t : {"AMOSNet", "AlexNet_VPR", "CALC", "CoHOG", "HOG", "HybridNet",
-                              "NetVLAD", "RegionVLAD", "ap-gem-r101", "denseVLAD"}) {
-    sources += " --similarities " + t + "=" + corridor + t + ".npy";
-  }
-  const std::string args = sources + " --ground-truth " + corridor + "ground_truth.csv" +
-                           " --methods bsf,bayes_full,med,med_selective,nn:HybridNet,nn:NetVLAD";
+  const std::string args =
+      CorridorArgs() + " --methods bsf,bayes_full,med,med_selective,nn:HybridNet,nn:NetVLAD";
   // The paper's relative rule compares raw minimum distances: across techniques whose
   // scales differ it selects by scale, not by evidence (bsf 0.222).
   ExpectAucs(args,
@@ -137,30 +164,18 @@ TEST_F(RealData, TheDefaultFusionIsWithinOneHundredthOfTheBestAlternativeEverywh
     double auc, r_at_100p;  // the default bsf's, pinned
   };
   std::vector<RealCase> cases;
-  const std::string n100 = kData + "nordland_subset100/64x32/";
   const std::map<std::string, std::pair<double, double>> n100_pins = {
       {"winter/patchnorm", {0.4877, 0.18}}, {"winter/hog", {0.8903, 0.31}},
       {"summer/patchnorm", {1.0, 1.0}},     {"summer/hog", {1.0, 1.0}},
       {"fall/patchnorm", {1.0, 1.0}},       {"fall/hog", {1.0, 1.0}}};
   for (const std::string query : {"winter", "summer", "fall"}) {
     for (const std::string descriptor : {"patchnorm", "hog"}) {
-      std::string refs;
-      for (const std::string season : {"summer", "fall", "winter"}) {
-        if (season != query) refs += " --reference " + season + "=" + n100 + season;
-      }
       const auto pin = n100_pins.at(query + "/" + descriptor);
       cases.push_back({"Nordland-100 " + query + "/" + descriptor,
-                       refs + " --query " + n100 + query + " --image-descriptor " + descriptor +
-                           " --distance cosine --tolerance 2",
-                       pin.first, pin.second});
+                       NordlandHundredArgs(query, descriptor), pin.first, pin.second});
     }
   }
-  std::string corridor = " --ground-truth " + kData + "vprbench_corridor/ground_truth.csv";
-  for (const std::string t : {"AMOSNet", "AlexNet_VPR", "CALC", "CoHOG", "HOG", "HybridNet",
-                              "NetVLAD", "RegionVLAD", "ap-gem-r101", "denseVLAD"}) {
-    corridor += " --similarities " + t + "=" + kData + "vprbench_corridor/" + t + ".npy";
-  }
-  cases.push_back({"Corridor", corridor, 0.9013, 0.6216});
+  cases.push_back({"Corridor", CorridorArgs(), 0.9013, 0.6216});
   cases.push_back({"Gardens Point",
                    " --reference day=" + kData + "gardens_point_hdc_delf/day_left.npy --query " +
                        kData +

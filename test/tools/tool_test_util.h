@@ -2,8 +2,10 @@
 // evaluator wrote.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -33,6 +35,15 @@ inline Result RunCommand(const std::string& command) {
 
 inline Result Evaluate(const std::string& args) {
   return RunCommand(std::string(BSF_EVALUATE_PATH) + " " + args);
+}
+
+// A tool's refusal of bad input: exit status 2 and one line of output containing `fragment`
+// (what the tool was asked, `what`, is shown on failure).
+inline void ExpectOneLineRefusal(const Result& r, const std::string& fragment,
+                                 const std::string& what) {
+  EXPECT_EQ(r.exit_code, 2) << what << "\n" << r.output;
+  EXPECT_NE(r.output.find(fragment), std::string::npos) << what << "\n" << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << what << "\n" << r.output;
 }
 
 inline std::vector<std::string> Lines(const std::string& path) {

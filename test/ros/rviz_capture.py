@@ -350,13 +350,21 @@ def config_background(config):
     return tuple(int(v) for v in m.groups()) if m else (48, 48, 48)
 
 
-def master_online(uri=None):
-    """True when the ROS master at `uri` (default: ROS_MASTER_URI) answers."""
-    import rosgraph
+def master_online(uri=None, timeout_s=3.0):
+    """True when the ROS master at `uri` (default: ROS_MASTER_URI) answers getPid."""
+    import xmlrpc.client
+
+    class Transport(xmlrpc.client.Transport):
+        def make_connection(self, host):
+            connection = super().make_connection(host)
+            connection.timeout = timeout_s
+            return connection
+
     uri = uri or os.environ.get("ROS_MASTER_URI") or "http://localhost:11311"
     try:
-        return rosgraph.is_master_online(uri)
-    except Exception:  # noqa: BLE001 - a malformed URI is as unreachable as a dead master
+        with xmlrpc.client.ServerProxy(uri, transport=Transport()) as master:
+            return master.getPid("/rviz_capture")[0] == 1
+    except (OSError, ValueError, xmlrpc.client.Error):  # refused, timeout, bad URI or reply
         return False
 
 
@@ -527,21 +535,34 @@ class RvizSession:
         return found[0].region if found else None
 
     def wait_for_window(self, timeout):
-        """Waits until rviz's main window is mapped; RvizCaptureError after `timeout` seconds
-        or when rviz exits, with rviz's last stderr lines."""
+        """Waits until rviz's main window is mapped and laid out (its render windows keep
+        their geometry over three polls 0.2 s apart: Qt first maps them at 100x30);
+        RvizCaptureError after `timeout` seconds or when rviz exits, with rviz's last stderr
+        lines. Returns the main window."""
         deadline = time.monotonic() + timeout
+        previous, stable = None, 0
         while True:
             if self.process.poll() is not None:
                 raise RvizCaptureError("rviz exited with status %s before showing a window; "
                                        "its last stderr lines:\n%s"
                                        % (self.process.returncode, self.stderr_tail()))
-            main = self.main_window()
-            if main is not None and self.render_windows():
-                self.window_after = time.monotonic() - self.started_at
-                return main
+            windows = self.windows()
+            main = self.main_window(windows)
+            layout = None
+            if main is not None:
+                inside = _subtree(windows, windows.index(main))
+                layout = [main.region] + [w.region for w in inside if w.name is None]
+            if layout is not None and len(layout) > 1 and layout == previous:
+                stable += 1
+                if stable >= 2:
+                    self.window_after = time.monotonic() - self.started_at
+                    return main
+            else:
+                stable = 0
+            previous = layout
             if time.monotonic() > deadline:
-                raise RvizCaptureError("rviz showed no window within %.0f s; its last stderr "
-                                       "lines:\n%s" % (timeout, self.stderr_tail()))
+                raise RvizCaptureError("rviz showed no window within %.1f s; its last stderr "
+                                       "lines:\n%s" % (timeout, self.stderr_tail() or "(none)"))
             time.sleep(0.2)
 
     # -- pixels

@@ -9,12 +9,65 @@ else (the XWD capture is decoded and the PNG written here: no PIL, no ImageMagic
                                                              rviz.view_region()) > 100, 60)
         save_png(image, "/tmp/shot.png")
 
-FINDINGS (Debian 12, rviz 1.14.19, OGRE 1.12.10, Qt 5.15.8, Xvfb 21.1.7, Mesa llvmpipe;
-2 cores):
+API: RvizSession(config, size, timeout, env, log_dir, rviz, rviz_args, check_master) with
+screenshot(), screenshot_when(predicate, timeout), wait_for_view(timeout), view_region(),
+render_windows(), background_rgb, display, window_after; save_png(image, path),
+read_png(path), read_xwd(data); colour_mask, content_mask(image, background_rgb, tolerance),
+count_colour(image, rgb, tolerance, region, shaded), find_view_region(image, background_rgb);
+master_online(uri), config_background(config). Regions are (x, y, width, height) in
+screenshot() coordinates (the rviz main window).
+
+FINDINGS (tried by hand, Debian 12: rviz 1.14.19, OGRE 1.12.10, Qt 5.15.8, Xvfb 21.1.7,
+Mesa llvmpipe; 2 cores busy with C++ builds, load ~2.5):
+- Software GL under Xvfb renders everything needed: CUBE_LIST markers, TEXT_VIEW_FACING text,
+  the Grid, the TF display, and an rviz/Image display's picture. rviz logs "OpenGL device:
+  llvmpipe (LLVM 15.0.6, 256 bits)", GL 4.5 "limited to GLSL 1.4 on Mesa". Xvfb has no DRI,
+  so Mesa uses llvmpipe with or without LIBGL_ALWAYS_SOFTWARE=1 (same result both ways; it is
+  set anyway, for machines whose Mesa would try a GPU). No other env is needed;
+  XDG_RUNTIME_DIR (set to a private folder) only silences a Qt warning, QT_X11_NO_MITSHM=1 is
+  a precaution. Harmless stderr: "[rospack] Error: no such package media_export".
+- Timings (RvizSession, 1280x800): rviz's window is mapped after ~0.4-0.6 s and laid out
+  (render windows settled) after 0.9-1.3 s; the 3D view is drawn at 1.0-1.25 s; latched
+  markers, text and the image are all on screen 1.1-1.5 s after rviz starts. An xwd capture
+  + decode takes ~0.08 s, stopping rviz and Xvfb ~0.3-0.5 s. scripts/rviz_screenshot with
+  --wait 2 takes ~3.4 s in all. test_rviz_capture.py: ~16 s (5 rviz starts).
+- rviz renders continuously: at Frame Rate 30 it keeps ~57 % of a core busy (reports 24-31
+  fps under llvmpipe), at Frame Rate 5 ~10 %. A test config can lower it.
+- Colours: rviz lights 3D markers, so a (255, 0, 255) CUBE_LIST seen from above
+  (TopDownOrtho) comes out as (230, 0, 230); use a tolerance >= 30 or shaded=True.
+  TEXT_VIEW_FACING text is unlit: its exact colour in the glyph cores, anti-aliased edges.
+  The Image display shows rgb8 colours exactly, letterboxed with black bars to keep the
+  aspect ratio; before any message it shows a white "No Image" panel.
+- Fonts: text markers use rviz's own OGRE font, /usr/share/rviz/ogre_media/fonts/
+  liberation-sans/LiberationSans-Regular.ttf, a link into fonts-liberation (a dependency of
+  rviz); the Qt widgets use fontconfig's default (DejaVu Sans, fonts-dejavu-core). Nothing
+  extra to install.
+- tf: markers in frame `map` with Fixed Frame `map` render even when no tf publishes `map`
+  (Global Status then shows a warning); publishing any transform from map (e.g. a static
+  map -> bsf_vpr_view) makes it "Ok". Debian has no tf2_ros static_transform_publisher
+  binary (rosrun finds none); tf2_ros.StaticTransformBroadcaster from Python works.
+- Layout (no window manager: no decorations, the window at +0+0): "Window Geometry:
+  Height/Width" sets the main window's size. With 1280x800 and the Displays + Views panels
+  the 3D view is the render window at x=364, y=62, 900x709 (menu bar 22 px, tool bar 40 px,
+  left dock 342 px wide + splitter and a 16 px collapse button each side, status bar 29 px);
+  an Image display docks at the top of the left column (its render window 342x163 at 0,84
+  here) above Displays. Without a Window Geometry section rviz opens a ~700x533 window with
+  the Image panel squashed to a few pixels; a geometry larger than the screen (--size) is
+  clipped at the right/bottom, cutting the 3D view. So a test config should set Window
+  Geometry no larger than the Xvfb screen (and may add a "QMainWindow State" to size docks).
+- Xvfb -displayfd picks the first free display itself (the first it can listen on) and
+  creates no /tmp/.X<n>-lock: parallel sessions got different displays. No stray
+  processes: Xvfb and rviz run in sessions of their own, are stopped on every exit path
+  (exception, Ctrl-C, SIGTERM in the script) and get SIGTERM from the kernel if the Python
+  process is killed (PR_SET_PDEATHSIG; tried with SIGKILL).
+- rviz's node name is anonymous (rviz_<time>): several rviz may share one master. rviz writes
+  ~/.rviz/persistent_settings.
 """
 import ctypes
 import os
 import re
+import select
+import shutil
 import signal
 import struct
 import subprocess
@@ -171,7 +224,8 @@ def read_png(path):
     channels = {0: 1, 2: 3, 4: 2, 6: 4}.get(colour_type)
     if bit_depth != 8 or channels is None or interlace != 0:
         raise ValueError("%s: only 8-bit, non-interlaced grey/RGB(A) PNGs are read (depth %d, "
-                         "colour type %d, interlace %d)" % (path, bit_depth, colour_type, interlace))
+                         "colour type %d, interlace %d)"
+                         % (path, bit_depth, colour_type, interlace))
     pixels = _unfilter(zlib.decompress(b"".join(idat)), height, width * channels, channels)
     pixels = pixels.reshape(height, width, channels)
     if channels <= 2:
@@ -241,11 +295,12 @@ def find_view_region(image, background_rgb=(48, 48, 48), tolerance=6, min_fracti
     """Finds rviz's 3D view in a screenshot from its pixels alone: the largest block of rows
     and columns in which at least `min_fraction` of the pixels have the configured background
     colour (Global Options / Background Color; rviz's default is 48; 48; 48). Grid lines and
-    markers are thin or sparse enough not to break it (lines up to max_gap pixels wide are bridged); the Qt panels (light grey) and an Image
-    display (the camera picture, black letterbox bars) are excluded. Returns (x, y, width,
-    height), or None when no such block of at least min_size x min_size pixels exists (rviz
-    has not drawn yet, or markers cover most of the view: then pass the region yourself, e.g.
-    RvizSession.view_region(), which asks the X server instead)."""
+    markers are thin or sparse enough not to break it (lines up to max_gap pixels wide are
+    bridged); the Qt panels (light grey) and an Image display (the camera picture, black
+    letterbox bars) are excluded. Returns (x, y, width, height), or None when no such block
+    of at least min_size x min_size pixels exists (rviz has not drawn yet, or markers cover
+    most of the view: then pass the region yourself, e.g. RvizSession.view_region(), which
+    asks the X server instead)."""
     mask = colour_mask(image, background_rgb, tolerance)
     x0, y0, w, h = 0, 0, mask.shape[1], mask.shape[0]
     for _ in range(3):  # columns over the rows found, rows over the columns found, again
@@ -265,8 +320,11 @@ def find_view_region(image, background_rgb=(48, 48, 48), tolerance=6, min_fracti
 
 # ---------------------------------------------------------------------------------- X windows
 
-_TREE_LINE = re.compile(r'^(?P<indent>\s*)(?P<id>0x[0-9a-f]+) (?P<name>"(?:[^"\\]|\\.)*"|\(has no name\))'
-                        r'.*?\s(?P<w>\d+)x(?P<h>\d+)\+(-?\d+)\+(-?\d+)\s+\+(?P<x>-?\d+)\+(?P<y>-?\d+)\s*$')
+# `   0x200010 "cfg.rviz - RViz": ("rviz" "rviz")  1280x800+0+0  +0+0`: id, name, size,
+# position in the parent, absolute position; the indentation (3 per level) gives the depth.
+_TREE_LINE = re.compile(
+    r'^(?P<indent>\s*)(?P<id>0x[0-9a-f]+) (?P<name>"(?:[^"\\]|\\.)*"|\(has no name\))'
+    r'.*?\s(?P<w>\d+)x(?P<h>\d+)\+(-?\d+)\+(-?\d+)\s+\+(?P<x>-?\d+)\+(?P<y>-?\d+)\s*$')
 
 
 class Window:
@@ -371,11 +429,14 @@ def master_online(uri=None, timeout_s=3.0):
 class RvizSession:
     """rviz with CONFIG on a private Xvfb display, software OpenGL (Mesa llvmpipe). A context
     manager: `with RvizSession(cfg) as rviz:` starts Xvfb and rviz and waits until rviz's main
-    window is mapped (RvizCaptureError after `timeout` seconds, with rviz's last stderr lines);
-    leaving the block stops rviz (SIGINT, then SIGTERM, then SIGKILL) and Xvfb, also on
-    exceptions and Ctrl-C. Needs a ROS master (ROS_MASTER_URI, or `env`): checked first.
+    window is mapped and laid out (RvizCaptureError after `timeout` seconds, with rviz's last
+    stderr lines); leaving the block stops rviz (SIGINT, then SIGTERM, then SIGKILL) and
+    Xvfb, also on exceptions and Ctrl-C. Needs a ROS master (ROS_MASTER_URI, or `env`):
+    checked first.
 
-    Xvfb chooses a free display itself (-displayfd), so sessions may run side by side.
+    Xvfb chooses a free display itself (-displayfd), so sessions may run side by side. Xvfb
+    and rviz get SIGTERM if the thread that started them dies (PR_SET_PDEATHSIG): start a
+    session from a thread that outlives it (the main thread, normally).
     `env` adds to / overrides os.environ for rviz. `log_dir` keeps Xvfb's and rviz's output
     (default: a temporary folder, removed on close). `rviz_args` are extra rviz options."""
 
@@ -395,7 +456,7 @@ class RvizSession:
         self.xvfb = None
         self.process = None
         self.started_at = None      # time.monotonic() when rviz was started
-        self.window_after = None    # seconds from rviz's start to its main window mapped
+        self.window_after = None    # seconds from rviz's start to its window laid out
 
     # -- lifecycle
 
@@ -454,7 +515,6 @@ class RvizSession:
             write_fd = None
             number = b""
             deadline = time.monotonic() + 30
-            import select
             while not number.endswith(b"\n"):
                 left = deadline - time.monotonic()
                 if left <= 0 or not select.select([read_fd], [], [], left)[0]:
@@ -480,7 +540,6 @@ class RvizSession:
             _stop(self.xvfb, (signal.SIGTERM, 5))
             self.xvfb = None
         if self._own_log_dir and self.log_dir is not None:
-            import shutil
             shutil.rmtree(self.log_dir, ignore_errors=True)
             self.log_dir = None
 
@@ -601,7 +660,7 @@ class RvizSession:
         (rviz has rendered a first frame); returns that screenshot."""
         def drawn(image):
             region = self.view_region()
-            if region is None:
+            if region is None or region[2] < 32 or region[3] < 32:
                 return False
             view = _crop(image, region)
             return view.size and colour_mask(view, self.background_rgb, 6).mean() > 0.3

@@ -85,8 +85,9 @@ void FusionNode::Start() {
   publishing.place_frame = params_.place_frame;
   publishing.publish_tf = params_.publish_tf;
   publishing.belief_top_k = params_.belief_top_k;
-  publishing.marker_spacing_m = params_.marker_spacing_m;
-  publisher_ = std::make_unique<RecognitionPublisher>(nh_, publishing);
+  publishing.view = params_.view;
+  publishing.ground_truth_topic = params_.ground_truth_topic;
+  publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {

@@ -136,8 +136,29 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "queue_size", [](auto& p) -> auto& { return p.queue_size; },
               "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))
           .Add(
-              "marker_spacing_m", [](auto& p) -> auto& { return p.marker_spacing_m; },
-              "distance between places drawn in rviz when they have no pose", "m", Above(0))
+              "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
+              "distance between places drawn in rviz when they do not all have poses; 0: the "
+              "places are spread over marker_view_size_m",
+              "m", AtLeast(0))
+          .Add(
+              "marker_view_size_m", [](auto& p) -> auto& { return p.view.view_size_m; },
+              "size of the area the rviz view shows (rviz/bsf_vpr.rviz frames 100 m): markers "
+              "are sized for the smaller of it and the route's extent, and view_frame follows "
+              "the match on routes larger than it",
+              "m", Above(0))
+          .Add(
+              "marker_log_scale", [](auto& p) -> auto& { return p.view.log_scale; },
+              "belief bars and the match image's plot show log10 of the posterior over 4 "
+              "decades instead of the posterior")
+          .Add(
+              "view_frame", [](auto& p) -> auto& { return p.view.view_frame; },
+              "tf child of map_frame broadcast with the markers, which rviz/bsf_vpr.rviz "
+              "follows: at the route's centre when the route fits marker_view_size_m, else at "
+              "the match")
+          .Add(
+              "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
+              "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
+              "carry it): rviz and the match image mark the true places; \"\": none")
           .Add(
               "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
               "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0));
@@ -158,9 +179,10 @@ FusionParams LoadFusionParams(RosParamSource& source) {
   source.RefuseUnread();
   p.recognizer.metric = ParseDistanceMetric(p.distance_given() ? p.distance : "euclidean");
   p.recognizer.Validate();
-  if (p.map_frame.empty() || p.place_frame.empty()) {
-    throw std::invalid_argument("map_frame and place_frame must not be empty");
+  if (p.map_frame.empty() || p.place_frame.empty() || p.view.view_frame.empty()) {
+    throw std::invalid_argument("map_frame, place_frame and view_frame must not be empty");
   }
+  p.view.map_frame = p.map_frame;
   return p;
 }
 

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "belief_view_options.h"
 #include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "odometry_tracker.h"
@@ -34,7 +35,9 @@ struct FusionParams {
   bool publish_tf = true;
   int belief_top_k = 0;           // 0: the belief message carries every place
   int queue_size = 100;           // descriptors buffered before the oldest are dropped
-  double marker_spacing_m = 1.0;  // route layout for places without poses
+  // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.
+  BeliefViewOptions view;
+  std::string ground_truth_topic = "/vpr/ground_truth";  // "": no true places drawn
   // Odometry for +filter methods: "none", "topic" (nav_msgs/Odometry on odometry_topic) or
   // "tf" (odom_frame -> base_frame). The distance travelled between two queries divided by
   // the place spacing (place_spacing_m, or the median spacing of the place poses when 0) is

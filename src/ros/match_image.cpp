@@ -15,7 +15,6 @@ constexpr int kMarginPx = 8;  // image border and vertical gaps; > kFramePx
 constexpr int kFramePx = 3;   // accept-colour frame around the reference panel
 constexpr int kPadPx = 6;     // inside the label block and placeholders
 constexpr int kTickPx = 8;    // height of a true-place tick under the axis
-constexpr double kLogDecades = 6.0;
 const cv::Scalar kBackground(28, 28, 28);
 const cv::Scalar kBlock(48, 48, 48);        // label block and plot strip
 const cv::Scalar kPlaceholder(80, 80, 80);  // panel of a missing image
@@ -132,7 +131,8 @@ std::string PlotLegend(const MatchImageContent& c, const MatchImageOptions& o) {
   } else {
     const float top = *std::max_element(c.posterior.begin(), c.posterior.end());
     s << "place (bars: " << (o.log_scale ? "log10 P" : "P") << ", top " << top
-      << (o.log_scale ? ", 6 decades)" : ")");
+      << (o.log_scale ? ", log " + std::to_string(static_cast<int>(kLogDecades)) + " decades)"
+                      : ")");
   }
   if (!c.true_places.empty()) s << ", cyan: true";
   return s.str();

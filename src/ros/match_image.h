@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "belief_view_options.h"  // kLogDecades, shared with the markers
+
 namespace bsf_vpr {
 
 // What one match image shows. Images are CV_8UC3 BGR or CV_8UC1 (drawn as grey), any size;
@@ -45,7 +47,7 @@ struct MatchImageOptions {
   int plot_height_px = 120;      // whole plot strip: marker row, bars, axis, tick labels
   int text_height_px = 14;       // height of label text (FONT_HERSHEY_SIMPLEX); notes and
                                  // ticks are drawn at 6/7 of it
-  bool log_scale = false;        // bars show log10 P over [max - 6, max] decades, not P / max
+  bool log_scale = false;  // bars show log10 P over the kLogDecades below the max, not P / max
   void Validate() const;         // throws std::invalid_argument naming the bad field
 };
 

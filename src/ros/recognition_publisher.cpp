@@ -1,20 +1,19 @@
 #include "recognition_publisher.h"
 
-#include <visualization_msgs/MarkerArray.h>
-
 #include <utility>
 
-#include "belief_markers.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 
 namespace bsf_vpr {
 
-RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, RecognitionPublisherOptions options)
-    : options_(std::move(options)) {
+RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle& pnh,
+                                           RecognitionPublisherOptions options,
+                                           const DataDirectory* data_dir)
+    : options_(std::move(options)),
+      view_(nh, pnh, options_.view, options_.ground_truth_topic, data_dir) {
   belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, 10);
   match_pub_ = nh.advertise<Match>(names::kMatchTopic, 10);
-  marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
   if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 }
 
@@ -36,10 +35,7 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
       tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
     }
   }
-  if (marker_pub_.getNumSubscribers() > 0) {
-    marker_pub_.publish(MakeBeliefMarkers(recognizer.map(), *belief, options_.map_frame,
-                                          options_.marker_spacing_m));
-  }
+  view_.Show(*belief, r, recognizer);
 }
 
 }  // namespace bsf_vpr

@@ -1,7 +1,8 @@
 // What the fusion node publishes for each recognised descriptor: the belief (always); the
 // match when accepted, with the tf frame map_frame -> place_frame at the matched place when
-// the place has a pose; and the rviz markers of the belief (belief_markers.h) while someone
-// listens. Topics are names.h's, advertised in the namespace of the node handle given.
+// the place has a pose; and what rviz shows of it (belief_view.h: markers, view frame, match
+// image) while someone listens. Topics are names.h's, advertised in the namespace of the node
+// handle given (the match image in the private one).
 //
 // Not thread-safe: the fusion node holds its lock.
 #pragma once
@@ -14,6 +15,8 @@
 #include <memory>
 #include <string>
 
+#include "belief_view.h"
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"
 
 namespace bsf_vpr {
@@ -24,14 +27,17 @@ struct RecognitionPublisherOptions {
   std::string map_frame;    // frame of the match, the markers and the tf parent
   std::string place_frame;  // tf child frame at the matched place
   bool publish_tf = false;
-  int belief_top_k = 0;           // 0: the belief lists every place
-  double marker_spacing_m = 0.0;  // route layout for places without poses
+  int belief_top_k = 0;  // 0: the belief lists every place
+  BeliefViewOptions view;  // its map_frame is map_frame
+  std::string ground_truth_topic;  // "": none
 };
 
 class RecognitionPublisher {
  public:
-  // Advertises the topics on `nh`.
-  RecognitionPublisher(ros::NodeHandle& nh, RecognitionPublisherOptions options);
+  // Advertises the topics on `nh` (and the match image on `pnh`). `data_dir` (may be null)
+  // is where reference images below it are read through; it must outlive the publisher.
+  RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle& pnh,
+                       RecognitionPublisherOptions options, const DataDirectory* data_dir);
 
   // Publishes what `r` found for the descriptor whose header is `header`. `recognizer` is
   // the one that found it (method, gamma, sets and place poses); `seconds` the time spent.
@@ -40,8 +46,9 @@ class RecognitionPublisher {
 
  private:
   RecognitionPublisherOptions options_;
-  ros::Publisher belief_pub_, match_pub_, marker_pub_;
+  ros::Publisher belief_pub_, match_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
+  BeliefView view_;
 };
 
 }  // namespace bsf_vpr

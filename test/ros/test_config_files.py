@@ -151,8 +151,18 @@ class ConfigFiles(unittest.TestCase):
         displays = rviz["Visualization Manager"]["Displays"]
         topics = [d.get("Marker Topic") for d in displays]
         self.assertIn("/bsf_vpr/belief_markers", topics)
-        self.assertIn("rviz/TF", [d["Class"] for d in displays])
+        self.assertIn("/bsf_vpr/fusion/match_image", [d.get("Image Topic") for d in displays])
         self.assertEqual(rviz["Visualization Manager"]["Global Options"]["Fixed Frame"], "map")
+        # The docks are laid out by panel name: the state must name the match image display.
+        image = [d["Name"] for d in displays if d.get("Image Topic")][0]
+        state = rviz["Window Geometry"]["QMainWindow State"]
+        self.assertIn(image.encode("utf-16-be").hex(), str(state).lower())
+        # The view follows the frame the fusion node broadcasts with its markers.
+        with open(os.path.join(self.pkg, "config", "fusion.yaml")) as f:
+            fusion = yaml.safe_load(f)
+        view = rviz["Visualization Manager"]["Views"]["Current"]
+        self.assertEqual(view["Target Frame"], fusion["view_frame"])
+        self.assertEqual(fusion["map_frame"], "map")
 
     def test_a_bad_parameter_stops_the_node_with_a_reason(self):
         cases = [(["_gama_fraction:=0.1"], "unknown parameter"),

@@ -250,7 +250,7 @@ TEST(MatchImage, ColumnShowsTheMaximumOfItsPlaces) {
 TEST(MatchImage, LogScaleShowsASmallSecondPeakThatLinearHides) {
   MatchImageContent c = PeakedContent();
   c.place_ids = {30, 80, 50};
-  c.posterior = {1.0f, 1e-3f, 1e-9f};  // 50 lies below the 6 decades: no bar either way
+  c.posterior = {1.0f, 1e-3f, 1e-9f};  // 50 lies below the kLogDecades decades: no bar either way
   c.match = 30;
   MatchImageOptions o;
   const MatchImageLayout l = MatchImageLayoutFor(c, o);

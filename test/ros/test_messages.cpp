@@ -92,7 +92,7 @@ TEST(Messages, ServicesCarrySuccessAndMessage) {
 TEST(Names, AreDistinctAndRelative) {
   const std::vector<std::string> all = {
       names::kImageTopic, names::kExternalDescriptorTopic, names::kDescriptorTopic,
-      names::kBeliefTopic, names::kMatchTopic, names::kBeliefMarkersTopic,
+      names::kBeliefTopic, names::kMatchTopic, names::kBeliefMarkersTopic, names::kMatchImageTopic,
       names::kListReferenceSetsService, names::kLoadReferenceSetService,
       names::kUnloadReferenceSetService, names::kQueryPlaceService,
       names::kStartRecordingService, names::kStopRecordingService};

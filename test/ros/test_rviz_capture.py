@@ -338,4 +338,11 @@ class WithMaster(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    if any(a.startswith("--gtest_output") for a in sys.argv):  # under rostest
+        import rostest
+
+        class All(Helpers, WithMaster):  # rostest runs one class
+            pass
+        rostest.rosrun("bsf_vpr", "rviz_capture", All)
+    else:
+        unittest.main(verbosity=2)

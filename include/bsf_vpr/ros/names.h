@@ -14,6 +14,8 @@ constexpr char kDescriptorTopic[] = "descriptor";             // bsf_vpr/Descrip
 constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out
 constexpr char kMatchTopic[] = "match";                   // bsf_vpr/Match out
 constexpr char kBeliefMarkersTopic[] = "belief_markers";  // visualization_msgs/MarkerArray
+constexpr char kMatchImageTopic[] = "match_image";  // sensor_msgs/Image, private namespace
+// The fusion node also subscribes to kImageTopic (the query images) for the match image.
 
 constexpr char kListReferenceSetsService[] = "list_reference_sets";
 constexpr char kLoadReferenceSetService[] = "load_reference_set";

@@ -1,0 +1,172 @@
+#include "belief_view.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <ros/console.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <algorithm>
+#include <opencv2/imgcodecs.hpp>
+#include <utility>
+
+#include "bsf_vpr/core/reference_set_io.h"
+#include "bsf_vpr/ros/names.h"
+#include "match_image.h"
+
+namespace bsf_vpr {
+namespace {
+
+constexpr size_t kImagesKept = 30;   // query images waiting for their belief
+constexpr size_t kTruthsKept = 300;  // ground truth waiting for its belief
+
+}  // namespace
+
+BeliefView::BeliefView(ros::NodeHandle& nh, ros::NodeHandle& pnh, BeliefViewOptions options,
+                       const std::string& ground_truth_topic, const DataDirectory* data_dir)
+    : options_(std::move(options)), data_dir_(data_dir), nh_(nh), it_(nh) {
+  marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
+  image_transport::ImageTransport private_it(pnh);
+  const image_transport::SubscriberStatusCallback changed =
+      [this](const image_transport::SingleSubscriberPublisher&) { OnMatchImageSubscribers(); };
+  match_image_pub_ = private_it.advertise(names::kMatchImageTopic, 1, changed, changed);
+  if (!ground_truth_topic.empty()) {
+    truth_sub_ = nh.subscribe(ground_truth_topic, 100, &BeliefView::OnGroundTruth, this);
+  }
+}
+
+void BeliefView::OnMatchImageSubscribers() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (match_image_pub_.getNumSubscribers() > 0 && !image_sub_) {
+    image_sub_ = it_.subscribe(names::kImageTopic, 5, &BeliefView::OnImage, this);
+  } else if (match_image_pub_.getNumSubscribers() == 0 && image_sub_) {
+    image_sub_.shutdown();
+    images_.clear();
+  }
+}
+
+void BeliefView::OnImage(const sensor_msgs::ImageConstPtr& image) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  images_.push_back(image);
+  if (images_.size() > kImagesKept) images_.pop_front();
+}
+
+void BeliefView::OnGroundTruth(const QueryGroundTruth::ConstPtr& truth) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  truths_.emplace_back(truth->header.stamp, truth->correct_places);
+  if (truths_.size() > kTruthsKept) truths_.pop_front();
+}
+
+std::vector<int> BeliefView::TruePlaces(const ros::Time& stamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto it = truths_.rbegin(); it != truths_.rend(); ++it) {
+    if (it->first == stamp) return it->second;
+  }
+  return {};
+}
+
+cv::Mat BeliefView::QueryImage(const ros::Time& stamp, std::string* note) {
+  sensor_msgs::ImageConstPtr image;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = images_.rbegin(); it != images_.rend() && !image; ++it) {
+      if ((*it)->header.stamp == stamp) image = *it;
+    }
+  }
+  if (!image) {
+    *note = "no query image with this stamp on " + it_.getTransport() + " " +
+            nh_.resolveName(names::kImageTopic);
+    return cv::Mat();
+  }
+  try {
+    *note = "query";
+    return cv_bridge::toCvShare(image, "bgr8")->image.clone();
+  } catch (const std::exception& e) {
+    *note = "query image not shown: " + std::string(e.what());
+    return cv::Mat();
+  }
+}
+
+cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
+                                   const ReferenceMap& map, std::string* note) const {
+  if (r.closest_set < 0) {
+    *note = "no set the method used covers place " + std::to_string(belief.match);
+    return cv::Mat();
+  }
+  const StoredReferenceSet& set = map.set(r.closest_set);
+  const auto& ids = set.place_ids();
+  const auto row = std::find(ids.begin(), ids.end(), belief.match) - ids.begin();
+  if (row == static_cast<long>(ids.size())) {
+    *note = "set '" + set.name() + "' does not cover place " + std::to_string(belief.match);
+    return cv::Mat();
+  }
+  if (set.image_files().empty()) {
+    *note = "set '" + set.name() + "' names no images (images: in its YAML)";
+    return cv::Mat();
+  }
+  try {
+    const std::string bytes = ReadReferenceImage(set, static_cast<int>(row), data_dir_);
+    cv::Mat image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
+                                         const_cast<char*>(bytes.data())),
+                                 cv::IMREAD_COLOR);
+    if (image.empty()) throw std::runtime_error("not a readable image");
+    *note = set.name() + ", place " + std::to_string(belief.match);
+    return image;
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "bsf_vpr: match image: %s", e.what());
+    *note = "reference image not shown: " + std::string(e.what());
+    return cv::Mat();
+  }
+}
+
+void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
+                                   const PlaceRecognizer& recognizer,
+                                   const std::vector<int>& truth) {
+  MatchImageContent content;
+  content.query = QueryImage(belief.header.stamp, &content.query_note);
+  content.reference = ReferenceImage(belief, r, recognizer.map(), &content.reference_note);
+  const Method& method = recognizer.method();
+  content.label_lines = BeliefLabelLines(belief, method.IsBayesian() || method.sequence);
+  content.accepted = belief.accepted;
+  content.num_places = belief.num_places;
+  content.place_ids = belief.place_ids;
+  content.posterior = belief.posterior;
+  content.match = belief.match;
+  content.true_places = truth;
+  MatchImageOptions options;
+  options.log_scale = options_.log_scale;
+  cv_bridge::CvImage out(belief.header, "bgr8", RenderMatchImage(content, options));
+  match_image_pub_.publish(out.toImageMsg());
+}
+
+void BeliefView::Show(const Belief& belief, const Recognition& r,
+                      const PlaceRecognizer& recognizer) {
+  const bool markers = marker_pub_.getNumSubscribers() > 0;
+  const bool image = match_image_pub_.getNumSubscribers() > 0;
+  if (!markers && !image) return;
+  const std::vector<int> truth = TruePlaces(belief.header.stamp);
+  if (markers) {
+    const RouteLayout layout = MakeRouteLayout(recognizer.map(), options_);
+    geometry_msgs::TransformStamped view;
+    view.header.stamp = belief.header.stamp.isZero() ? ros::Time::now() : belief.header.stamp;
+    view.header.frame_id = options_.map_frame;
+    view.child_frame_id = options_.view_frame;
+    const Eigen::Vector3d focus = ViewFocus(layout, belief.match);
+    view.transform.translation.x = focus.x();
+    view.transform.translation.y = focus.y();
+    view.transform.translation.z = focus.z();
+    view.transform.rotation.w = 1;
+    tf_.sendTransform(view);
+    const Method& method = recognizer.method();
+    marker_pub_.publish(MakeBeliefMarkers(layout, belief, truth,
+                                          method.IsBayesian() || method.sequence, options_));
+  }
+  if (image) {
+    try {
+      PublishMatchImage(belief, r, recognizer, truth);
+    } catch (const std::exception& e) {
+      ROS_ERROR_THROTTLE(5.0, "bsf_vpr: match image not published: %s", e.what());
+    }
+  }
+}
+
+}  // namespace bsf_vpr

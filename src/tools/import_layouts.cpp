@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/place_index.h"
 #include "import_csv.h"

@@ -172,6 +172,34 @@ TEST_F(DataDir, SavingReplacesTheYamlAndNpyPairAsOne) {
   EXPECT_TRUE(LoadReferenceSetFile(*dir_, "route.yaml", "").descriptors.isApprox(b.descriptors));
 }
 
+TEST_F(DataDir, ListsTheRegularFilesOfAFolderWithoutFollowingLinks) {
+  fs::create_directories(Data("sets/imgs/sub"));
+  for (const std::string name : {"b.png", "a.png", "c.txt"}) Write(Data("sets/imgs/" + name), name);
+  fs::create_symlink(Data("sets/imgs/a.png"), Data("sets/imgs/inside_link.png"));
+  fs::create_symlink(root_ + "/outside/secret.txt", Data("sets/imgs/outside_link.png"));
+  ASSERT_EQ(mkfifo(Data("sets/imgs/fifo.png").c_str(), 0644), 0);
+  EXPECT_EQ(dir_->ListFiles("sets/imgs"), (std::vector<std::string>{"a.png", "b.png", "c.txt"}));
+  EXPECT_EQ(dir_->ListFiles(dir_->path() + "/sets/imgs/"), dir_->ListFiles("sets/imgs"));
+  EXPECT_TRUE(dir_->ListFiles("sets/imgs/sub").empty());
+  const auto refusal = [&](const std::string& folder) {
+    try {
+      dir_->ListFiles(folder);
+      return std::string("accepted");
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+  // A folder reached through a link, at the end or on the way, is refused.
+  fs::create_directory_symlink(root_ + "/outside", Data("outlink"));
+  fs::create_directory_symlink(Data("sets"), Data("inlink"));
+  EXPECT_NE(refusal("outlink").find("links are not followed"), std::string::npos);
+  EXPECT_NE(refusal("inlink/imgs").find("links are not followed"), std::string::npos);
+  EXPECT_NE(refusal("sets/none").find("No such file"), std::string::npos);
+  EXPECT_EQ(refusal("sets/imgs/a.png"), "'sets/imgs/a.png' is not a folder");
+  EXPECT_NE(refusal("../outside").find("outside the data directory"), std::string::npos);
+  EXPECT_NE(refusal(root_ + "/outside").find("outside the data directory"), std::string::npos);
+}
+
 TEST(QuotedForMessage, CutsLongInputAndEscapesControlCharacters) {
   EXPECT_EQ(QuotedForMessage("abc"), "'abc'");
   EXPECT_EQ(QuotedForMessage("a\nb"), "'a\\x0ab'");

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -178,6 +179,50 @@ std::string DataDirectory::Read(const std::string& relative) const {
         (err == ELOOP ? " (links are not followed below the data directory)" : ""));
   }
   return ReadRegularFile(file.get(), relative);
+}
+
+std::vector<std::string> DataDirectory::ListFiles(const std::string& relative_folder) const {
+  const std::vector<std::string> parts = Split(Relative(relative_folder));
+  const Fd root(OpenRoot());
+  const Fd parent = OpenParent(root.get(), parts, relative_folder, false);
+  const int raw =
+      openat(parent.get(), parts.back().c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (raw < 0) {
+    int err = errno;
+    // O_DIRECTORY reports a link as "not a folder": tell the two apart.
+    struct stat st;
+    if (err == ENOTDIR &&
+        fstatat(parent.get(), parts.back().c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 &&
+        S_ISLNK(st.st_mode)) {
+      err = ELOOP;
+    }
+    throw std::runtime_error(
+        err == ENOTDIR
+            ? QuotedForMessage(relative_folder) + " is not a folder"
+            : SystemError("open the folder", relative_folder, err) +
+                  (err == ELOOP ? " (links are not followed below the data directory)" : ""));
+  }
+  // fdopendir takes the descriptor over: closedir closes it.
+  DIR* d = fdopendir(raw);
+  if (d == nullptr) {
+    const int err = errno;
+    close(raw);
+    throw std::runtime_error(SystemError("list", relative_folder, err));
+  }
+  std::vector<std::string> names;
+  errno = 0;
+  while (const dirent* e = readdir(d)) {
+    struct stat st;
+    if (fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode)) {
+      names.emplace_back(e->d_name);
+    }
+    errno = 0;
+  }
+  const int err = errno;
+  closedir(d);
+  if (err != 0) throw std::runtime_error(SystemError("list", relative_folder, err));
+  std::sort(names.begin(), names.end());
+  return names;
 }
 
 bool DataDirectory::Exists(const std::string& relative) const {

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -93,6 +94,36 @@ std::string DirName(const std::string& path) {
 std::string ResolvePath(const std::string& base_dir, const std::string& path) {
   if (path.empty() || path[0] == '/') return path;
   return base_dir + "/" + path;
+}
+
+bool IsImageFileName(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".pgm" ||
+         ext == ".ppm";
+}
+
+std::vector<std::string> ListFileNames(const std::string& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) throw std::runtime_error("'" + folder + "' is not a folder");
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    if (entry.is_regular_file()) names.push_back(entry.path().filename().string());
+  }
+  if (ec) throw std::runtime_error("cannot list '" + folder + "': " + ec.message());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::vector<std::string> ListImageFiles(const std::string& folder) {
+  std::vector<std::string> files;
+  for (const std::string& name : ListFileNames(folder)) {
+    if (IsImageFileName(name)) files.push_back((std::filesystem::path(folder) / name).string());
+  }
+  if (files.empty()) throw std::runtime_error("folder '" + folder + "' holds no image files");
+  return files;
 }
 
 }  // namespace bsf_vpr

@@ -8,6 +8,7 @@
 #include <opencv2/objdetect.hpp>
 #include <stdexcept>
 
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
 
 namespace bsf_vpr {

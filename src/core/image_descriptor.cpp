@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -100,26 +99,6 @@ Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOpt
     }
   }
   return out;
-}
-
-std::vector<std::string> ListImageFiles(const std::string& folder) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::is_directory(folder, ec)) throw std::runtime_error("'" + folder + "' is not a folder");
-  std::vector<std::string> files;
-  for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (!entry.is_regular_file()) continue;
-    std::string ext = entry.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".pgm" ||
-        ext == ".ppm") {
-      files.push_back(entry.path().string());
-    }
-  }
-  if (ec) throw std::runtime_error("cannot list '" + folder + "': " + ec.message());
-  if (files.empty()) throw std::runtime_error("folder '" + folder + "' holds no image files");
-  std::sort(files.begin(), files.end());
-  return files;
 }
 
 RowMatrixXf DescribeImageFolder(const std::string& folder, const PatchNormOptions& options) {

@@ -38,6 +38,22 @@ void ReferenceSet::Validate() const {
     throw std::invalid_argument(who + " has " + std::to_string(poses.size()) + " poses for " +
                                 std::to_string(place_ids.size()) + " places");
   }
+  if (!image_files.empty() && image_files.size() != place_ids.size()) {
+    throw std::invalid_argument(who + " has " + std::to_string(image_files.size()) +
+                                " image files for " + std::to_string(place_ids.size()) +
+                                " descriptors (one per row)");
+  }
+  if (images.empty() != image_files.empty()) {
+    throw std::invalid_argument(who + (images.empty() ? " lists image files but no images folder"
+                                                      : " has an images folder but no image "
+                                                        "files (one per row)"));
+  }
+  for (size_t k = 0; k < image_files.size(); ++k) {
+    const std::string problem = ImageFileProblem(image_files[k]);
+    if (!problem.empty()) {
+      throw std::invalid_argument(who + ": image file of row " + std::to_string(k) + " " + problem);
+    }
+  }
   if (sorted.back() >= kMaxPlaces) {
     throw std::invalid_argument(who + " has place id " + std::to_string(sorted.back()) +
                                 ", beyond the largest place id accepted (" +
@@ -67,6 +83,20 @@ std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descri
   if (squared_norm > kMaxDescriptorSquaredNorm) {
     return "has a norm too large to compute distances with (squared norm " +
            std::to_string(squared_norm) + " > " + std::to_string(kMaxDescriptorSquaredNorm) + ")";
+  }
+  return "";
+}
+
+std::string ImageFileProblem(const std::string& file) {
+  if (file.empty()) return "is empty";
+  if (file[0] == '/') return "'" + file + "' is absolute (it must be relative to images)";
+  size_t start = 0;
+  while (start <= file.size()) {
+    const size_t slash = std::min(file.find('/', start), file.size());
+    if (file.compare(start, slash - start, "..") == 0) {
+      return "'" + file + "' has a '..' part (it must lie below images)";
+    }
+    start = slash + 1;
   }
   return "";
 }

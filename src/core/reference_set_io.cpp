@@ -2,8 +2,11 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
+#include <map>
 #include <set>
 #include <stdexcept>
 
@@ -24,16 +27,30 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 // (command-line tools, the node's start-up configuration), or a data directory that no
 // request may leave (the node's services).
 struct FileAccess {
-  // The path of the file that `field` (a path in a YAML) names, relative to `yaml_path`.
+  // The path of the file (or folder) that `field` (a path in a YAML) names, relative to
+  // `yaml_path`.
   std::function<std::string(const std::string& yaml_path, const std::string& field)> resolve;
   std::function<std::string(const std::string& path)> read;
+  // The names of the regular files in the folder at `path` (from resolve), sorted.
+  std::function<std::vector<std::string>(const std::string& path)> list;
+  // The folder at `path` (from resolve) as the absolute path ReferenceSet::images holds.
+  std::function<std::string(const std::string& path)> absolute;
 };
+
+// `path` made absolute and lexically normal, without a trailing '/'.
+std::string AbsoluteFolder(const std::string& path) {
+  std::filesystem::path p = std::filesystem::absolute(path).lexically_normal();
+  if (!p.has_filename() && p != p.root_path()) p = p.parent_path();
+  return p.string();
+}
 
 FileAccess Unconfined() {
   return {[](const std::string& yaml, const std::string& field) {
             return ResolvePath(DirName(yaml), field);
           },
-          [](const std::string& path) { return ReadFile(path); }};
+          [](const std::string& path) { return ReadFile(path); },
+          [](const std::string& path) { return ListFileNames(path); },
+          [](const std::string& path) { return AbsoluteFolder(path); }};
 }
 
 FileAccess Below(const DataDirectory& dir) {
@@ -43,7 +60,11 @@ FileAccess Below(const DataDirectory& dir) {
             return dir.Relative(!field.empty() && field[0] == '/' ? field
                                                                   : DirName(yaml) + "/" + field);
           },
-          [&dir](const std::string& path) { return dir.Read(path); }};
+          [&dir](const std::string& path) { return dir.Read(path); },
+          [&dir](const std::string& path) { return dir.ListFiles(path); },
+          [&dir](const std::string& path) {
+            return (dir.path() == "/" ? "" : dir.path()) + "/" + path;
+          }};
 }
 
 // The descriptors of a set, refused before anything is allocated for them if empty or too
@@ -64,12 +85,90 @@ RowMatrixXf ReadDescriptors(const FileAccess& files, const std::string& npy_path
   return DecodeNpyMatrix(bytes, npy_path);
 }
 
+// Refuses the first of `names` (paths relative to the folder at `folder`, from
+// files.resolve; `field` as the YAML names it) that is not a regular file there. Each folder
+// the names lie in is listed once.
+void CheckImageFilesExist(const FileAccess& files, const std::string& folder,
+                          const std::string& field, const std::vector<std::string>& names) {
+  std::map<std::string, std::vector<std::string>> listed = {{"", files.list(folder)}};
+  for (size_t k = 0; k < names.size(); ++k) {
+    const size_t slash = names[k].rfind('/');
+    const std::string sub = slash == std::string::npos ? "" : names[k].substr(0, slash);
+    auto it = listed.find(sub);
+    if (it == listed.end()) {
+      std::vector<std::string> in_sub;
+      try {
+        in_sub = files.list(folder + "/" + sub);
+      } catch (const std::exception&) {
+        // No such folder (or one that cannot be listed): the file is not there.
+      }
+      it = listed.emplace(sub, std::move(in_sub)).first;
+    }
+    const std::string base = slash == std::string::npos ? names[k] : names[k].substr(slash + 1);
+    if (!std::binary_search(it->second.begin(), it->second.end(), base)) {
+      throw std::runtime_error("image_files[" + std::to_string(k) + "] " +
+                               QuotedForMessage(names[k]) + " is not a file in images " +
+                               QuotedForMessage(field));
+    }
+  }
+}
+
+// The `images` folder and `image_files` of a sidecar, checked against the set's rows and
+// the folder's files; nothing when the YAML has no `images`.
+void ParseImages(const YAML::Node& root, const std::string& yaml_path, const FileAccess& files,
+                 ReferenceSet* set) {
+  if (!root["images"]) {
+    if (root["image_files"]) {
+      throw std::runtime_error("'image_files' needs 'images', the folder they lie in");
+    }
+    return;
+  }
+  const std::string field = root["images"].as<std::string>();
+  if (field.empty()) throw std::runtime_error("'images' is empty");
+  std::string folder;
+  std::vector<std::string> names;
+  try {
+    folder = files.resolve(yaml_path, field);
+    if (root["image_files"]) {
+      const YAML::Node list = root["image_files"];
+      if (!list.IsSequence()) throw std::runtime_error("'image_files' is not a list");
+      if (list.size() != static_cast<size_t>(set->size())) {
+        throw std::runtime_error("'image_files' lists " + std::to_string(list.size()) +
+                                 " files for " + std::to_string(set->size()) + " descriptors");
+      }
+      names = list.as<std::vector<std::string>>();
+      for (size_t k = 0; k < names.size(); ++k) {
+        const std::string problem = ImageFileProblem(names[k]);
+        if (!problem.empty()) {
+          throw std::runtime_error("image_files[" + std::to_string(k) + "] " + problem);
+        }
+      }
+      CheckImageFilesExist(files, folder, field, names);
+    } else {
+      // Row k is the k-th image of the folder in name order, as ListImageFiles lists them.
+      for (std::string& name : files.list(folder)) {
+        if (IsImageFileName(name)) names.push_back(std::move(name));
+      }
+      if (names.size() != static_cast<size_t>(set->size())) {
+        throw std::runtime_error(QuotedForMessage(field) + " holds " +
+                                 std::to_string(names.size()) + " image files for " +
+                                 std::to_string(set->size()) +
+                                 " descriptors; list each row's file with image_files");
+      }
+    }
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("images: ") + e.what());
+  }
+  set->images = files.absolute(folder);
+  set->image_files = std::move(names);
+}
+
 ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
                           const FileAccess& files) {
   if (!root.IsMap()) throw std::runtime_error("is not a YAML mapping");
-  static const std::set<std::string> kKnown = {"name",      "condition", "descriptor_type",
-                                               "dimension", "distance",  "descriptors",
-                                               "place_ids", "poses"};
+  static const std::set<std::string> kKnown = {
+      "name",        "condition", "descriptor_type", "dimension", "distance",
+      "descriptors", "place_ids", "poses",           "images",    "image_files"};
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (!kKnown.count(key)) throw std::runtime_error("unknown key " + QuotedForMessage(key));
@@ -110,6 +209,7 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
       set.poses.push_back({v[0], v[1], v[2], v[3]});
     }
   }
+  ParseImages(root, yaml_path, files, &set);
   set.Validate();
   return set;
 }
@@ -156,7 +256,22 @@ uint64_t ContentHash(const std::string& bytes) {
   return h;
 }
 
-std::string SidecarText(const ReferenceSet& set, const std::string& npy_name) {
+// How a sidecar in `yaml_folder` (absolute, links resolved: a data directory's path) names
+// the folder `images`: relative to yaml_folder when it lies below it (or is it), else
+// absolute. `images` is compared as given and with its links resolved.
+std::string ImagesField(const std::string& images, const std::string& yaml_folder) {
+  namespace fs = std::filesystem;
+  const std::string absolute = AbsoluteFolder(images);
+  std::error_code ec;
+  for (const fs::path& p : {fs::path(absolute), fs::weakly_canonical(absolute, ec)}) {
+    const fs::path relative = p.lexically_relative(yaml_folder);
+    if (!relative.empty() && *relative.begin() != "..") return relative.string();
+  }
+  return absolute;
+}
+
+std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
+                        const std::string& yaml_folder) {
   YAML::Emitter out;
   out << YAML::BeginMap;
   out << YAML::Key << "name" << YAML::Value << set.name;
@@ -174,6 +289,10 @@ std::string SidecarText(const ReferenceSet& set, const std::string& npy_name) {
       out << YAML::Flow << std::vector<double>{p.x_m, p.y_m, p.z_m, p.yaw_rad};
     }
     out << YAML::EndSeq;
+  }
+  if (!set.image_files.empty()) {
+    out << YAML::Key << "images" << YAML::Value << ImagesField(set.images, yaml_folder);
+    out << YAML::Key << "image_files" << YAML::Value << YAML::Flow << set.image_files;
   }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
@@ -236,7 +355,8 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   }
   dir.WriteAtomically(npy, bytes);
   try {
-    dir.WriteAtomically(yaml, SidecarText(set, BaseName(npy)), replace);
+    const std::string folder = DirName(yaml) == "." ? dir.path() : dir.path() + "/" + DirName(yaml);
+    dir.WriteAtomically(yaml, SidecarText(set, BaseName(npy), folder), replace);
   } catch (...) {
     if (npy != old_npy) dir.Remove(npy);
     throw;
@@ -249,6 +369,25 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     } catch (const std::exception&) {
       // Left behind: the new pair is whole; the old file only takes space.
     }
+  }
+}
+
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir) {
+  const std::string who = "reference set " + QuotedForMessage(set.name());
+  if (set.image_files().empty()) throw std::invalid_argument(who + " names no images");
+  if (row < 0 || row >= set.size()) {
+    throw std::invalid_argument(who + " has rows 0.." + std::to_string(set.size() - 1) + ", not " +
+                                std::to_string(row));
+  }
+  const std::string path = set.images() + "/" + set.image_files()[static_cast<size_t>(row)];
+  try {
+    if (dir != nullptr) {
+      const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
+      if (path.compare(0, below.size(), below) == 0) return dir->Read(path.substr(below.size()));
+    }
+    return ReadFile(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(who + " row " + std::to_string(row) + ": " + e.what());
   }
 }
 

@@ -16,6 +16,8 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
       distance_(std::move(set.distance)),
       place_ids_(std::move(set.place_ids)),
       poses_(std::move(set.poses)),
+      images_(std::move(set.images)),
+      image_files_(std::move(set.image_files)),
       dimension_(set.dimension()),
       precision_(precision) {
   const RowMatrixXf& x = set.descriptors;
@@ -71,8 +73,10 @@ void StoredReferenceSet::DecodeRow(int r, float* out) const {
 }
 
 size_t StoredReferenceSet::MemoryBytes() const {
+  size_t names = images_.size();
+  for (const std::string& f : image_files_) names += sizeof(std::string) + f.size();
   return data_bytes() + static_cast<size_t>(squared_norms_.size()) * sizeof(float) +
-         place_ids_.size() * sizeof(int) + poses_.size() * sizeof(PlacePose);
+         place_ids_.size() * sizeof(int) + poses_.size() * sizeof(PlacePose) + names;
 }
 
 ReferenceSet StoredReferenceSet::ToReferenceSet() const {
@@ -89,6 +93,8 @@ ReferenceSet StoredReferenceSet::ToReferenceSet() const {
   set.descriptors = *descriptors;
   set.place_ids = place_ids_;
   set.poses = poses_;
+  set.images = images_;
+  set.image_files = image_files_;
   return set;
 }
 

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "bsf_vpr/core/evaluation.h"
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/ground_truth_io.h"
-#include "bsf_vpr/core/image_descriptor.h"
 #include "bsf_vpr/core/npy.h"
 #include "cli_util.h"
 #include "query_bag.h"

@@ -1,5 +1,9 @@
 #include "describer_flags.h"
 
+#include <filesystem>
+
+#include "bsf_vpr/core/file_util.h"
+
 namespace bsf_vpr {
 namespace tools {
 
@@ -14,6 +18,8 @@ ReferenceSet DescribeImageFolderAsSet(const std::string& folder, const std::stri
                                       const ImageDescriber& describer) {
   ReferenceSet set = MakeReferenceSet(name, DescribeImageFolder(folder, describer));
   set.descriptor_type = describer.descriptor_type();
+  set.images = std::filesystem::absolute(folder).lexically_normal().string();
+  for (const std::string& file : ListImageFiles(folder)) set.image_files.push_back(BaseName(file));
   return set;
 }
 

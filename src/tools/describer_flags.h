@@ -22,7 +22,7 @@ bool ParseDescriberFlag(const std::string& flag, const std::string& value,
 std::string DescriberUsage();
 
 // Describes every image of ListImageFiles(folder) as set `name`, row k = place k, and
-// records the descriptor type.
+// records the descriptor type and the images (the folder made absolute, row k's file name).
 ReferenceSet DescribeImageFolderAsSet(const std::string& folder, const std::string& name,
                                       const ImageDescriber& describer);
 

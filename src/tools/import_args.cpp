@@ -124,6 +124,7 @@ DIR/NAME.bag for launch/replay.launch and bsf_evaluate. The first reference make
 places (one every --place-spacing-m along its route); each further reference covers the
 places it passes (within --association-radius-m and --max-yaw-difference-deg); places it
 does not pass stay uncovered. Without poses (nordland without GPS) frame k is place k.
+A set made from images names each row's frame (the YAML's images: and image_files:).
 Workflow and conventions: docs/import.md.
 
   --layout L              robotcar | nordland | generic; SPEC is then

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "bsf_vpr/core/image_descriptor.h"
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/place_index.h"
 #include "import_csv.h"
@@ -112,6 +112,7 @@ Traversal ReadNordlandTraversal(const std::string& name, const std::string& fold
                                 const std::string& gps_csv, double frame_rate_hz) {
   Traversal t;
   t.name = name;
+  t.image_folder = folder;
   const std::vector<std::string> files = ListImageFiles(folder);
   std::vector<double> times_s;  // of each file
   for (size_t k = 0; k < files.size(); ++k) {
@@ -184,6 +185,7 @@ Traversal ReadGenericTraversal(const std::string& name, const std::string& sourc
   } else {
     files = ListImageFiles(source);
     count = files.size();
+    t.image_folder = source;
   }
   const CsvTable csv = CsvTable::Read(poses_csv);
   const int ts = csv.Require({"timestamp"});

@@ -1,5 +1,6 @@
 #include "import_outputs.h"
 
+#include <filesystem>
 #include <stdexcept>
 
 #include "bsf_vpr/core/evaluation.h"
@@ -32,10 +33,18 @@ ReferenceSet MakeImportedSet(const Traversal& t, const PlaceAssignment& a,
   set.descriptor_type = describer.DescriptorType(t);
   set.place_ids = a.place_ids;
   if (with_poses) set.poses = a.place_poses;
+  if (!t.image_folder.empty()) {
+    set.images = std::filesystem::absolute(t.image_folder).lexically_normal().string();
+  }
   for (size_t k = 0; k < a.frames.size(); ++k) {
-    const Eigen::VectorXf d = describer.Describe(t, t.frames.at(static_cast<size_t>(a.frames[k])));
+    const Frame& frame = t.frames.at(static_cast<size_t>(a.frames[k]));
+    const Eigen::VectorXf d = describer.Describe(t, frame);
     if (k == 0) set.descriptors.resize(static_cast<Eigen::Index>(a.frames.size()), d.size());
     set.descriptors.row(static_cast<Eigen::Index>(k)) = d.transpose();
+    if (!t.image_folder.empty()) {
+      set.image_files.push_back(
+          std::filesystem::path(frame.image).lexically_relative(t.image_folder).string());
+    }
   }
   return set;
 }

@@ -35,8 +35,9 @@ class FrameDescriber {
 
 // The reference set of `t`: row k describes place a.place_ids[k] with frame a.frames[k],
 // and (with_poses) has that frame's pose, where the place was seen: a.place_poses[k],
-// within the association radius of the place's pose in the shared index. Throws
-// std::runtime_error naming an unreadable image.
+// within the association radius of the place's pose in the shared index. An image
+// traversal's set names its images: t.image_folder (absolute) and frame a.frames[k]'s file
+// for row k. Throws std::runtime_error naming an unreadable image.
 ReferenceSet MakeImportedSet(const Traversal& t, const PlaceAssignment& a,
                              const FrameDescriber& describer, bool with_poses,
                              const std::string& condition, const std::string& distance);

@@ -127,6 +127,7 @@ Traversal ReadRobotCarTraversal(const std::string& name, const std::string& fold
     }
     stamps_path = up;
   }
+  t.image_folder = images.string();
   const std::vector<int64_t> stamps = ReadTimestamps(stamps_path);
   const PoseTrack ins = ReadIns((fs::path(folder) / "gps" / "ins.csv").string());
   t.first_utm = ins.poses.front();

@@ -50,6 +50,7 @@ struct Traversal {
   PoseSource pose_source = PoseSource::kNone;
   std::vector<Frame> frames;  // time order; frames without a pose are left out (counted)
   RowMatrixXf descriptors;    // a descriptor .npy (generic); empty for images
+  std::string image_folder;   // the folder holding the frames' images; "" for a .npy
   // The first sample of the pose log (RobotCar: ins.csv, Nordland: the GPS log), in the
   // log's own coordinates: the origin of the map frame when this is the first reference.
   PlacePose first_utm;

@@ -124,6 +124,48 @@ TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
   EXPECT_EQ(map.num_places(), 4);
 }
 
+TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
+  ReferenceMap map;
+  auto expect_refused = [&](const ReferenceSet& s, const std::string& fragment) {
+    try {
+      map.Add(s);
+      ADD_FAILURE() << "accepted a set that should fail with '" << fragment << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(map.num_sets(), 0);
+  };
+  ReferenceSet s = MakeReferenceSet("i", testing::RandomMatrix(3, 2, 1));
+  s.images = "/data/i";
+  s.image_files = {"a.png", "b.png"};
+  expect_refused(s, "2 image files for 3 descriptors");
+  s.image_files = {"a.png", "b.png", "c.png", "d.png"};
+  expect_refused(s, "4 image files for 3 descriptors");
+  s.image_files.clear();
+  expect_refused(s, "an images folder but no image files");
+  s.images.clear();
+  s.image_files = {"a.png", "b.png", "c.png"};
+  expect_refused(s, "lists image files but no images folder");
+  s.images = "/data/i";
+  for (const auto& [file, fragment] : std::vector<std::pair<std::string, std::string>>{
+           {"/etc/c.png", "row 2 '/etc/c.png' is absolute"},
+           {"../c.png", "row 2 '../c.png' has a '..' part"},
+           {"x/../../c.png", "'..' part"},
+           {"x/..", "'..' part"},
+           {"", "row 2 is empty"}}) {
+    s.image_files[2] = file;
+    expect_refused(s, fragment);
+  }
+  // Names that only look like a climb, subfolders and "." parts stay below the folder.
+  for (const std::string file : {"..c.png", "c...png", "x/c.png", "./c.png", "x/..y/c.png"}) {
+    EXPECT_EQ(ImageFileProblem(file), "") << file;
+  }
+  s.image_files[2] = "x/..y/c.png";
+  map.Add(s);
+  EXPECT_EQ(map.set(0).images(), "/data/i");
+  EXPECT_EQ(map.set(0).image_files(), s.image_files);
+}
+
 TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
   Eigen::RowVectorXf d = Eigen::RowVectorXf::Ones(8);
   EXPECT_EQ(DescriptorProblem(d), "");

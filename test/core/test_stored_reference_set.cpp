@@ -78,9 +78,15 @@ TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision)
   in.distance = "euclidean";
   in.place_ids = {4, 3, 2, 1, 9};
   in.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}, {3, 0, 0, 0}, {4, 0, 0, 0.25}};
+  in.images = "/data/route";
+  in.image_files = {"4.png", "3.png", "2.png", "1.png", "sub/9.png"};
   ReferenceMap map;
   map.Add(in);
+  EXPECT_EQ(map.set(0).images(), in.images);
+  EXPECT_EQ(map.set(0).image_files(), in.image_files);
   const ReferenceSet back = map.set(0).ToReferenceSet();
+  EXPECT_EQ(back.images, in.images);
+  EXPECT_EQ(back.image_files, in.image_files);
   EXPECT_EQ(back.name, in.name);
   EXPECT_EQ(back.condition, in.condition);
   EXPECT_EQ(back.descriptor_type, in.descriptor_type);
@@ -96,6 +102,7 @@ TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision)
     ReferenceMap reduced;
     reduced.SetStoragePrecision(p);
     reduced.Add(in);
+    EXPECT_EQ(reduced.set(0).image_files(), in.image_files);  // kept at every precision
     try {
       reduced.set(0).ToReferenceSet();
       ADD_FAILURE() << "a set held at " << ToString(p) << " gave back float32 descriptors";
@@ -106,6 +113,20 @@ TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision)
       EXPECT_NE(std::string(e.what()).find("float32 source"), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(StoredReferenceSet, CountsTheImageNamesInItsBytes) {
+  ReferenceSet plain = MakeReferenceSet("a", testing::RandomMatrix(3, 4, 5));
+  ReferenceSet named = plain;
+  named.name = "b";
+  named.images = "/data/images";
+  named.image_files = {std::string(100, 'x') + ".png", "y.png", "z.png"};
+  ReferenceMap map;
+  map.Add(plain);
+  map.Add(named);
+  const size_t names = 12 + 104 + 5 + 5;  // the folder and the files' characters
+  EXPECT_GE(map.set(1).MemoryBytes(), map.set(0).MemoryBytes() + names);
+  EXPECT_LE(map.set(1).MemoryBytes(), map.set(0).MemoryBytes() + names + 3 * sizeof(std::string));
 }
 
 }  // namespace

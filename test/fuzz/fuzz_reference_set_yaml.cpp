@@ -6,7 +6,7 @@
 // The reader takes a path, so each input is written to set.yaml in a private temporary
 // folder made once, next to the small valid descriptor files of fuzz_fixture.h (a.npy,
 // b.npy) that an input may name as its 'descriptors': the YAML parser, the key checks,
-// place_ids and poses all get exercised, not only the refusal of a missing .npy.
+// place_ids, poses and images all get exercised, not only the refusal of a missing .npy.
 //
 // A std::exception is the expected answer to a bad file. Anything else (a crash, a sanitizer
 // report, an allocation beyond -malloc_limit_mb) is a finding.

@@ -146,6 +146,9 @@ void WriteYamlSeeds(const std::string& repo, const std::string& dir) {
   Write(dir + "/unknown_key.yaml", "name: a\ndescriptors: a.npy\nplaces_ids: [0, 1, 2, 3]\n");
   Write(dir + "/wrong_dimension.yaml", "name: a\ndescriptors: a.npy\ndimension: 4\n");
   Write(dir + "/missing_npy.yaml", "name: c\ndescriptors: c.npy\n");
+  // The fuzzer's folder as the images folder: its files stand in for images.
+  Write(dir + "/images.yaml",
+        "name: b\ndescriptors: b.npy\nimages: .\nimage_files: [a.npy, ./b.npy]\n");
 
   std::string shipped = ReadFile(repo + "/data/gardens_point_hdc_delf/day_left.yaml");
   ReplaceAll(shipped, "day_left.npy", kFixtureNpyFiles[0].file_name);

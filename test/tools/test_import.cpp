@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/reference_set_io.h"
@@ -123,6 +125,32 @@ std::vector<std::optional<PlacePose>> IndexOf(const std::vector<ReferenceSet>& s
   return index;
 }
 
+// Each row of `set` names, below `folder`, the frame it was described from: describing
+// that file again (demosaiced with `bayer_code`, resized to `resize` as the import did) gives
+// the row, and the file's frame lies at the row's pose (`frame_poses`: file name -> its
+// frame's pose in the map frame; empty for a set without poses).
+void ExpectRowsNameTheirFrames(const ReferenceSet& set, const std::string& folder,
+                               const std::map<std::string, PlacePose>& frame_poses,
+                               double tolerance_m, int bayer_code = -1, cv::Size resize = {}) {
+  EXPECT_EQ(set.images, folder);
+  ASSERT_EQ(set.image_files.size(), static_cast<size_t>(set.size()));
+  const auto describer = MakeImageDescriber(ImageDescriberOptions());
+  tools::Traversal t;
+  t.bayer_code = bayer_code;
+  for (size_t k = 0; k < set.image_files.size(); ++k) {
+    const std::string& file = set.image_files[k];
+    if (!frame_poses.empty()) {
+      const auto frame = frame_poses.find(file);
+      ASSERT_NE(frame, frame_poses.end()) << file;
+      EXPECT_LE(Dist(frame->second, set.poses[k]), tolerance_m) << "row " << k << ": " << file;
+    }
+    tools::Frame f;
+    f.image = folder + "/" + file;
+    const Eigen::VectorXf d = describer->Describe(tools::LoadFrameImage(t, f, resize));
+    EXPECT_EQ(set.descriptors.row(static_cast<Eigen::Index>(k)), d.transpose()) << k << file;
+  }
+}
+
 TEST(ImportBayer, OpenCvCodesDemosaicTheSdkPatterns) {
   // The SDK's patterns ('gbrg' stereo, 'rggb' mono: filters at (0,0), (0,1), (1,0), (1,1))
   // mosaic a known colour; the code bsf_import uses must give that colour back, and the
@@ -184,6 +212,20 @@ TEST_F(Import, RobotCarTraversalsToSetsOnOnePlaceIndexAndABag) {
   EXPECT_EQ(a.descriptor_type, "patchnorm_64x32_p8");
   ExpectPlacesEveryMetre(a);
   ExpectSharedAndUncovered(a, b);
+  // Each row names its raw image: <microseconds>.png of the frame at the row's pose.
+  const auto frames = [](const std::vector<TimedPose>& drive, int64_t t0_us) {
+    std::map<std::string, PlacePose> by_file;
+    for (const TimedPose& f : drive) {
+      by_file[std::to_string(t0_us + std::llround(f.t_s * 1e6)) + ".png"] = f.pose;
+    }
+    return by_file;
+  };
+  const int bayer = tools::RobotCarBayerCode("stereo/centre");
+  ExpectRowsNameTheirFrames(a, day + "/stereo/centre", frames(testing::RouteA(0.25), kEpochUs),
+                            0.25, bayer, cv::Size(32, 16));
+  ExpectRowsNameTheirFrames(b, night + "/stereo/centre",
+                            frames(testing::RouteB(0.25), kEpochUs + 50000000), 0.25, bayer,
+                            cv::Size(32, 16));
   // The INS yaw (clockwise from north) became the map frame's heading (counter-clockwise
   // from east): east along the first legs, north (pi/2) on the last.
   EXPECT_NEAR(a.poses[15].yaw_rad, 0, 1e-6);
@@ -282,6 +324,24 @@ TEST_F(Import, NordlandFramesWithGpsLogs) {
   EXPECT_EQ(a.distance, "cosine");
   ExpectPlacesEveryMetre(a);
   ExpectSharedAndUncovered(a, b);
+  // Each row names its frame, images-<100 + k>.png at the row's pose: frame k's, or for
+  // winter interpolated between the fixes of every fourth frame, as the import does.
+  const auto frames = [](const std::vector<TimedPose>& drive, size_t fix_every) {
+    std::map<std::string, PlacePose> by_file;
+    for (size_t k = 0; k < drive.size(); ++k) {
+      const size_t k0 = k - k % fix_every, k1 = std::min(k0 + fix_every, drive.size() - 1);
+      const double f = static_cast<double>(k - k0) / static_cast<double>(fix_every);
+      PlacePose p = drive[k0].pose;
+      p.x_m += f * (drive[k1].pose.x_m - p.x_m);
+      p.y_m += f * (drive[k1].pose.y_m - p.y_m);
+      char file[32];
+      std::snprintf(file, sizeof(file), "images-%05zu.png", 100 + k);
+      by_file[file] = p;
+    }
+    return by_file;
+  };
+  ExpectRowsNameTheirFrames(a, summer, frames(a_drive, 1), 1e-3);
+  ExpectRowsNameTheirFrames(b, winter, frames(b_drive, 4), 1e-3);
   EXPECT_NEAR(a.poses[15].yaw_rad, 0, 1e-6);  // headings from the path
   EXPECT_NEAR(a.poses[70].yaw_rad, kPi / 2, 1e-6);
   const BagContents bag = ReadBag(dir_ + "/out/spring.bag");
@@ -301,7 +361,16 @@ TEST_F(Import, NordlandFrameAlignedWithoutGps) {
   const ReferenceSet fall = LoadReferenceSetYaml(dir_ + "/out/fall.yaml");
   ASSERT_EQ(fall.size(), 100);
   EXPECT_TRUE(fall.poses.empty());
-  for (int k = 0; k < 100; ++k) EXPECT_EQ(fall.place_ids[static_cast<size_t>(k)], k);
+  for (int k = 0; k < 100; ++k) {
+    EXPECT_EQ(fall.place_ids[static_cast<size_t>(k)], k);
+    char file[16];
+    std::snprintf(file, sizeof(file), "%03d.png", k);
+    EXPECT_EQ(fall.image_files.at(static_cast<size_t>(k)), file);  // frame k = place k
+  }
+  ExpectRowsNameTheirFrames(fall, n100 + "fall", {}, 0);
+  const std::string yaml = ReadFile(dir_ + "/out/fall.yaml");
+  EXPECT_NE(yaml.find("\nimages: " + n100 + "fall\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("\nimage_files: [000.png, 001.png, "), std::string::npos) << yaml;
   const BagContents bag = ReadBag(dir_ + "/out/winter.bag");
   ASSERT_EQ(bag.descriptors.size(), 100u);
   EXPECT_TRUE(bag.poses.empty());
@@ -341,6 +410,11 @@ TEST_F(Import, GenericImagesAndDescriptorsWithPoseFiles) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const ReferenceSet a = LoadReferenceSetYaml(dir_ + "/out/a.yaml");
   ExpectPlacesEveryMetre(a);
+  std::map<std::string, PlacePose> frames;  // image k of the folder is the CSV's row k
+  for (size_t k = 0; k < a_drive.size(); ++k) {
+    frames[fs::path(images[k]).filename().string()] = a_drive[k].pose;
+  }
+  ExpectRowsNameTheirFrames(a, dir_ + "/a", frames, 1e-9);
   const BagContents bag = ReadBag(dir_ + "/out/b.bag");
   ExpectQueryBag(bag, a_drive, IndexOf({a}), 10, 1e-9);
   for (size_t k = 0; k < bag.images.size(); ++k) {
@@ -367,6 +441,8 @@ TEST_F(Import, GenericImagesAndDescriptorsWithPoseFiles) {
   const RowMatrixXf rows = ReadNpyMatrix(gardens + "day_left.npy");
   ASSERT_EQ(day.size(), 100);  // 99.5 m: places at rows 0, 2, ..., 198
   EXPECT_TRUE(day.descriptor_type.empty());
+  EXPECT_TRUE(day.images.empty());  // a .npy has no images to name
+  EXPECT_TRUE(day.image_files.empty());
   for (int k = 0; k < 100; ++k) {
     EXPECT_EQ(day.descriptors.row(k), rows.row(2 * k)) << k;
     EXPECT_NEAR(day.poses[static_cast<size_t>(k)].yaw_rad, std::atan2(0.4, 0.3), 1e-4);

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "../core/test_util.h"
+#include "bsf_vpr/core/file_util.h"
 #include "bsf_vpr/core/reference_set_io.h"
 #include "tool_test_util.h"
 
@@ -116,9 +117,11 @@ TEST_F(MakeTools, ToolsCreateTheFoldersTheyWriteInto) {
   EXPECT_NE(bad_eval.output.find(dir_ + "/file/"), std::string::npos) << bad_eval.output;
 }
 
-// The first `count` images of a shipped Nordland season, copied into dir/season.
-std::string CopyImages(const std::string& season, int count, const std::string& dir) {
-  const std::string from = kSource + "/data/nordland_64x32/" + season;
+// The first `count` images of a shipped Nordland season (of nordland_64x32, whose first 17
+// frames are alike, or another folder of data/), copied into dir/season.
+std::string CopyImages(const std::string& season, int count, const std::string& dir,
+                       const std::string& data = "nordland_64x32") {
+  const std::string from = kSource + "/data/" + data + "/" + season;
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(from)) files.push_back(e.path());
   std::sort(files.begin(), files.end());
@@ -128,6 +131,45 @@ std::string CopyImages(const std::string& season, int count, const std::string& 
     fs::copy_file(files[static_cast<size_t>(k)], to + "/" + files[k].filename().string());
   }
   return to;
+}
+
+std::vector<std::string> SortedFileNames(const std::string& folder) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(folder)) names.push_back(e.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+TEST_F(MakeTools, MakeReferenceNamesEachRowsImage) {
+  // Images below the YAML's folder are named relative to it; each row was described from
+  // the file image_files lists for it: that file alone, described again, gives the row.
+  const std::string summer = CopyImages("summer", 12, dir_ + "/sets", "nordland_subset100/64x32");
+  const std::string mk_ref = std::string(BSF_MAKE_REFERENCE_PATH) +
+                             " --patch-width-px 16 --patch-height-px 8 --patch-size-px 4 ";
+  const Result made =
+      RunCommand(mk_ref + "--images " + summer + "/ --name summer --out " + dir_ + "/sets/s.yaml");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::string text = ReadFile(dir_ + "/sets/s.yaml");
+  EXPECT_NE(text.find("\nimages: summer\n"), std::string::npos) << text;
+  const ReferenceSet set = LoadReferenceSetYaml(dir_ + "/sets/s.yaml");
+  ASSERT_EQ(set.size(), 12);
+  EXPECT_EQ(set.images, summer);
+  ASSERT_EQ(set.image_files, SortedFileNames(summer));
+  for (const int k : {0, 5, 11}) {
+    const std::string one = dir_ + "/one_" + std::to_string(k);
+    fs::create_directories(one);
+    fs::copy_file(summer + "/" + set.image_files[static_cast<size_t>(k)], one + "/x.png");
+    const Result r = RunCommand(mk_ref + "--images " + one + " --name one --out " + one + ".yaml");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const ReferenceSet alone = LoadReferenceSetYaml(one + ".yaml");
+    EXPECT_EQ(alone.descriptors.row(0), set.descriptors.row(k)) << k;
+    EXPECT_NE(alone.descriptors.row(0), set.descriptors.row(k == 0 ? 1 : k - 1)) << k;
+  }
+  // A set made from descriptors names no images.
+  const Result npy = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --descriptors " +
+                                kGardens + "day_left.npy --name day --out " + dir_ + "/d.yaml");
+  ASSERT_EQ(npy.exit_code, 0) << npy.output;
+  EXPECT_EQ(ReadFile(dir_ + "/d.yaml").find("image"), std::string::npos);
 }
 
 TEST_F(MakeTools, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
@@ -164,6 +206,13 @@ TEST_F(MakeTools, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
     EXPECT_EQ(set.distance, d.distance);
     EXPECT_EQ(set.size(), 100);
     EXPECT_EQ(set.dimension(), d.dimension);
+    // The YAML names the images (absolute: not below the YAML's folder), row k the k-th.
+    const std::string text = ReadFile(yaml);
+    EXPECT_NE(text.find("\nimages: " + winter + "\n"), std::string::npos) << text;
+    EXPECT_NE(text.find("\nimage_files: [images-00010.png, images-00020.png, "), std::string::npos)
+        << text;
+    EXPECT_EQ(set.images, winter);
+    EXPECT_EQ(set.image_files, SortedFileNames(winter));
 
     const std::string common = " --query " + summer + " --distance " + d.distance + " " + d.flags +
                                " --tolerance 2 --methods bsf,nn:winter --no-progress --out ";

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace bsf_vpr {
 
@@ -40,6 +41,13 @@ class DataDirectory {
   // std::runtime_error naming it if it is missing, a link, a FIFO, a device, a folder or
   // unreadable, or std::invalid_argument if `relative` is not a valid relative path.
   std::string Read(const std::string& relative) const;
+
+  // The names of the regular files in the folder at `relative` (a path from Relative), sorted;
+  // links (and folders, FIFOs...) are left out. The folder is reached like Read's files, one
+  // component at a time without following links. Throws std::runtime_error naming it if it
+  // is missing, a link, not a folder or unreadable, or std::invalid_argument if `relative`
+  // is not a valid relative path.
+  std::vector<std::string> ListFiles(const std::string& relative_folder) const;
 
   // Whether an entry (file, folder or link) exists at `relative`. Links are not followed.
   bool Exists(const std::string& relative) const;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace bsf_vpr {
 
@@ -26,5 +27,16 @@ std::string DirName(const std::string& path);
 
 // `path` unchanged if absolute, else joined to `base_dir`.
 std::string ResolvePath(const std::string& base_dir, const std::string& path);
+
+// Whether a file name has an image extension: .png .jpg .jpeg .bmp .pgm .ppm, in any case.
+bool IsImageFileName(const std::string& name);
+
+// The names of the regular files (or links to them) in `folder`, sorted. Throws
+// std::runtime_error naming the folder if it is not a folder or cannot be read.
+std::vector<std::string> ListFileNames(const std::string& folder);
+
+// The image files of ListFileNames(folder) (IsImageFileName), as `folder`/name, sorted by
+// name. Throws std::runtime_error if the folder cannot be read or holds no image.
+std::vector<std::string> ListImageFiles(const std::string& folder);
 
 }  // namespace bsf_vpr

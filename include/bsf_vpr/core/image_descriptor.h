@@ -33,12 +33,8 @@ cv::Mat ToBgr8(const cv::Mat& image);
 // std::invalid_argument for an empty image or an unsupported type.
 Eigen::VectorXf DescribePatchNormalized(const cv::Mat& image, const PatchNormOptions& options);
 
-// The image files (.png .jpg .jpeg .bmp .pgm .ppm) in `folder`, sorted by name. Throws
-// std::runtime_error if the folder cannot be read or holds no image.
-std::vector<std::string> ListImageFiles(const std::string& folder);
-
-// Describes every image of ListImageFiles(folder), one row each. Throws std::runtime_error
-// naming a file that cannot be decoded.
+// Describes every image of ListImageFiles(folder) (file_util.h), one row each. Throws
+// std::runtime_error naming a file that cannot be decoded.
 RowMatrixXf DescribeImageFolder(const std::string& folder, const PatchNormOptions& options);
 
 }  // namespace bsf_vpr

@@ -38,19 +38,29 @@ struct ReferenceSet {
   RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
   std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
   std::vector<PlacePose> poses;  // empty, or N_u poses (poses[k] is the pose of row k)
+  // The images the rows were described from, for showing a match: row k's image is
+  // images + "/" + image_files[k]. `images` is a folder (absolute once loaded from a file);
+  // image_files is empty (no images) or holds N_u paths relative to it.
+  std::string images;
+  std::vector<std::string> image_files;
 
   int size() const { return static_cast<int>(descriptors.rows()); }
   int dimension() const { return static_cast<int>(descriptors.cols()); }
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
   // duplicated, negative or >= kMaxPlaces, poses of the wrong count, a descriptor that
-  // DescriptorProblem refuses.
+  // DescriptorProblem refuses, image_files neither empty nor one per row, images given
+  // without image_files or the other way round, an image file that ImageFileProblem refuses.
   void Validate() const;
 };
 
 // Why a descriptor cannot be used ("" if it can): a NaN or infinite value, or a norm so
 // large (finite values near 3.4e38) that float32 distances would overflow.
 std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor);
+
+// Why `file` cannot name a set's image below its folder ("" if it can): empty, absolute,
+// or with a ".." part (it would climb out of the folder).
+std::string ImageFileProblem(const std::string& file);
 
 // Makes a set whose row k is place k (the usual case for frame-aligned traversals).
 ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,

@@ -27,6 +27,10 @@ class StoredReferenceSet {
   // N_u place indices (row k describes place place_ids()[k]), and empty or N_u poses.
   const std::vector<int>& place_ids() const { return place_ids_; }
   const std::vector<PlacePose>& poses() const { return poses_; }
+  // The folder of the rows' images and, empty or one per row, their files relative to it
+  // (ReferenceSet::images, image_files): row k's image is images() + "/" + image_files()[k].
+  const std::string& images() const { return images_; }
+  const std::vector<std::string>& image_files() const { return image_files_; }
 
   int size() const { return static_cast<int>(place_ids_.size()); }  // N_u >= 1 rows
   int dimension() const { return dimension_; }                      // D >= 1
@@ -44,7 +48,7 @@ class StoredReferenceSet {
   // Row r (0 <= r < size()) decoded to dimension() floats at `out`: the float32 values as
   // given, float16 exactly, int8 as scale() x value.
   void DecodeRow(int r, float* out) const;
-  // Bytes held: the encoded rows, their norms, place ids and poses.
+  // Bytes held: the encoded rows, their norms, place ids, poses and image file names.
   size_t MemoryBytes() const;
 
   // The ReferenceSet this set was made from, for saving it. Only a set held at float32 has
@@ -62,6 +66,8 @@ class StoredReferenceSet {
   std::string name_, condition_, descriptor_type_, distance_;
   std::vector<int> place_ids_;
   std::vector<PlacePose> poses_;
+  std::string images_;
+  std::vector<std::string> image_files_;
   int dimension_ = 0;
   StoragePrecision precision_ = StoragePrecision::kFloat32;
   // The one encoding of precision_: float32 as given, binary16 or int8 (row-major).

@@ -35,6 +35,7 @@ struct FileAccess {
   std::function<std::vector<std::string>(const std::string& path)> list;
   // The folder at `path` (from resolve) as the absolute path ReferenceSet::images holds.
   std::function<std::string(const std::string& path)> absolute;
+  bool confined = false;  // below a data directory (Below)
 };
 
 // `path` made absolute and lexically normal, without a trailing '/'.
@@ -64,7 +65,8 @@ FileAccess Below(const DataDirectory& dir) {
           [&dir](const std::string& path) { return dir.ListFiles(path); },
           [&dir](const std::string& path) {
             return (dir.path() == "/" ? "" : dir.path()) + "/" + path;
-          }};
+          },
+          /*confined=*/true};
 }
 
 // The descriptors of a set, refused before anything is allocated for them if empty or too
@@ -128,7 +130,15 @@ void ParseImages(const YAML::Node& root, const std::string& yaml_path, const Fil
   std::string folder;
   std::vector<std::string> names;
   try {
-    folder = files.resolve(yaml_path, field);
+    try {
+      folder = files.resolve(yaml_path, field);
+    } catch (const std::invalid_argument&) {
+      // A set loaded through a data directory whose images lie outside it (bsf_import
+      // writes the YAML there and names the dataset's frames): its descriptors are
+      // loaded, its images are not read.
+      if (files.confined) return;
+      throw;
+    }
     if (root["image_files"]) {
       const YAML::Node list = root["image_files"];
       if (!list.IsSequence()) throw std::runtime_error("'image_files' is not a list");

@@ -18,10 +18,10 @@ std_msgs::ColorRGBA Rgba(float r, float g, float b, float a = 1.0f) {
   return c;
 }
 
-// Dark purple (low) through pink to light yellow (the best place): reads on the dark
+// Light purple (low) through pink to light yellow (the best place): reads on the dark
 // background of the shipped view and differs from the green, orange and cyan markers.
 std_msgs::ColorRGBA LevelColour(double level) {
-  const double stops[3][3] = {{0.30, 0.10, 0.55}, {0.90, 0.25, 0.45}, {1.00, 0.85, 0.35}};
+  const double stops[3][3] = {{0.55, 0.35, 0.95}, {0.95, 0.35, 0.55}, {1.00, 0.85, 0.35}};
   const double t = std::clamp(level, 0.0, 1.0) * 2;
   const int i = std::min(1, static_cast<int>(t));
   const double f = t - i;
@@ -34,11 +34,11 @@ const std_msgs::ColorRGBA kNotAccepted = Rgba(1.0f, 0.55f, 0.0f);
 const std_msgs::ColorRGBA kTruePlace = Rgba(0.0f, 0.9f, 1.0f, 0.7f);
 const std_msgs::ColorRGBA kText = Rgba(1.0f, 1.0f, 1.0f);
 
-Marker Base(const Belief& belief, const BeliefViewOptions& options, const std::string& ns,
+Marker Base(const std_msgs::Header& header, const BeliefViewOptions& options, const std::string& ns,
             int type) {
   Marker m;
   m.header.frame_id = options.map_frame;
-  m.header.stamp = belief.header.stamp;
+  m.header.stamp = header.stamp;
   m.ns = ns;
   m.id = 0;
   m.type = type;
@@ -59,7 +59,7 @@ geometry_msgs::Point ToPoint(const Eigen::Vector3d& v) {
 
 Marker Text(const Belief& belief, const BeliefViewOptions& options, const std::string& ns, int id,
             const std::string& text, const Eigen::Vector3d& at, double height) {
-  Marker m = Base(belief, options, ns, Marker::TEXT_VIEW_FACING);
+  Marker m = Base(belief.header, options, ns, Marker::TEXT_VIEW_FACING);
   m.id = id;
   m.text = text;
   m.pose.position = ToPoint(at);
@@ -143,11 +143,11 @@ MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
   const double s = layout.scale_m;
   MarkerSizes z;
   z.bar_height_m = 0.3 * s;
-  z.bar_width_m = std::clamp(0.8 * layout.spacing_m * places_per_bar, s / 250, s / 40);
+  z.bar_width_m = std::clamp(0.8 * layout.spacing_m * places_per_bar, s / 150, s / 40);
   z.route_width_m = s / 500;
-  z.pin_diameter_m = std::max(s / 60, 1.3 * z.bar_width_m);
-  z.true_place_m = 2 * z.pin_diameter_m;
-  z.label_height_m = s / 22;
+  z.pin_diameter_m = std::max(s / 45, 1.3 * z.bar_width_m);
+  z.true_place_m = 1.2 * z.pin_diameter_m;
+  z.label_height_m = s / 28;
   z.legend_height_m = s / 45;
   return z;
 }
@@ -170,8 +170,7 @@ std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilist
     std::snprintf(buf, sizeof(buf), "%s: p %.3f (log-odds %.2f)", belief.method.c_str(), p,
                   belief.confidence);
   } else {
-    std::snprintf(buf, sizeof(buf), "%s: distance %.4g", belief.method.c_str(),
-                  -belief.confidence);
+    std::snprintf(buf, sizeof(buf), "%s: distance %.4g", belief.method.c_str(), -belief.confidence);
   }
   lines.emplace_back(buf);
   lines.push_back("selected: " + Joined(belief.selected_sets, 60));
@@ -190,6 +189,23 @@ std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilist
   return lines;
 }
 
+std::optional<Marker> TruePlacesMarker(const RouteLayout& layout,
+                                       const std::vector<int>& true_places,
+                                       const std_msgs::Header& header,
+                                       const BeliefViewOptions& options) {
+  const int n = static_cast<int>(layout.points.size());
+  Marker truth = Base(header, options, "true_places", Marker::SPHERE_LIST);
+  const double size = SizesFor(layout, (n + kMaxBars - 1) / kMaxBars).true_place_m;
+  truth.scale.x = truth.scale.y = truth.scale.z = size;
+  truth.color = kTruePlace;
+  for (int place : true_places) {
+    if (place >= 0 && place < n)
+      truth.points.push_back(ToPoint(layout.points[static_cast<size_t>(place)]));
+  }
+  if (truth.points.empty()) return std::nullopt;
+  return truth;
+}
+
 visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, const Belief& belief,
                                                   const std::vector<int>& true_places,
                                                   bool probabilistic,
@@ -204,7 +220,7 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
   const MarkerSizes size = SizesFor(layout, per_bar);
   auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
 
-  Marker route = Base(belief, options, "route", Marker::LINE_LIST);
+  Marker route = Base(belief.header, options, "route", Marker::LINE_LIST);
   route.scale.x = size.route_width_m;
   route.color = Rgba(0.7f, 0.7f, 0.7f);
   const double jump = 5 * std::max(layout.spacing_m, 1e-9) * per_bar;
@@ -218,9 +234,9 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
   // Bars (vertical lines, seen from the side) and their footprints (squares, seen from
   // above), one per bin of per_bar consecutive places, at the bin's best place.
   const std::vector<double> level = PlaceLevels(belief, n, options.log_scale);
-  Marker bars = Base(belief, options, "belief", Marker::LINE_LIST);
+  Marker bars = Base(belief.header, options, "belief", Marker::LINE_LIST);
   bars.scale.x = size.bar_width_m;
-  Marker feet = Base(belief, options, "belief", Marker::CUBE_LIST);
+  Marker feet = Base(belief.header, options, "belief", Marker::CUBE_LIST);
   feet.id = 1;
   feet.scale.x = feet.scale.y = size.bar_width_m;
   feet.scale.z = size.bar_width_m / 4;
@@ -242,41 +258,46 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
 
   if (belief.match >= 0 && belief.match < n) {
     const double pin_height = 1.1 * size.bar_height_m;
-    Marker pin = Base(belief, options, "match", Marker::CYLINDER);
+    // A needle half the bar's width (the bar it stands in stays visible) with a round head above
+    // the bars.
+    Marker pin = Base(belief.header, options, "match", Marker::CYLINDER);
     pin.pose.position = ToPoint(at(belief.match) + Eigen::Vector3d(0, 0, pin_height / 2));
-    pin.scale.x = pin.scale.y = size.pin_diameter_m;
+    pin.scale.x = pin.scale.y = size.bar_width_m / 2;
     pin.scale.z = pin_height;
     pin.color = belief.accepted ? kAccepted : kNotAccepted;
     out.markers.push_back(pin);
+    Marker head = pin;
+    head.id = 1;
+    head.type = Marker::SPHERE;
+    head.pose.position.z = at(belief.match).z() + pin_height;
+    head.scale.x = head.scale.y = head.scale.z = size.pin_diameter_m;
+    out.markers.push_back(head);
     std::string text;
     for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
       text += (text.empty() ? "" : "\n") + line;
     }
     const double lines = static_cast<double>(std::count(text.begin(), text.end(), '\n') + 1);
-    out.markers.push_back(Text(
-        belief, options, "label", 0, text,
-        at(belief.match) + Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
-        size.label_height_m));
+    out.markers.push_back(
+        Text(belief, options, "label", 0, text,
+             at(belief.match) +
+                 Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
+             size.label_height_m));
   }
 
-  Marker truth = Base(belief, options, "true_places", Marker::SPHERE_LIST);
-  truth.scale.x = truth.scale.y = truth.scale.z = size.true_place_m;
-  truth.color = kTruePlace;
-  for (int place : true_places) {
-    if (place >= 0 && place < n) truth.points.push_back(ToPoint(at(place)));
+  if (auto truth = TruePlacesMarker(layout, true_places, belief.header, options)) {
+    out.markers.push_back(*truth);
   }
-  if (!truth.points.empty()) out.markers.push_back(truth);
 
   const std::string legend =
-      (belief.posterior.empty() ? std::string("bars: rank of the place (distance method)")
-                                : std::string("bars: P(place)") +
-                                      (options.log_scale ? ", log scale" : "")) +
+      (belief.posterior.empty()
+           ? std::string("bars: rank of the place (distance method)")
+           : std::string("bars: P(place)") + (options.log_scale ? ", log scale" : "")) +
       "\npin: match (green accepted, orange not)\ncyan: true place";
   const Eigen::Vector3d below(0, -0.08 * layout.scale_m, 0);
   out.markers.push_back(
       Text(belief, options, "legend", 0, legend, layout.centre + 2 * below, size.legend_height_m));
-  out.markers.push_back(Text(belief, options, "legend", 1, "0", at(0) + below / 2,
-                             size.legend_height_m));
+  out.markers.push_back(
+      Text(belief, options, "legend", 1, "0", at(0) + below / 2, size.legend_height_m));
   out.markers.push_back(Text(belief, options, "legend", 2, std::to_string(n - 1),
                              at(n - 1) + below / 2, size.legend_height_m));
   return out;

@@ -22,6 +22,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,7 +42,7 @@ struct RouteLayout {
   double extent_m = 0;                  // larger side of the bounding box (0 for one place)
   double scale_m = 0;                   // what markers are sized for: min(extent, view size)
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // of the bounding box
-  bool fits_view = true;                // extent_m <= view_size_m
+  bool fits_view = true;                             // extent_m <= view_size_m
 };
 
 RouteLayout MakeRouteLayout(const ReferenceMap& map, const BeliefViewOptions& options);
@@ -63,6 +64,13 @@ Eigen::Vector3d ViewFocus(const RouteLayout& layout, int match);
 // is left to the caller, and the selected sets (with their weights when the method
 // weighted them).
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic);
+
+// The true places (namespace true_places) for a belief with `header`; nullopt when none of
+// them is a place of the layout.
+std::optional<visualization_msgs::Marker> TruePlacesMarker(const RouteLayout& layout,
+                                                           const std::vector<int>& true_places,
+                                                           const std_msgs::Header& header,
+                                                           const BeliefViewOptions& options);
 
 // Everything of the view for one belief: a DELETEALL, then the namespaces above, stamped
 // with the belief's stamp in options.map_frame. `true_places` may be empty. `probabilistic`:

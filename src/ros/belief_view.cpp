@@ -48,12 +48,46 @@ void BeliefView::OnImage(const sensor_msgs::ImageConstPtr& image) {
   std::lock_guard<std::mutex> lock(mutex_);
   images_.push_back(image);
   if (images_.size() > kImagesKept) images_.pop_front();
+  if (pending_ && pending_->header.stamp == image->header.stamp) {
+    pending_->content.query = ToBgr(image, &pending_->content.query_note);
+    PublishPending();
+  }
+}
+
+cv::Mat BeliefView::ToBgr(const sensor_msgs::ImageConstPtr& image, std::string* note) {
+  try {
+    *note = "query";
+    return cv_bridge::toCvShare(image, "bgr8")->image.clone();
+  } catch (const std::exception& e) {
+    *note = "query image not shown: " + std::string(e.what());
+    return cv::Mat();
+  }
+}
+
+void BeliefView::PublishPending() {
+  try {
+    cv_bridge::CvImage out(pending_->header, "bgr8",
+                           RenderMatchImage(pending_->content, pending_->options));
+    match_image_pub_.publish(out.toImageMsg());
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(5.0, "bsf_vpr: match image not published: %s", e.what());
+  }
+  pending_.reset();
 }
 
 void BeliefView::OnGroundTruth(const QueryGroundTruth::ConstPtr& truth) {
   std::lock_guard<std::mutex> lock(mutex_);
   truths_.emplace_back(truth->header.stamp, truth->correct_places);
   if (truths_.size() > kTruthsKept) truths_.pop_front();
+  if (!drawn_has_truth_ && truth->header.stamp == drawn_header_.stamp) {
+    drawn_has_truth_ = true;
+    if (auto marker =
+            TruePlacesMarker(drawn_layout_, truth->correct_places, drawn_header_, options_)) {
+      visualization_msgs::MarkerArray late;
+      late.markers.push_back(*marker);
+      marker_pub_.publish(late);
+    }
+  }
 }
 
 std::vector<int> BeliefView::TruePlaces(const ros::Time& stamp) {
@@ -64,26 +98,11 @@ std::vector<int> BeliefView::TruePlaces(const ros::Time& stamp) {
   return {};
 }
 
-cv::Mat BeliefView::QueryImage(const ros::Time& stamp, std::string* note) {
-  sensor_msgs::ImageConstPtr image;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto it = images_.rbegin(); it != images_.rend() && !image; ++it) {
-      if ((*it)->header.stamp == stamp) image = *it;
-    }
+sensor_msgs::ImageConstPtr BeliefView::QueryImage(const ros::Time& stamp) const {
+  for (auto it = images_.rbegin(); it != images_.rend(); ++it) {
+    if ((*it)->header.stamp == stamp) return *it;
   }
-  if (!image) {
-    *note = "no query image with this stamp on " + it_.getTransport() + " " +
-            nh_.resolveName(names::kImageTopic);
-    return cv::Mat();
-  }
-  try {
-    *note = "query";
-    return cv_bridge::toCvShare(image, "bgr8")->image.clone();
-  } catch (const std::exception& e) {
-    *note = "query image not shown: " + std::string(e.what());
-    return cv::Mat();
-  }
+  return nullptr;
 }
 
 cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
@@ -100,14 +119,15 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
     return cv::Mat();
   }
   if (set.image_files().empty()) {
-    *note = "set '" + set.name() + "' names no images (images: in its YAML)";
+    *note = "set '" + set.name() +
+            "' has no images (images: in its YAML; by service only below the data directory)";
     return cv::Mat();
   }
   try {
     const std::string bytes = ReadReferenceImage(set, static_cast<int>(row), data_dir_);
-    cv::Mat image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
-                                         const_cast<char*>(bytes.data())),
-                                 cv::IMREAD_COLOR);
+    cv::Mat image = cv::imdecode(
+        cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),
+        cv::IMREAD_COLOR);
     if (image.empty()) throw std::runtime_error("not a readable image");
     *note = set.name() + ", place " + std::to_string(belief.match);
     return image;
@@ -121,8 +141,9 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
 void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
                                    const PlaceRecognizer& recognizer,
                                    const std::vector<int>& truth) {
-  MatchImageContent content;
-  content.query = QueryImage(belief.header.stamp, &content.query_note);
+  PendingImage next;
+  next.header = belief.header;
+  MatchImageContent& content = next.content;
   content.reference = ReferenceImage(belief, r, recognizer.map(), &content.reference_note);
   const Method& method = recognizer.method();
   content.label_lines = BeliefLabelLines(belief, method.IsBayesian() || method.sequence);
@@ -132,10 +153,22 @@ void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
   content.posterior = belief.posterior;
   content.match = belief.match;
   content.true_places = truth;
-  MatchImageOptions options;
-  options.log_scale = options_.log_scale;
-  cv_bridge::CvImage out(belief.header, "bgr8", RenderMatchImage(content, options));
-  match_image_pub_.publish(out.toImageMsg());
+  next.options.log_scale = options_.log_scale;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (pending_) {  // its image never came: shown without
+    pending_->content.query_note =
+        "no query image with this stamp on " + nh_.resolveName(names::kImageTopic);
+    PublishPending();
+  }
+  pending_ = std::move(next);
+  if (const sensor_msgs::ImageConstPtr image = QueryImage(belief.header.stamp)) {
+    pending_->content.query = ToBgr(image, &pending_->content.query_note);
+    PublishPending();
+  } else if (images_.empty()) {  // no camera: do not wait for one
+    pending_->content.query_note = "no query image on " + nh_.resolveName(names::kImageTopic);
+    PublishPending();
+  }
+  // Else the image is still on its way (the descriptor can overtake it): OnImage publishes.
 }
 
 void BeliefView::Show(const Belief& belief, const Recognition& r,
@@ -145,7 +178,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r,
   if (!markers && !image) return;
   const std::vector<int> truth = TruePlaces(belief.header.stamp);
   if (markers) {
-    const RouteLayout layout = MakeRouteLayout(recognizer.map(), options_);
+    RouteLayout layout = MakeRouteLayout(recognizer.map(), options_);
     geometry_msgs::TransformStamped view;
     view.header.stamp = belief.header.stamp.isZero() ? ros::Time::now() : belief.header.stamp;
     view.header.frame_id = options_.map_frame;
@@ -157,15 +190,26 @@ void BeliefView::Show(const Belief& belief, const Recognition& r,
     view.transform.rotation.w = 1;
     tf_.sendTransform(view);
     const Method& method = recognizer.method();
-    marker_pub_.publish(MakeBeliefMarkers(layout, belief, truth,
-                                          method.IsBayesian() || method.sequence, options_));
+    marker_pub_.publish(
+        MakeBeliefMarkers(layout, belief, truth, method.IsBayesian() || method.sequence, options_));
+    std::lock_guard<std::mutex> lock(mutex_);
+    drawn_layout_ = std::move(layout);
+    drawn_header_ = belief.header;
+    drawn_has_truth_ = !truth.empty();
+    if (!drawn_has_truth_) {  // arrived since TruePlaces() looked?
+      for (const auto& [stamp, places] : truths_) {
+        if (stamp != belief.header.stamp) continue;
+        drawn_has_truth_ = true;
+        if (auto marker = TruePlacesMarker(drawn_layout_, places, drawn_header_, options_)) {
+          visualization_msgs::MarkerArray late;
+          late.markers.push_back(*marker);
+          marker_pub_.publish(late);
+        }
+      }
+    }
   }
   if (image) {
-    try {
-      PublishMatchImage(belief, r, recognizer, truth);
-    } catch (const std::exception& e) {
-      ROS_ERROR_THROTTLE(5.0, "bsf_vpr: match image not published: %s", e.what());
-    }
+    PublishMatchImage(belief, r, recognizer, truth);
   }
 }
 

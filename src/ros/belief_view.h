@@ -26,6 +26,7 @@
 #include <deque>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,6 +34,7 @@
 #include "belief_markers.h"
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"
+#include "match_image.h"
 
 namespace bsf_vpr {
 
@@ -53,8 +55,12 @@ class BeliefView {
   // Subscribes to the query images while ~match_image has subscribers.
   void OnMatchImageSubscribers();
   std::vector<int> TruePlaces(const ros::Time& stamp);
-  // The query image of `stamp` as BGR, or empty with `note` saying why.
-  cv::Mat QueryImage(const ros::Time& stamp, std::string* note);
+  // The cached query image of `stamp`, or null. Caller holds mutex_.
+  sensor_msgs::ImageConstPtr QueryImage(const ros::Time& stamp) const;
+  // `image` as BGR, or empty with `note` saying why.
+  static cv::Mat ToBgr(const sensor_msgs::ImageConstPtr& image, std::string* note);
+  // Renders and publishes pending_, then clears it. Caller holds mutex_.
+  void PublishPending();
   // The image of the matched place in the set that supplied it, or empty with `note` saying
   // why; `note` names the set and place otherwise.
   cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const ReferenceMap& map,
@@ -72,9 +78,23 @@ class BeliefView {
   ros::Subscriber truth_sub_;
   tf2_ros::TransformBroadcaster tf_;
 
+  // A match image waiting for its query image (the descriptor may overtake the image it
+  // was computed from); published by OnImage, or without the image at the next belief.
+  struct PendingImage {
+    std_msgs::Header header;
+    MatchImageContent content;
+    MatchImageOptions options;
+  };
+
   std::mutex mutex_;  // guards what follows (filled by the subscriptions' threads)
-  std::deque<sensor_msgs::ImageConstPtr> images_;  // the latest query images
+  std::optional<PendingImage> pending_;
+  std::deque<sensor_msgs::ImageConstPtr> images_;              // the latest query images
   std::deque<std::pair<ros::Time, std::vector<int>>> truths_;  // the latest ground truth
+  // The last markers drawn, so that ground truth arriving after its belief (a bag holds
+  // the image before its ground truth) is added to them.
+  RouteLayout drawn_layout_;
+  std_msgs::Header drawn_header_;
+  bool drawn_has_truth_ = true;
 };
 
 }  // namespace bsf_vpr

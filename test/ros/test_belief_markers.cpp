@@ -172,7 +172,8 @@ TEST(BeliefMarkers, TheLogScaleShowsWhatTheLinearScaleHides) {
   BeliefViewOptions options;
   const RouteLayout layout = MakeRouteLayout(LineMap(100, 0, false), options);
   Belief belief = Peaked(100, 40, true);
-  for (float& p : belief.posterior) p = std::min(p, 1e-7f);
+  ASSERT_FLOAT_EQ(belief.posterior[40], 0.9f);
+  for (float& p : belief.posterior) p = p < 0.5f ? std::min(p, 1e-7f) : p;  // all but the peak
   belief.posterior[80] = 0.9e-3f;  // a second peak a thousandth of the first
   EXPECT_LT(BarHeightAt(*Find(MakeBeliefMarkers(layout, belief, {}, true, options), "belief"),
                         layout.points[80].x(), 1e-9),

@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-#include "match_image.h"
+#include "../../src/ros/match_image.h"
 
 namespace bsf_vpr {
 namespace {
@@ -258,7 +258,7 @@ TEST(MatchImage, LogScaleShowsASmallSecondPeakThatLinearHides) {
   o.log_scale = true;
   const std::vector<int> log = BarHeights(RenderMatchImage(c, o), l.plot);
   EXPECT_EQ(MaxHeightOfPlace(linear, 80, 100, l.plot), 0);
-  EXPECT_NEAR(MaxHeightOfPlace(log, 80, 100, l.plot), l.plot.height / 2.0, 1.0);
+  EXPECT_NEAR(MaxHeightOfPlace(log, 80, 100, l.plot), l.plot.height * (1 - 3 / kLogDecades), 1.0);
   EXPECT_EQ(MaxHeightOfPlace(log, 50, 100, l.plot), 0);
   EXPECT_GE(MaxHeightOfPlace(log, 30, 100, l.plot), l.plot.height - 1);
 }

@@ -340,9 +340,6 @@ class WithMaster(unittest.TestCase):
 if __name__ == "__main__":
     if any(a.startswith("--gtest_output") for a in sys.argv):  # under rostest
         import rostest
-
-        class All(Helpers, WithMaster):  # rostest runs one class
-            pass
-        rostest.rosrun("bsf_vpr", "rviz_capture", All)
+        rostest.rosrun("bsf_vpr", "rviz_capture", "__main__")  # every class of this file
     else:
         unittest.main(verbosity=2)

@@ -58,8 +58,9 @@ class RvizView(unittest.TestCase):
         each after the belief of the one before."""
         images = rospy.Publisher("/camera/image_raw", Image, queue_size=10)
         truths = rospy.Publisher("/vpr/ground_truth", QueryGroundTruth, queue_size=10)
-        wait_for(lambda: images.get_num_connections() >= 2, 60,
-                 "the ingest node and the fusion node (for the match image) to subscribe")
+        # (Nodelets of one manager share one connection: the ingest and the fusion, which
+        # reads the query images for the match image, count once.)
+        wait_for(lambda: images.get_num_connections() > 0, 60, "the pipeline to subscribe")
         wait_for(lambda: truths.get_num_connections() > 0, 60, "the ground-truth subscriber")
         sent = 0
         with rosbag.Bag(rospy.get_param("~bag")) as bag:
@@ -110,14 +111,15 @@ class RvizView(unittest.TestCase):
             self.assertGreater(drawn_fraction, 0.003, "markers cover %.4f of the view"
                                % drawn_fraction)
             # The match image panel: the query (left half) and the reference (right half)
-            # are pictures (many distinct colours), not a placeholder.
+            # are pictures, not the grey placeholder of a missing image (80, 80, 80).
             px, py, pw, ph = panel
-            shown = image[py:py + ph, px:px + pw].reshape(-1, 3)
-            self.assertFalse((shown > 240).all(axis=1).mean() > 0.5, "the panel says No Image")
-            top = image[py:py + ph // 2, px:px + pw]
-            for half in (top[:, :pw // 2], top[:, pw // 2:]):
-                colours = len(np.unique(half.reshape(-1, 3) // 8, axis=0))
-                self.assertGreater(colours, 40, "a picture in each half of the match image")
+            shown = image[py:py + ph, px:px + pw]
+            self.assertLess((shown > 240).all(axis=2).mean(), 0.5, "the panel says No Image")
+            for half in (shown[:, :pw // 2], shown[:, pw // 2:]):
+                lit = half[half.max(axis=2) > 20]  # without the letterbox bars
+                placeholder = (np.abs(lit.astype(int) - 80) <= 2).all(axis=1).mean()
+                self.assertLess(placeholder, 0.2, "a placeholder instead of a picture")
+                self.assertGreater(lit.std(), 15, "a picture in each half of the match image")
         with self.lock:
             self.assertTrue(self.match_images, "no match image was published")
             last_image = self.match_images[-1]

@@ -80,22 +80,30 @@ void BeliefView::OnGroundTruth(const QueryGroundTruth::ConstPtr& truth) {
   truths_.emplace_back(truth->header.stamp, truth->correct_places);
   if (truths_.size() > kTruthsKept) truths_.pop_front();
   if (!drawn_has_truth_ && truth->header.stamp == drawn_header_.stamp) {
-    drawn_has_truth_ = true;
-    if (auto marker =
-            TruePlacesMarker(drawn_layout_, truth->correct_places, drawn_header_, options_)) {
-      visualization_msgs::MarkerArray late;
-      late.markers.push_back(*marker);
-      marker_pub_.publish(late);
-    }
+    AddLateTruth(truth->correct_places);
   }
+}
+
+void BeliefView::AddLateTruth(const std::vector<int>& places) {
+  drawn_has_truth_ = true;
+  if (auto marker = TruePlacesMarker(drawn_layout_, places, drawn_header_, options_)) {
+    visualization_msgs::MarkerArray late;
+    late.markers.push_back(*marker);
+    marker_pub_.publish(late);
+  }
+}
+
+const std::vector<int>* BeliefView::FindTruth(const ros::Time& stamp) const {
+  for (auto it = truths_.rbegin(); it != truths_.rend(); ++it) {
+    if (it->first == stamp) return &it->second;
+  }
+  return nullptr;
 }
 
 std::vector<int> BeliefView::TruePlaces(const ros::Time& stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (auto it = truths_.rbegin(); it != truths_.rend(); ++it) {
-    if (it->first == stamp) return it->second;
-  }
-  return {};
+  const std::vector<int>* found = FindTruth(stamp);
+  return found ? *found : std::vector<int>();
 }
 
 sensor_msgs::ImageConstPtr BeliefView::QueryImage(const ros::Time& stamp) const {
@@ -139,14 +147,13 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
 }
 
 void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
-                                   const PlaceRecognizer& recognizer,
-                                   const std::vector<int>& truth) {
+                                   const ReferenceMap& map, const std::vector<int>& truth,
+                                   bool probabilistic) {
   PendingImage next;
   next.header = belief.header;
   MatchImageContent& content = next.content;
-  content.reference = ReferenceImage(belief, r, recognizer.map(), &content.reference_note);
-  const Method& method = recognizer.method();
-  content.label_lines = BeliefLabelLines(belief, method.IsBayesian() || method.sequence);
+  content.reference = ReferenceImage(belief, r, map, &content.reference_note);
+  content.label_lines = BeliefLabelLines(belief, probabilistic);
   content.accepted = belief.accepted;
   content.num_places = belief.num_places;
   content.place_ids = belief.place_ids;
@@ -177,6 +184,8 @@ void BeliefView::Show(const Belief& belief, const Recognition& r,
   const bool image = match_image_pub_.getNumSubscribers() > 0;
   if (!markers && !image) return;
   const std::vector<int> truth = TruePlaces(belief.header.stamp);
+  const Method& method = recognizer.method();
+  const bool probabilistic = method.IsBayesian() || method.sequence;  // confidence: log-odds
   if (markers) {
     RouteLayout layout = MakeRouteLayout(recognizer.map(), options_);
     geometry_msgs::TransformStamped view;
@@ -189,27 +198,17 @@ void BeliefView::Show(const Belief& belief, const Recognition& r,
     view.transform.translation.z = focus.z();
     view.transform.rotation.w = 1;
     tf_.sendTransform(view);
-    const Method& method = recognizer.method();
-    marker_pub_.publish(
-        MakeBeliefMarkers(layout, belief, truth, method.IsBayesian() || method.sequence, options_));
+    marker_pub_.publish(MakeBeliefMarkers(layout, belief, truth, probabilistic, options_));
     std::lock_guard<std::mutex> lock(mutex_);
     drawn_layout_ = std::move(layout);
     drawn_header_ = belief.header;
     drawn_has_truth_ = !truth.empty();
     if (!drawn_has_truth_) {  // arrived since TruePlaces() looked?
-      for (const auto& [stamp, places] : truths_) {
-        if (stamp != belief.header.stamp) continue;
-        drawn_has_truth_ = true;
-        if (auto marker = TruePlacesMarker(drawn_layout_, places, drawn_header_, options_)) {
-          visualization_msgs::MarkerArray late;
-          late.markers.push_back(*marker);
-          marker_pub_.publish(late);
-        }
-      }
+      if (const std::vector<int>* late = FindTruth(belief.header.stamp)) AddLateTruth(*late);
     }
   }
   if (image) {
-    PublishMatchImage(belief, r, recognizer, truth);
+    PublishMatchImage(belief, r, recognizer.map(), truth, probabilistic);
   }
 }
 

@@ -55,6 +55,11 @@ class BeliefView {
   // Subscribes to the query images while ~match_image has subscribers.
   void OnMatchImageSubscribers();
   std::vector<int> TruePlaces(const ros::Time& stamp);
+  // The cached ground truth of `stamp`, or null. Caller holds mutex_.
+  const std::vector<int>* FindTruth(const ros::Time& stamp) const;
+  // Adds `places` to the markers last drawn (their ground truth came late). Caller holds
+  // mutex_.
+  void AddLateTruth(const std::vector<int>& places);
   // The cached query image of `stamp`, or null. Caller holds mutex_.
   sensor_msgs::ImageConstPtr QueryImage(const ros::Time& stamp) const;
   // `image` as BGR, or empty with `note` saying why.
@@ -65,8 +70,9 @@ class BeliefView {
   // why; `note` names the set and place otherwise.
   cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const ReferenceMap& map,
                          std::string* note) const;
-  void PublishMatchImage(const Belief& belief, const Recognition& r,
-                         const PlaceRecognizer& recognizer, const std::vector<int>& truth);
+  // `probabilistic`: the belief's confidence is a log-odds (BeliefLabelLines).
+  void PublishMatchImage(const Belief& belief, const Recognition& r, const ReferenceMap& map,
+                         const std::vector<int>& truth, bool probabilistic);
 
   BeliefViewOptions options_;
   const DataDirectory* data_dir_;

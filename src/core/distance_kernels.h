@@ -42,9 +42,14 @@ struct Queries {
 
   const float* data = nullptr;  // query q at data + q * stride
   int rows = 0, cols = 0, stride = 0;
-  std::vector<float> aligned;    // holds `data` when copied
-  std::vector<int16_t> levels;   // rows x cols, for int8 rows
-  std::vector<float> scales;     // rows, for int8 rows
+  std::vector<float> aligned;   // holds `data` when copied
+  std::vector<int16_t> levels;  // rows x cols, for int8 rows
+  std::vector<float> scales;    // rows, for int8 rows
+  // Batches on the AVX-512 kernel: queries 2p and 2p + 1 interleaved in blocks of eight
+  // elements (block b of query 2p at p * pairs_stride + 16 b, of 2p + 1 eight further),
+  // zero-padded to a whole block; an odd last query is not in it.
+  std::vector<float> pairs;
+  int pairs_stride = 0;
 };
 // `data`: `rows` queries of `cols` floats, query q at data + q * stride (not copied unless
 // the batch is large enough to gain from it: keep it alive while the result is in use).
@@ -52,15 +57,16 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
 
 // out[q * out_stride + (r - r0)] = <query q, reference row r> for every query and
 // r0 <= r < r1. int8 rows need `queries` prepared with int16 levels.
-void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out,
-          int out_stride);
+void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out, int out_stride);
 
 // <x, x> in the same order (squared norm of a float32 row).
 float SelfDot(const float* x, int n);
 
-// "avx2" or "portable": the kernel this process uses (AVX2 when the CPU has AVX2, FMA and
-// F16C). Force() picks one ("auto" restores the choice by CPU); throws std::invalid_argument
-// for an unknown name or for "avx2" on a CPU without it.
+// "avx512", "avx2" or "portable": the kernel this process uses (AVX2 when the CPU has AVX2,
+// FMA and F16C; AVX-512 when it also has AVX-512 F and DQ). The AVX-512 kernel is the AVX2
+// one with float32 batches done two queries to a register, in the same order: the two give
+// the same bits. Force() picks one ("auto" restores the choice by CPU); throws
+// std::invalid_argument for an unknown name or for a kernel the CPU cannot run.
 std::string Active();
 void Force(const std::string& name);
 

@@ -144,7 +144,7 @@ __attribute__((target("avx2"))) uint64_t FoldWordsAvx2(const uint64_t* p, size_t
 
 uint64_t FoldWords(const uint64_t* p, size_t w0, size_t w1) {
 #if defined(__x86_64__)
-  if (DistanceKernel() == "avx2") return FoldWordsAvx2(p, w0, w1);
+  if (DistanceKernel() != "portable") return FoldWordsAvx2(p, w0, w1);
 #endif
   return FoldWordsPortable(p, w0, w1);
 }

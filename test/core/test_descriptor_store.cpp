@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -30,9 +31,9 @@ TEST(DescriptorStore, HalfConversionRoundTripsEveryHalfAndRoundsToNearestEven) {
   // 1 + 2^-11 lies halfway between 1 and 1 + 2^-10: ties go to the even mantissa (1).
   EXPECT_EQ(FloatToHalf(1.0f + std::ldexp(1.0f, -11)), 0x3c00u);
   EXPECT_EQ(FloatToHalf(1.0f + 3 * std::ldexp(1.0f, -11)), 0x3c02u);  // tie -> even, upwards
-  EXPECT_EQ(FloatToHalf(FromBits(0x3f800001u)), 0x3c00u);            // just above 1
-  EXPECT_EQ(FloatToHalf(65519.0f), 0x7bffu);                         // still rounds to 65504
-  EXPECT_EQ(FloatToHalf(std::ldexp(1.0f, -25)), 0x0000u);            // tie between 0 and 2^-24
+  EXPECT_EQ(FloatToHalf(FromBits(0x3f800001u)), 0x3c00u);             // just above 1
+  EXPECT_EQ(FloatToHalf(65519.0f), 0x7bffu);                          // still rounds to 65504
+  EXPECT_EQ(FloatToHalf(std::ldexp(1.0f, -25)), 0x0000u);             // tie between 0 and 2^-24
   EXPECT_EQ(FloatToHalf(std::ldexp(1.5f, -25)), 0x0001u);
   EXPECT_THROW(FloatToHalf(65520.0f), std::invalid_argument);
   EXPECT_THROW(FloatToHalf(-1e6f), std::invalid_argument);
@@ -101,13 +102,50 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// Every kernel (AVX2 where the CPU has it, and the portable one), every storage and every
-// tile shape: a query alone gets bitwise what it gets in a batch, for any thread count.
+// The portable kernel, and AVX2 and AVX-512 where the CPU has them.
+std::vector<std::string> AvailableKernels() {
+  std::vector<std::string> out = {"portable"};
+  for (const std::string& k : {"avx2", "avx512"}) {
+    try {
+      SetDistanceKernel(k);
+      out.push_back(k);
+    } catch (const std::invalid_argument&) {
+    }
+  }
+  SetDistanceKernel("auto");
+  return out;
+}
+
+// AVX-512 does float32 batches two queries to a register in AVX2's order: the same bits, on
+// batches that take every tile shape, any thread count and both metrics.
+TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
+  const std::vector<std::string> kernels = AvailableKernels();
+  if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
+    GTEST_SKIP() << "this CPU has no AVX-512";
+  }
+  for (int d : {8, 517, 1029, 4096}) {
+    const RowMatrixXf q = testing::RandomMatrix(19, d, 8);
+    const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(197, d, 9));
+    for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+      const testing::ScopedDistanceThreads threads(2);
+      SetDistanceKernel("avx2");
+      const RowMatrixXf avx2 = ComputeDistances(m, q, set);
+      SetDistanceKernel("avx512");
+      const RowMatrixXf avx512 = ComputeDistances(m, q, set);
+      SetDistanceKernel("auto");
+      EXPECT_TRUE((avx2.array() == avx512.array()).all()) << "d=" << d << " " << ToString(m);
+    }
+  }
+}
+
+// Every kernel (AVX2 and AVX-512 where the CPU has them, and the portable one), every storage and
+// every tile shape: a query alone gets bitwise what it gets in a batch, for any thread count.
 TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
-  std::vector<std::string> kernels = {"portable"};
-  if (DistanceKernel() == "avx2") kernels.push_back("avx2");
-  const RowMatrixXf q = testing::RandomMatrix(11, 517, 4);  // 11 = 2 tiles of 4 + 3 left over
-  const RowMatrixXf r = testing::RandomMatrix(100, 517, 5);  // 517: passes of 256 + padded tail
+  const std::vector<std::string> kernels = AvailableKernels();
+  // 11 queries: one AVX-512 tile of 8, a pair and one left over (2 AVX2 tiles of 4 and 3).
+  // 1029: a pass of 1024 and a padded tail. 100 rows: two blocks, tiles and rows left over.
+  const RowMatrixXf q = testing::RandomMatrix(11, 1029, 4);
+  const RowMatrixXf r = testing::RandomMatrix(100, 1029, 5);
   for (const std::string& kernel : kernels) {
     SetDistanceKernel(kernel);
     EXPECT_EQ(DistanceKernel(), kernel);
@@ -132,7 +170,10 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
 }
 
 TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {
-  if (DistanceKernel() != "avx2") GTEST_SKIP() << "this CPU has no AVX2";
+  const std::vector<std::string> kernels = AvailableKernels();
+  if (std::find(kernels.begin(), kernels.end(), "avx2") == kernels.end()) {
+    GTEST_SKIP() << "this CPU has no AVX2";
+  }
   const RowMatrixXf q = testing::RandomMatrix(6, 517, 6);
   const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7));
   SetDistanceKernel("portable");

@@ -43,10 +43,12 @@ struct SetDistances {
 void SetDistanceThreads(int n);
 int DistanceThreads();
 
-// The inner-product kernel in use: "avx2" (AVX2 + FMA + F16C, chosen when the CPU has them)
-// or "portable". SetDistanceKernel("portable" | "avx2" | "auto") overrides the choice for
-// the process (tests, benchmarks); throws std::invalid_argument if the CPU cannot run it.
-// Results are bitwise reproducible within one kernel; the two differ in the last bits.
+// The inner-product kernel in use: "avx512" (AVX-512 F + DQ besides AVX2), "avx2" (AVX2 +
+// FMA + F16C), each chosen when the CPU has it, or "portable". SetDistanceKernel("portable" |
+// "avx2" | "avx512" | "auto") overrides the choice for the process (tests, benchmarks);
+// throws std::invalid_argument if the CPU cannot run it. "avx512" and "avx2" give the same
+// bits (the same order and FMA, batches two queries to a register); "portable" differs from
+// them in the last bits.
 std::string DistanceKernel();
 void SetDistanceKernel(const std::string& name);
 

@@ -454,7 +454,7 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
     const int blocks = (cols + kLanes - 1) / kLanes;
     out.pairs_stride = 2 * kLanes * blocks;
     out.pairs.assign(static_cast<size_t>(rows / 2) * out.pairs_stride + 16, 0.0f);
-    for (int q = 0; q + 1 < rows; ++q) {
+    for (int q = 0; q < rows / 2 * 2; ++q) {
       const float* from = data + static_cast<size_t>(q) * stride;
       float* to =
           out.pairs.data() + static_cast<size_t>(q / 2) * out.pairs_stride + (q % 2) * kLanes;

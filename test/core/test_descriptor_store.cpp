@@ -123,8 +123,10 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
     GTEST_SKIP() << "this CPU has no AVX-512";
   }
-  for (int d : {8, 517, 1029, 4096}) {
-    const RowMatrixXf q = testing::RandomMatrix(19, d, 8);
+  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only.
+  for (auto [nq, d] : {std::pair{19, 8}, std::pair{20, 517}, std::pair{19, 1029}, std::pair{20, 1029},
+                       std::pair{16, 4096}}) {
+    const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
     const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(197, d, 9));
     for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
       const testing::ScopedDistanceThreads threads(2);
@@ -133,7 +135,8 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
       SetDistanceKernel("avx512");
       const RowMatrixXf avx512 = ComputeDistances(m, q, set);
       SetDistanceKernel("auto");
-      EXPECT_TRUE((avx2.array() == avx512.array()).all()) << "d=" << d << " " << ToString(m);
+      EXPECT_TRUE((avx2.array() == avx512.array()).all())
+          << nq << " queries, d=" << d << " " << ToString(m);
     }
   }
 }

@@ -74,12 +74,19 @@ void ReferenceSet::Validate() const {
 std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
   // The distances square and sum float32 values: a finite descriptor whose squared norm
   // overflows float32 would turn them into infinity or NaN.
-  double squared_norm = 0;
-  for (Eigen::Index i = 0; i < descriptor.size(); ++i) {
-    const float v = descriptor(i);
-    if (!std::isfinite(v)) return "holds NaN or infinity";
-    squared_norm += static_cast<double>(v) * v;
+  // In double no finite float32 value overflows a square or a sum (at most kMaxDimension of
+  // them), so the sum is finite exactly when every value is: one branch-free pass with four
+  // sums in flight (this runs over every row of every set loaded and every query).
+  const float* x = descriptor.data();
+  const Eigen::Index n = descriptor.size();
+  double sums[4] = {0, 0, 0, 0};
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    for (int k = 0; k < 4; ++k) sums[k] += static_cast<double>(x[i + k]) * x[i + k];
   }
+  for (; i < n; ++i) sums[0] += static_cast<double>(x[i]) * x[i];
+  const double squared_norm = (sums[0] + sums[1]) + (sums[2] + sums[3]);
+  if (!std::isfinite(squared_norm)) return "holds NaN or infinity";
   if (squared_norm > kMaxDescriptorSquaredNorm) {
     return "has a norm too large to compute distances with (squared norm " +
            std::to_string(squared_norm) + " > " + std::to_string(kMaxDescriptorSquaredNorm) + ")";

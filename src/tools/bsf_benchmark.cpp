@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "benchmark_evaluate.h"
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "cli_util.h"
@@ -24,7 +25,9 @@ namespace {
 
 using namespace bsf_vpr;
 
-const char kUsage[] = R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--quick]
+const char kUsage[] =
+    R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
+                     [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
 and the GEMM probe (OpenBLAS sgemm).
@@ -37,6 +40,10 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            memory limit for one query), and the distance part vs FAISS IndexFlatL2 search
   batch    a whole offline evaluation of Q=500 queries against M=3, N=3000, D=4096 vs a
            matrix product (OpenBLAS sgemm) of the same shape
+  evaluate bsf_evaluate end to end (3 .npy sets of 3000 x 4096, 3000 queries, --methods bsf,
+           results written) vs scripts/numpy_bsf, the same method in NumPy + OpenBLAS, as
+           separate processes on the same files (written once to --evaluate-dir DIR, default
+           /tmp/bsf_benchmark_evaluate, 196 MB); also the cores each kept busy
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
            references stored at --storage float32|float16|int8 (default float32)
@@ -189,9 +196,12 @@ void Fusion(int repeats, int scale) {
   std::vector<double> post;
   // A fraction of a millisecond: each timed run repeats it 50 times (per-call time reported).
   constexpr int kCalls = 50;
-  const double ours = TimeMs(repeats, [&] {
-    for (int c = 0; c < kCalls; ++c) ours_match = RunMethod(bsf, views, n, o).match;
-  }) / kCalls;
+  const double ours = TimeMs(repeats,
+                             [&] {
+                               for (int c = 0; c < kCalls; ++c)
+                                 ours_match = RunMethod(bsf, views, n, o).match;
+                             }) /
+                      kCalls;
   const double naive = TimeMs(repeats, [&] { naive_match = tools::NaiveBsf(d, 0.04, &post); });
   std::printf(
       "fusion  M=%d N=%d: bsf_vpr %.3f ms, straightforward O(N^2) %.1f ms: %.0fx faster%s\n", m, n,
@@ -199,9 +209,10 @@ void Fusion(int repeats, int scale) {
   // The default fusion (mixture) on the same distances: its cost beside the paper's product.
   MethodOptions mixture;
   mixture.likelihood.variant = LikelihoodVariant::kTwoSided;  // only the fusion differs
-  const double mix = TimeMs(repeats, [&] {
-                       for (int c = 0; c < kCalls; ++c) RunMethod(bsf, views, n, mixture);
-                     }) /
+  const double mix = TimeMs(repeats,
+                            [&] {
+                              for (int c = 0; c < kCalls; ++c) RunMethod(bsf, views, n, mixture);
+                            }) /
                      kCalls;
   std::printf("fusion  M=%d N=%d: default (mixture) %.3f ms, %.2fx the paper's product\n", m, n,
               mix, mix / ours);
@@ -217,7 +228,8 @@ void Query(int repeats, int scale) {
     PlaceRecognizer r = MakeRecognizer(s, 10, p);
     const double ours =
         TimeMs(repeats, [&] { g_sink = static_cast<float>(r.Recognize(q, false).belief.match); });
-    const double stream = TimeMs(repeats, [&] { g_sink = static_cast<float>(StreamOnce(r.map(), threads)); });
+    const double stream =
+        TimeMs(repeats, [&] { g_sink = static_cast<float>(StreamOnce(r.map(), threads)); });
     const double mb = static_cast<double>(s.m) * s.n * s.d * BytesPerElement(p) / 1e6;
     if (p == StoragePrecision::kFloat32) {
       float32_ms = ours;
@@ -322,7 +334,8 @@ void Scaling(int repeats, int scale, StoragePrecision storage) {
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,scaling";
+  std::string sections = "fusion,query,batch,evaluate,scaling";
+  std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   int repeats = 7, scale = 1;
   StoragePrecision storage = StoragePrecision::kFloat32;
   for (int i = 1; i < argc; ++i) {
@@ -343,6 +356,8 @@ int Run(int argc, char** argv) {
       repeats = tools::ParseInteger(f, v);
     else if (f == "--storage")
       storage = ParseStoragePrecision(v);
+    else if (f == "--evaluate-dir")
+      evaluate_dir = v;
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -355,10 +370,13 @@ int Run(int argc, char** argv) {
       Query(repeats, scale);
     else if (s == "batch")
       Batch(repeats, scale);
+    else if (s == "evaluate")
+      tools::BenchmarkEvaluate(repeats, scale, evaluate_dir + (scale == 1 ? "" : "_quick"));
     else if (s == "scaling")
       Scaling(repeats, scale, storage);
     else
-      throw std::invalid_argument("unknown section '" + s + "' (fusion, query, batch, scaling)");
+      throw std::invalid_argument("unknown section '" + s +
+                                  "' (fusion, query, batch, evaluate, scaling)");
   }
   return 0;
 }

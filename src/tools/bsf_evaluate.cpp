@@ -1,8 +1,11 @@
 // bsf_evaluate: offline evaluation of place recognition methods (see --help).
 
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <string>
 
 #include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/results_io.h"
@@ -13,6 +16,39 @@
 #include "evaluate_results_bag.h"
 
 namespace {
+
+// --timings: wall time and cores busy (CPU time of all threads / wall time) per phase.
+class PhaseTimes {
+ public:
+  void End(const std::string& phase) {
+    const Point now = Now();
+    const double wall = now.wall - last_.wall, cpu = now.cpu - last_.cpu;
+    text_ += (text_.empty() ? "" : ", ") + phase + " " + Format(wall, 3) + " s (" +
+             Format(wall > 0 ? cpu / wall : 0.0, 2) + " cores)";
+    last_ = now;
+  }
+  std::string text() const { return text_; }
+
+ private:
+  struct Point {
+    double wall = 0, cpu = 0;
+  };
+  static Point Now() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    const auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
+    return {
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(),
+        seconds(u.ru_utime) + seconds(u.ru_stime)};
+  }
+  static std::string Format(double v, int decimals) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    return buf;
+  }
+  Point last_ = Now();
+  std::string text_;
+};
 
 void Report(const std::vector<bsf_vpr::MethodResults>& results, const std::string& out_dir) {
   std::cout << bsf_vpr::FormatSummaryTable(results);
@@ -114,7 +150,9 @@ int Run(int argc, char** argv) {
     return 0;
   }
   if (!args.results_bag.empty()) return RunResultsBag(args);
+  PhaseTimes times;
   const auto data = tools::LoadEvaluationData(args);
+  times.End("load");
   const std::vector<Method> methods = ParseMethodList(args.methods, data->input.set_names);
   std::cout << "bsf_evaluate: " << data->description
             << "\nbsf_evaluate: ground truth: " << data->truth_description << std::endl;
@@ -133,7 +171,10 @@ int Run(int argc, char** argv) {
   }
   const std::vector<MethodResults> results =
       EvaluateMethods(data->input, methods, args.options, data->truth, progress);
+  times.End("distances, fusion and metrics");
   Report(results, args.out_dir);
+  times.End("table and files");
+  if (args.timings) std::fprintf(stderr, "bsf_evaluate: timings: %s\n", times.text().c_str());
   return 0;
 }
 

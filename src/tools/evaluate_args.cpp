@@ -76,6 +76,8 @@ Output (stdout: what was loaded, the ground truth used and how many queries have
 match, and the table):
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
   --no-progress           do not report progress on stderr
+  --timings               report on stderr each phase's wall time and how many cores it
+                          kept busy (load; distances, fusion and metrics; table and files)
   -h, --help              show this help
 
 Exit status: 0 on success, 2 on bad arguments or unreadable/invalid input.
@@ -96,11 +98,13 @@ NamedPath ParseNamedPath(const std::string& flag, const std::string& value) {
 
 EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
   EvaluateArgs a;
-  FlagReader flags(argc, argv, {"--no-progress"});
+  FlagReader flags(argc, argv, {"--no-progress", "--timings"});
   bool pose_topic_given = false;
   for (std::string flag, value; flags.Next(&flag, &value);) {
     if (flag == "--no-progress") {
       a.progress = false;
+    } else if (flag == "--timings") {
+      a.timings = true;
     } else if (flag == "--reference") {
       a.references.push_back(ParseNamedPath(flag, value));
     } else if (flag == "--query") {

@@ -44,6 +44,7 @@ struct EvaluateArgs {
   ImageDescriberOptions describer;  // for image folders
   std::string out_dir;
   bool progress = true;
+  bool timings = false;  // --timings
   bool help = false;
 };
 

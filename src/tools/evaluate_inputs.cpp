@@ -1,10 +1,13 @@
 #include "evaluate_inputs.h"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <filesystem>
 #include <numeric>
 #include <optional>
 #include <stdexcept>
+#include <thread>
 
 #include "bsf_vpr/core/ground_truth_io.h"
 #include "bsf_vpr/core/image_describer.h"
@@ -73,16 +76,45 @@ DistanceMetric ChooseMetric(const EvaluateArgs& args, const std::vector<Declared
   return ParseDistanceMetric(declared[0].distance);
 }
 
+// The reference sets, then the query, loaded (read, decoded and validated) on up to two
+// threads at once; the first failure in argument order is thrown.
+std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
+  std::vector<NamedPath> inputs = args.references;
+  inputs.push_back({"query", args.query});
+  std::vector<ReferenceSet> sets(inputs.size());
+  std::vector<std::exception_ptr> errors(inputs.size());
+  std::atomic<size_t> next{0};
+  const auto work = [&] {
+    std::unique_ptr<ImageDescriber> describer;  // one per thread: describers are not shared
+    for (size_t i = next++; i < inputs.size(); i = next++) {
+      try {
+        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, &describer);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::thread second(work);
+  work();
+  second.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return sets;
+}
+
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
-  std::unique_ptr<ImageDescriber> describer;
   data->map.SetStoragePrecision(args.storage);
   std::vector<DeclaredDistance> declared;
-  for (const NamedPath& r : args.references) {
-    ReferenceSet set = LoadAnySet(r.path, r.name, args.describer, &describer);
-    NoteDeclaredDistance(args, "reference set '" + r.name + "' (" + r.path + ")", set, &declared);
-    data->map.Add(std::move(set));
+  std::vector<ReferenceSet> sets = LoadAllSets(args);
+  ReferenceSet query = std::move(sets.back());
+  sets.pop_back();
+  for (size_t u = 0; u < sets.size(); ++u) {
+    const NamedPath& r = args.references[u];
+    NoteDeclaredDistance(args, "reference set '" + r.name + "' (" + r.path + ")", sets[u],
+                         &declared);
+    data->map.Add(std::move(sets[u]));
   }
-  ReferenceSet query = LoadAnySet(args.query, "query", args.describer, &describer);
   NoteDeclaredDistance(args, "query '" + args.query + "'", query, &declared);
   std::string how;
   const DistanceMetric metric = ChooseMetric(args, declared, &how);

@@ -175,6 +175,16 @@ TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
   EXPECT_NE(DescriptorProblem(d).find("NaN"), std::string::npos);
   d(2) = -INFINITY;
   EXPECT_NE(DescriptorProblem(d).find("infinity"), std::string::npos);
+  for (int n : {1, 5, 7, 4099}) {  // every position of the four sums and the tail
+    for (int at : {0, n / 2, n - 1}) {
+      Eigen::RowVectorXf e = Eigen::RowVectorXf::Ones(n);
+      EXPECT_EQ(DescriptorProblem(e), "");
+      e(at) = NAN;
+      EXPECT_NE(DescriptorProblem(e).find("NaN"), std::string::npos) << n << " " << at;
+      e(at) = INFINITY;
+      EXPECT_NE(DescriptorProblem(e).find("infinity"), std::string::npos) << n << " " << at;
+    }
+  }
 }
 
 }  // namespace

@@ -46,39 +46,37 @@ const double* LogTable(int n) {
 }  // namespace
 
 void RankCounts(const float* values, int count, int* counts) {
-  // Least-significant-digit radix sort of (key, index) pairs, 8 bits a pass: O(N).
+  // Least-significant-digit radix sort of (key << 32 | index), 8 bits of the key a pass: O(N).
+  // One 64-bit array scattered per pass, kept per thread between calls.
   const size_t n = static_cast<size_t>(std::max(count, 0));
-  std::vector<uint32_t> key(n), key_tmp(n);
-  std::vector<int> index(n), index_tmp(n);
+  thread_local std::vector<uint64_t> items, items_tmp;
+  items.resize(n);
+  items_tmp.resize(n);
   uint32_t histogram[4][256] = {};
   for (size_t k = 0; k < n; ++k) {
-    key[k] = OrderKey(values[k]);
-    index[k] = static_cast<int>(k);
-    for (int pass = 0; pass < 4; ++pass) ++histogram[pass][(key[k] >> (8 * pass)) & 0xffu];
+    const uint32_t key = OrderKey(values[k]);
+    items[k] = (static_cast<uint64_t>(key) << 32) | k;
+    for (int pass = 0; pass < 4; ++pass) ++histogram[pass][(key >> (8 * pass)) & 0xffu];
   }
   for (int pass = 0; pass < 4; ++pass) {
     uint32_t* h = histogram[pass];
-    if (n == 0 || h[(key[0] >> (8 * pass)) & 0xffu] == n) continue;  // one bucket: in order
+    const int shift = 32 + 8 * pass;
+    if (n == 0 || h[(items[0] >> shift) & 0xffu] == n) continue;  // one bucket: in order
     uint32_t offset = 0;
     for (int b = 0; b < 256; ++b) {
       const uint32_t c = h[b];
       h[b] = offset;
       offset += c;
     }
-    for (size_t k = 0; k < n; ++k) {
-      const uint32_t slot = h[(key[k] >> (8 * pass)) & 0xffu]++;
-      key_tmp[slot] = key[k];
-      index_tmp[slot] = index[k];
-    }
-    key.swap(key_tmp);
-    index.swap(index_tmp);
+    for (size_t k = 0; k < n; ++k) items_tmp[h[(items[k] >> shift) & 0xffu]++] = items[k];
+    items.swap(items_tmp);
   }
   // In ascending order, the elements >= the one at position p start at the first position of
   // its group of equal values.
   size_t group = 0;
   for (size_t p = 0; p < n; ++p) {
-    if (p > 0 && key[p] != key[p - 1]) group = p;
-    counts[index[p]] = count - static_cast<int>(group);
+    if (p > 0 && (items[p] >> 32) != (items[p - 1] >> 32)) group = p;
+    counts[items[p] & 0xffffffffu] = count - static_cast<int>(group);
   }
 }
 

@@ -57,12 +57,8 @@ Run Timed(const std::string& command) {
   return r;
 }
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-std::string Slurp(const std::string& path) {
+// The file's text, or "" if it cannot be read (the data folder's stamp before the first run).
+std::string TextIfPresent(const std::string& path) {
   std::ifstream in(path);
   std::stringstream ss;
   ss << in.rdbuf();
@@ -71,7 +67,7 @@ std::string Slurp(const std::string& path) {
 
 // The numbers of a CSV file's lines after the header (one vector per line).
 std::vector<std::vector<double>> CsvNumbers(const std::string& path) {
-  std::stringstream in(Slurp(path));
+  std::stringstream in(ReadFile(path));  // written by the run just made: missing is an error
   std::vector<std::vector<double>> rows;
   std::string line;
   std::getline(in, line);  // header
@@ -119,7 +115,7 @@ void BenchmarkEvaluate(int repeats, int scale, const std::string& data_dir) {
   const int n = 3000 / scale, d = 4096 / scale;
   const std::string stamp = data_dir + "/shape.txt";
   const std::string shape = std::to_string(n) + " x " + std::to_string(d) + "\n";
-  if (Slurp(stamp) != shape) {
+  if (TextIfPresent(stamp) != shape) {
     Timed(bin + "/bsf_make_synthetic --out " + data_dir + " --places " + std::to_string(n) +
           " --dimension " + std::to_string(d));
     WriteFileAtomically(stamp, shape);
@@ -151,7 +147,7 @@ void BenchmarkEvaluate(int repeats, int scale, const std::string& data_dir) {
   std::printf(
       "evaluate  Q=%d M=3 N=%d D=%d, method bsf, .npy in, summary and matches out: bsf_evaluate "
       "%.2f s (%.2f cores busy) vs NumPy + OpenBLAS (scripts/numpy_bsf) %.2f s (%.2f cores): "
-      "%.2fx faster; %d of %d matches differ%s\n",
+      "NumPy's time / bsf_evaluate's %.2fx; %d of %d matches differ%s\n",
       n, n, d, Median(ours_s), Median(ours_cores), Median(numpy_s), Median(numpy_cores),
       Median(numpy_s) / Median(ours_s), differing, n, same ? "" : "; RESULTS DIFFER");
   std::printf("evaluate  bsf_evaluate's phases: %s (last run)\n", phases.c_str());

@@ -24,6 +24,7 @@
 namespace {
 
 using namespace bsf_vpr;
+using tools::Median;
 
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
@@ -53,11 +54,6 @@ The figures are printed on standard output, a line per measurement; no file is w
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments.
 )";
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 // Median wall time of `fn` in milliseconds over `repeats` runs (after one warm-up run).
 double TimeMs(int repeats, const std::function<void()>& fn) {

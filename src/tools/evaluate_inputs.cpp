@@ -26,7 +26,7 @@ bool IsFolder(const std::string& path) {
 }
 
 // Image folders are described with `describer`, built on first use (an ONNX model is then
-// loaded once for all folders).
+// loaded once for all the folders one loading thread describes, see LoadAllSets).
 ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
                         const ImageDescriberOptions& options,
                         std::unique_ptr<ImageDescriber>* describer) {

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "distance_formula.h"
 #include "distance_kernels.h"
 #include "worker_pool.h"
 
@@ -59,13 +60,10 @@ void DistanceRows(DistanceMetric metric, const kernels::Queries& queries,
     float* row = out->row(q).data();
     const float qq = qn(q);
     if (metric == DistanceMetric::kEuclidean) {
-      for (int r = r0; r < r1; ++r) row[r] = std::sqrt(std::max(qq + ref_norms[r] - 2.0f * row[r], 0.0f));
+      for (int r = r0; r < r1; ++r) row[r] = formula::Euclidean(qq, ref_norms[r], row[r]);
     } else {
       const float q_norm = std::sqrt(qq);
-      for (int r = r0; r < r1; ++r) {
-        const float denom = q_norm * std::sqrt(ref_norms[r]);
-        row[r] = denom > 0 ? std::max(1.0f - row[r] / denom, 0.0f) : 1.0f;
-      }
+      for (int r = r0; r < r1; ++r) row[r] = formula::Cosine(q_norm, ref_norms[r], row[r]);
     }
   }
 }

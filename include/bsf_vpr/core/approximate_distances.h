@@ -1,0 +1,107 @@
+// Approximate query-to-reference distances for maps too large to search exactly at camera
+// rate (e.g. 10 sets of 100,000 places of 4096-D descriptors: exact search streams 4-16 GB
+// per query).
+//
+// A compressed first stage gives an approximate distance from every query to EVERY row of
+// every set (the fusion needs all of them: the selection takes each set's minimum, the
+// likelihood rank counts and the mean and spread of all distances); then the `rerank`
+// smallest of each set and query are replaced by their exact distances. The first stage
+// projects queries and rows onto an uncentred PCA basis of d' dimensions fitted to a sample
+// of the map's rows (the rows' projections held as int8, a few hundred bytes a row) and
+// takes the distance from the approximate inner product <Pq, Pr> with the EXACT squared
+// norms: Euclidean sqrt(max(||q||^2 + ||r||^2 - 2 <Pq, Pr>, 0)), cosine
+// 1 - <Pq, Pr> / (||q|| ||r||), the formulas of ComputeDistances (distances.h), whose
+// distances are not squared either.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/reference_set.h"
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+struct ApproximateOptions {
+  // Projected dimensions d' of the first stage (bytes per row and query it streams); capped
+  // at the numerical rank of the sample.
+  int dimensions = 256;
+  // Rows per set and query whose distance is made exact (0: all approximate; >= N_u: the
+  // set's distances are exactly ComputeDistances').
+  int rerank = 100;
+  // Rows drawn at random from all sets of the map (without replacement; all rows when the
+  // map holds fewer) to fit the basis. Fitting costs O(sample_rows^2 D + sample_rows^3).
+  int sample_rows = 2048;
+  uint64_t seed = 0;  // of the sample
+
+  // Throws std::invalid_argument naming the field: dimensions < 1, rerank < 0,
+  // sample_rows < 1.
+  void Validate() const;
+};
+
+// The first stage's data for one ReferenceMap: the basis and every row's projection. Built
+// once for a map (see the constructor for its cost) and valid for that map as long as it
+// does not change: Distances refuses a map whose sets differ from those it was built from.
+// Immutable once built; Distances may be called from several threads at once.
+class ApproximateIndex {
+ public:
+  // Fits the basis to a sample of `map`'s rows (decoded as stored) and projects every row
+  // of every set. Threads: DistanceThreads(). Throws std::invalid_argument if the options
+  // are invalid or the map holds no sets. `map` is not referenced after it returns.
+  ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options = {});
+
+  // Distances from each of the Q queries (rows of `queries`, Q x D) to every row of every
+  // set of `map`: element u is Q x N_u, as ComputeDistances(metric, queries, map) gives
+  // (not squared). Each set's `rerank` smallest approximate distances per query (ties to
+  // the lower row) are replaced by exact ones, bitwise those ComputeDistances computes; the
+  // rest are approximate. Results do not depend on the thread count.
+  // Throws std::invalid_argument if the dimensions differ, a query holds NaN/infinity, or
+  // `map` is not the map the index was built from (sets added, removed or replaced since).
+  std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
+                                     const ReferenceMap& map) const;
+
+  const ApproximateOptions& options() const { return options_; }
+  int dimensions() const { return dimensions_; }    // d' in use (options' capped at the rank)
+  int sample_rows() const { return sample_rows_; }  // rows the basis was fitted to
+  // Bytes held: the basis and the rows' projections.
+  size_t MemoryBytes() const;
+
+ private:
+  // One set's rows projected: row r's coordinate j is codes[r d' + j] x row_scales[r]
+  // (int8 with one scale per row: on the shipped real data its rounding adds about 2% to the
+  // error that dropping the trailing dimensions makes, so float16 would double the bytes for
+  // nothing).
+  struct SetCodes {
+    std::string name;
+    int rows = 0;
+    StoragePrecision precision = StoragePrecision::kFloat32;
+    uint64_t fingerprint = 0;  // of the set's scale and the squared norms of 64 of its rows
+    std::vector<int8_t> codes;
+    std::vector<float> row_scales;
+  };
+
+  void FitBasis(const ReferenceMap& map);
+  SetCodes ProjectSet(const StoredReferenceSet& set) const;
+  void CheckSameMap(const ReferenceMap& map) const;
+  // Projections of the queries onto the basis: Q x d'.
+  RowMatrixXf ProjectQueries(const RowMatrixXf& queries) const;
+  // ApproximateStage fills `out` (Q x N_u per set) with approximate distances, ExactStage
+  // then overwrites each set's `rerank` smallest per query. `qn`: the queries' squared norms.
+  void ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
+                        const Eigen::VectorXf& qn, const ReferenceMap& map,
+                        std::vector<RowMatrixXf>* out) const;
+  void ExactStage(DistanceMetric metric, const RowMatrixXf& queries, const Eigen::VectorXf& qn,
+                  const ReferenceMap& map, std::vector<RowMatrixXf>* out) const;
+
+  ApproximateOptions options_;
+  int dimension_ = 0;   // D
+  int dimensions_ = 0;  // d'
+  int sample_rows_ = 0;
+  RowMatrixXf basis_;  // d' x D, orthonormal rows (the top right singular vectors)
+  std::vector<SetCodes> sets_;
+};
+
+}  // namespace bsf_vpr

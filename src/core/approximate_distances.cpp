@@ -1,0 +1,386 @@
+// GCC 12 warns that Eigen's tridiagonalisation (SelfAdjointEigenSolver) may read `result`
+// uninitialised, a false positive in Eigen/Core's products; the warning follows the location
+// of their definition, so it is turned off around the includes (not for this file's code).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include "bsf_vpr/core/approximate_distances.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <queue>
+#include <random>
+#include <stdexcept>
+#include <unordered_set>
+#include <utility>
+
+#include "distance_formula.h"
+#include "distance_kernels.h"
+#include "worker_pool.h"
+#pragma GCC diagnostic pop
+
+namespace bsf_vpr {
+
+void ApproximateOptions::Validate() const {
+  const auto require = [](bool ok, const std::string& field, const std::string& bound, int got) {
+    if (!ok) {
+      throw std::invalid_argument("ApproximateOptions." + field + " must be " + bound + ", got " +
+                                  std::to_string(got));
+    }
+  };
+  require(dimensions >= 1, "dimensions", ">= 1", dimensions);
+  require(rerank >= 0, "rerank", ">= 0", rerank);
+  require(sample_rows >= 1, "sample_rows", ">= 1", sample_rows);
+}
+
+namespace {
+
+// Eigenvalues of the sample's Gram matrix below this fraction of the largest are taken for
+// rounding noise (the Gram matrix is summed in float): their directions are not used.
+constexpr float kRankTolerance = 1e-5f;
+// Rows of one task of the first stage and of the projection of a set.
+constexpr int kStageRows = 8192;
+constexpr int kProjectRows = 512;
+
+kernels::RefRows FloatRows(const float* data, int cols) {
+  kernels::RefRows rows;
+  rows.data = data;
+  rows.cols = cols;
+  return rows;
+}
+
+kernels::RefRows StoredRows(const StoredReferenceSet& set) {
+  kernels::RefRows rows;
+  rows.precision = set.precision();
+  rows.data = set.data();
+  rows.cols = set.dimension();
+  rows.scale = set.scale();
+  return rows;
+}
+
+// Parts of [0, rows) of at most `per_part` rows: part t is [Begin(t), Begin(t + 1)).
+struct Split {
+  int rows = 0, parts = 1;
+  Split(int rows_in, int per_part)
+      : rows(rows_in), parts(std::max(1, (rows_in + per_part - 1) / per_part)) {}
+  int Begin(int t) const { return static_cast<int>(static_cast<int64_t>(rows) * t / parts); }
+};
+
+// out[q * out_stride + r] = <query q, row r> for the rows [0, rows), on the worker pool.
+void ParallelDots(const kernels::RefRows& refs, int rows, const kernels::Queries& queries,
+                  float* out, int out_stride) {
+  const Split split(rows, 256);
+  RunParallel(split.parts, DistanceThreads(), [&](int t) {
+    const int r0 = split.Begin(t), r1 = split.Begin(t + 1);
+    kernels::Dots(refs, r0, r1, queries, out + r0, out_stride);
+  });
+}
+
+// FNV-1a over a set's scale and the bits of the squared norms of up to 64 rows spread over
+// it: a set replaced by another of the same name and size almost surely changes it.
+uint64_t Fingerprint(const StoredReferenceSet& set) {
+  uint64_t h = 1469598103934665603ull;
+  const auto mix = [&h](float v) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    for (int b = 0; b < 4; ++b) h = (h ^ ((bits >> (8 * b)) & 0xff)) * 1099511628211ull;
+  };
+  mix(set.scale());
+  const int n = set.size(), samples = std::min(n, 64);
+  for (int k = 0; k < samples; ++k) {
+    const int r =
+        samples > 1 ? static_cast<int>(static_cast<int64_t>(n - 1) * k / (samples - 1)) : 0;
+    mix(set.squared_norms()(r));
+  }
+  return h;
+}
+
+// `count` distinct indices of [0, total), ascending (all of them if count >= total).
+std::vector<int64_t> SampleIndices(int64_t total, int64_t count, uint64_t seed) {
+  std::vector<int64_t> out;
+  if (count >= total) {
+    for (int64_t i = 0; i < total; ++i) out.push_back(i);
+    return out;
+  }
+  // Floyd's algorithm: count draws, each adding one index.
+  std::mt19937_64 rng(seed);
+  std::unordered_set<int64_t> chosen;
+  for (int64_t j = total - count; j < total; ++j) {
+    const int64_t t = std::uniform_int_distribution<int64_t>(0, j)(rng);
+    chosen.insert(chosen.count(t) ? j : t);
+  }
+  out.assign(chosen.begin(), chosen.end());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The rows of `map` at the given global indices (sets in order, rows in order), decoded.
+RowMatrixXf DecodeRows(const ReferenceMap& map, const std::vector<int64_t>& indices) {
+  RowMatrixXf x(static_cast<Eigen::Index>(indices.size()), map.dimension());
+  int u = 0;
+  int64_t first = 0;  // global index of set u's row 0
+  for (size_t i = 0; i < indices.size(); ++i) {
+    while (indices[i] >= first + map.set(u).size()) first += map.set(u++).size();
+    map.set(u).DecodeRow(static_cast<int>(indices[i] - first),
+                         x.row(static_cast<Eigen::Index>(i)).data());
+  }
+  return x;
+}
+
+// Indices of the k smallest of values[0, n), ordered by (value, index): ties go to the lower
+// index, so that the choice is the same however the rows were computed.
+void SmallestRows(const float* values, int n, int k, std::vector<int>* rows) {
+  rows->clear();
+  if (k >= n) {
+    for (int r = 0; r < n; ++r) rows->push_back(r);
+    return;
+  }
+  if (k <= 0) return;
+  std::priority_queue<std::pair<float, int>> largest_kept;  // top: the one to drop next
+  for (int r = 0; r < k; ++r) largest_kept.emplace(values[r], r);
+  for (int r = k; r < n; ++r) {
+    // A later row with an equal value loses to the kept ones (its index is larger).
+    if (values[r] < largest_kept.top().first) {
+      largest_kept.pop();
+      largest_kept.emplace(values[r], r);
+    }
+  }
+  for (; !largest_kept.empty(); largest_kept.pop()) rows->push_back(largest_kept.top().second);
+  std::sort(rows->begin(), rows->end());  // the map's rows in memory order
+}
+
+// row[r] from the inner product in it to the distance, for r0 <= r < r1 (one loop per
+// metric, as in ComputeDistances).
+void ToDistances(DistanceMetric metric, float query_squared_norm, const float* row_squared_norms,
+                 int r0, int r1, float* row) {
+  if (metric == DistanceMetric::kEuclidean) {
+    for (int r = r0; r < r1; ++r) {
+      row[r] = formula::Euclidean(query_squared_norm, row_squared_norms[r], row[r]);
+    }
+  } else {
+    const float query_norm = std::sqrt(query_squared_norm);
+    for (int r = r0; r < r1; ++r) {
+      row[r] = formula::Cosine(query_norm, row_squared_norms[r], row[r]);
+    }
+  }
+}
+
+void CheckFinite(const RowMatrixXf& queries) {
+  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+    const std::string problem = DescriptorProblem(queries.row(q));
+    if (!problem.empty()) {
+      throw std::invalid_argument("query descriptor " + std::to_string(q) + " " + problem);
+    }
+  }
+}
+
+}  // namespace
+
+ApproximateIndex::ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options)
+    : options_(options) {
+  options_.Validate();
+  if (map.num_sets() == 0) throw std::invalid_argument("ApproximateIndex: the map holds no sets");
+  dimension_ = map.dimension();
+  FitBasis(map);
+  sets_.reserve(static_cast<size_t>(map.num_sets()));
+  for (const StoredReferenceSet& set : map.sets()) sets_.push_back(ProjectSet(set));
+}
+
+// Uncentred PCA of the sample X (S x D) through its Gram matrix G = X X^T (S x S): an
+// eigenpair (lambda, v) of G gives the right singular vector X^T v / sqrt(lambda) of X.
+void ApproximateIndex::FitBasis(const ReferenceMap& map) {
+  int64_t total = 0;
+  for (const StoredReferenceSet& set : map.sets()) total += set.size();
+  const RowMatrixXf x = DecodeRows(map, SampleIndices(total, options_.sample_rows, options_.seed));
+  const int s = static_cast<int>(x.rows()), d = dimension_;
+  sample_rows_ = s;
+  RowMatrixXf gram(s, s);
+  ParallelDots(FloatRows(x.data(), d), s, kernels::PrepareQueries(x.data(), s, d, d, false),
+               gram.data(), s);
+  // Single precision: the Gram matrix is summed in float anyway, and double takes 3x longer
+  // (8.7 s for 2048 rows on the project's machine).
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXf> solver(gram);
+  const Eigen::VectorXf& lambda = solver.eigenvalues();  // ascending
+  const float largest = lambda(s - 1);
+  int k = 0;
+  while (k < std::min(options_.dimensions, s) && lambda(s - 1 - k) > kRankTolerance * largest) ++k;
+  dimensions_ = std::max(k, 1);  // an all-zero sample keeps one zero direction
+  // Row j of `weights` is v_j / sqrt(lambda_j) (zero past the rank); basis row j is then
+  // <weights_j, column i of X> for every i, a product of the kernels with X transposed.
+  RowMatrixXf weights = RowMatrixXf::Zero(dimensions_, s);
+  for (int j = 0; j < k; ++j) {
+    weights.row(j) =
+        solver.eigenvectors().col(s - 1 - j).transpose() / std::sqrt(lambda(s - 1 - j));
+  }
+  const RowMatrixXf xt = x.transpose();
+  basis_.resize(dimensions_, d);
+  ParallelDots(FloatRows(xt.data(), s), d,
+               kernels::PrepareQueries(weights.data(), dimensions_, s, s, false), basis_.data(), d);
+}
+
+ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet& set) const {
+  SetCodes out;
+  out.name = set.name();
+  out.rows = set.size();
+  out.precision = set.precision();
+  out.fingerprint = Fingerprint(set);
+  const int n = set.size(), dp = dimensions_;
+  out.codes.resize(static_cast<size_t>(n) * dp);
+  out.row_scales.resize(static_cast<size_t>(n));
+  const kernels::Queries directions = kernels::PrepareQueries(
+      basis_.data(), dp, dimension_, dimension_, set.precision() == StoragePrecision::kInt8);
+  const kernels::RefRows rows = StoredRows(set);
+  const Split split(n, kProjectRows);
+  RunParallel(split.parts, DistanceThreads(), [&](int t) {
+    const int r0 = split.Begin(t), r1 = split.Begin(t + 1), m = r1 - r0;
+    std::vector<float> coords(static_cast<size_t>(dp) *
+                              m);  // coordinate j of row r0 + i at j m + i
+    kernels::Dots(rows, r0, r1, directions, coords.data(), m);
+    // Loops along the rows (contiguous in `coords`): the scale of each row, then its codes.
+    std::vector<float> max_abs(static_cast<size_t>(m), 0.0f), inverse(static_cast<size_t>(m));
+    for (int j = 0; j < dp; ++j) {
+      for (int i = 0; i < m; ++i) max_abs[i] = std::max(max_abs[i], std::fabs(coords[j * m + i]));
+    }
+    for (int i = 0; i < m; ++i) {
+      out.row_scales[static_cast<size_t>(r0 + i)] = max_abs[i] / 127.0f;
+      inverse[i] = max_abs[i] > 0 ? 127.0f / max_abs[i] : 0.0f;
+    }
+    int8_t* codes = out.codes.data() + static_cast<size_t>(r0) * dp;
+    for (int j = 0; j < dp; ++j) {
+      for (int i = 0; i < m; ++i) {
+        codes[static_cast<size_t>(i) * dp + j] =
+            static_cast<int8_t>(std::nearbyint(coords[j * m + i] * inverse[i]));
+      }
+    }
+  });
+  return out;
+}
+
+void ApproximateIndex::CheckSameMap(const ReferenceMap& map) const {
+  const auto refuse = [](const std::string& why) {
+    throw std::invalid_argument(
+        "ApproximateIndex: the map is not the one the index was built from (" + why +
+        "); build the index again");
+  };
+  if (map.num_sets() != static_cast<int>(sets_.size())) {
+    refuse("it holds " + std::to_string(map.num_sets()) + " sets, the index " +
+           std::to_string(sets_.size()));
+  }
+  for (size_t u = 0; u < sets_.size(); ++u) {
+    const StoredReferenceSet& set = map.set(static_cast<int>(u));
+    const SetCodes& codes = sets_[u];
+    if (set.name() != codes.name)
+      refuse("set " + std::to_string(u) + " is '" + set.name() + "', was '" + codes.name + "'");
+    if (set.size() != codes.rows || set.precision() != codes.precision ||
+        set.dimension() != dimension_ || Fingerprint(set) != codes.fingerprint) {
+      refuse("set '" + set.name() + "' changed: " + std::to_string(set.size()) + " rows at " +
+             ToString(set.precision()) + ", was " + std::to_string(codes.rows) + " at " +
+             ToString(codes.precision));
+    }
+  }
+}
+
+RowMatrixXf ApproximateIndex::ProjectQueries(const RowMatrixXf& queries) const {
+  const int nq = static_cast<int>(queries.rows());
+  RowMatrixXf out(nq, dimensions_);
+  ParallelDots(FloatRows(basis_.data(), dimension_), dimensions_,
+               kernels::PrepareQueries(queries.data(), nq, dimension_, dimension_, false),
+               out.data(), dimensions_);
+  return out;
+}
+
+std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
+                                                     const RowMatrixXf& queries,
+                                                     const ReferenceMap& map) const {
+  CheckSameMap(map);
+  if (queries.cols() != dimension_) {
+    throw std::invalid_argument(
+        "query descriptors have dimension " + std::to_string(queries.cols()) + ", reference set '" +
+        sets_.front().name + "' has dimension " + std::to_string(dimension_));
+  }
+  CheckFinite(queries);
+  const int nq = static_cast<int>(queries.rows());
+  Eigen::VectorXf qn(nq);  // squared norms, as ComputeDistances computes them
+  for (int q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), dimension_);
+  std::vector<RowMatrixXf> out(sets_.size());
+  for (size_t u = 0; u < sets_.size(); ++u) out[u].resize(nq, sets_[u].rows);
+  ApproximateStage(metric, queries, qn, map, &out);
+  if (options_.rerank > 0) ExactStage(metric, queries, qn, map, &out);
+  return out;
+}
+
+void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
+                                        const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                        std::vector<RowMatrixXf>* out) const {
+  const int nq = static_cast<int>(queries.rows());
+  const RowMatrixXf projected = ProjectQueries(queries);
+  const kernels::Queries prepared =
+      kernels::PrepareQueries(projected.data(), nq, dimensions_, dimensions_, true);
+  // Parts of every set's rows as the tasks of one parallel run.
+  std::vector<Split> splits;
+  std::vector<std::pair<size_t, int>> tasks;  // (set, part)
+  for (size_t u = 0; u < sets_.size(); ++u) {
+    splits.emplace_back(sets_[u].rows, kStageRows);
+    for (int t = 0; t < splits.back().parts; ++t) tasks.emplace_back(u, t);
+  }
+  RunParallel(static_cast<int>(tasks.size()), DistanceThreads(), [&](int i) {
+    const auto [u, t] = tasks[static_cast<size_t>(i)];
+    const SetCodes& set = sets_[u];
+    const int r0 = splits[u].Begin(t), r1 = splits[u].Begin(t + 1);
+    kernels::RefRows codes;
+    codes.precision = StoragePrecision::kInt8;
+    codes.data = set.codes.data();
+    codes.cols = dimensions_;
+    RowMatrixXf& dist = (*out)[u];
+    kernels::Dots(codes, r0, r1, prepared, dist.data() + r0, set.rows);
+    const float* norms = map.set(static_cast<int>(u)).squared_norms().data();
+    for (int q = 0; q < nq; ++q) {
+      float* row = dist.row(q).data();
+      for (int r = r0; r < r1; ++r) row[r] *= set.row_scales[static_cast<size_t>(r)];
+      ToDistances(metric, qn(q), norms, r0, r1, row);
+    }
+  });
+}
+
+// The kernels and formula of ComputeDistances on the candidate rows; each query prepared
+// alone gives the bits it has in a batch (distance_kernels.h).
+void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& queries,
+                                  const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                  std::vector<RowMatrixXf>* out) const {
+  const int nq = static_cast<int>(queries.rows());
+  bool int8_rows = false;
+  for (const StoredReferenceSet& set : map.sets()) {
+    int8_rows = int8_rows || set.precision() == StoragePrecision::kInt8;
+  }
+  std::vector<kernels::Queries> prepared;
+  prepared.reserve(static_cast<size_t>(nq));
+  for (int q = 0; q < nq; ++q) {
+    prepared.push_back(
+        kernels::PrepareQueries(queries.row(q).data(), 1, dimension_, dimension_, int8_rows));
+  }
+  const int num_sets = static_cast<int>(sets_.size());
+  RunParallel(num_sets * nq, DistanceThreads(), [&](int i) {
+    const int u = i % num_sets, q = i / num_sets;
+    const StoredReferenceSet& set = map.set(u);
+    const kernels::RefRows rows = StoredRows(set);
+    float* row = (*out)[static_cast<size_t>(u)].row(q).data();
+    std::vector<int> candidates;
+    SmallestRows(row, set.size(), options_.rerank, &candidates);
+    for (int r : candidates) {
+      kernels::Dots(rows, r, r + 1, prepared[static_cast<size_t>(q)], row + r, 1);
+      ToDistances(metric, qn(q), set.squared_norms().data(), r, r + 1, row);
+    }
+  });
+}
+
+size_t ApproximateIndex::MemoryBytes() const {
+  size_t bytes = sizeof(*this) + sizeof(float) * basis_.size();
+  for (const SetCodes& set : sets_) {
+    bytes += sizeof(SetCodes) + set.name.capacity() + set.codes.capacity() +
+             sizeof(float) * set.row_scales.capacity();
+  }
+  return bytes;
+}
+
+}  // namespace bsf_vpr

@@ -129,7 +129,7 @@ void TimeCase(const Case& c, const std::vector<cv::Mat>& images, int repeats) {
   const double d50 = Percentile(describe_ms, 0.5), r50 = Percentile(resize_ms, 0.5);
   std::printf(
       "describe  %-24s input %dx%d, D=%d: %.3f ms per image (p90 %.3f); %s to %dx%d "
-      "alone %.3f ms (p90 %.3f): %.1fx the resize\n",
+      "alone %.3f ms (p90 %.3f): %.2fx the resize\n",
       label.c_str(), c.input.width, c.input.height, describer->dimension(), d50,
       Percentile(describe_ms, 0.9), c.gray ? "cv::cvtColor to gray + cv::resize" : "cv::resize",
       c.input.width, c.input.height, r50, Percentile(resize_ms, 0.9), d50 / r50);

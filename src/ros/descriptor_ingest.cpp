@@ -3,6 +3,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include <chrono>
 #include <cmath>
 
 #include "bsf_vpr/ros/names.h"
@@ -129,6 +130,10 @@ void DescriptorIngest::Start() {
   auto on_connect = [this](const ros::SingleSubscriberPublisher&) { UpdateSubscription(); };
   pub_ = nh_.advertise<Descriptor>(
       names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size), on_connect, on_connect);
+  if (params_.input == IngestInput::kImage) {
+    describe_time_pub_ = pnh_.advertise<std_msgs::Float64>(
+        names::kDescribeTimeTopic, static_cast<uint32_t>(params_.queue_size));
+  }
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID("bsf_vpr");
   diagnostics_->add("descriptor_ingest", this, &DescriptorIngest::Diagnose);
@@ -172,15 +177,23 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   auto out = boost::make_shared<Descriptor>();
   const std::string problem = ImageProblem(*msg);
   if (!problem.empty()) return Reject("bad image: " + problem);
+  double seconds = 0;  // in Describe
   try {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
         cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
+    const auto t0 = std::chrono::steady_clock::now();
     const Eigen::VectorXf d = describer_->Describe(cv->image);
+    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out->data.assign(d.data(), d.data() + d.size());
   } catch (const std::exception& e) {
     Reject(std::string("cannot describe image: ") + e.what());
     return;
+  }
+  if (describe_time_pub_.getNumSubscribers() > 0) {
+    auto time = boost::make_shared<std_msgs::Float64>();
+    time->data = seconds;
+    describe_time_pub_.publish(time);
   }
   out->header = msg->header;
   out->descriptor_type = params_.descriptor_type;

@@ -5,7 +5,9 @@
 // std_msgs/Float32MultiArray (a 1-D array, as a Python node publishes it) on the same topic. Bad
 // input (an image whose sizes do not fit its data, a message of another type) is dropped with a
 // throttled error and counted in diagnostics. It subscribes to its input only while someone listens
-// to its output (a pure transform).
+// to its output (a pure transform). With images it also publishes, while someone listens, the
+// seconds each image took to describe on ~describe_time (std_msgs/Float64), before that image's
+// descriptor: the core's own time for it, as Belief.processing_time is the fusion node's.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
@@ -14,6 +16,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/Float32MultiArray.h>
+#include <std_msgs/Float64.h>
 #include <topic_tools/shape_shifter.h>
 
 #include <memory>
@@ -83,6 +86,7 @@ class DescriptorIngest {
   image_transport::Subscriber image_sub_;
   ros::Subscriber descriptor_sub_;
   ros::Publisher pub_;
+  ros::Publisher describe_time_pub_;  // images only
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
   long published_ = 0, rejected_ = 0;

@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "benchmark_describe.h"
 #include "benchmark_evaluate.h"
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
@@ -28,7 +29,7 @@ using tools::Median;
 
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
-                     [--quick]
+                     [--images DIR] [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
 and the GEMM probe (OpenBLAS sgemm).
@@ -45,11 +46,17 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            results written) vs scripts/numpy_bsf, the same method in NumPy + OpenBLAS, as
            separate processes on the same files (written once to --evaluate-dir DIR, default
            /tmp/bsf_benchmark_evaluate, 196 MB); also the cores each kept busy
+  describe per image (median and p90 over the images of --images DIR, default the shipped
+           data/nordland_subset100/256x144/summer), at their resolution: decoding, and each
+           image describer (patchnorm and hog with their defaults, onnx with the test models
+           test/data/models/{resnet50_light,squeezenet_light}, 224x224 input) vs cv::resize
+           of the same image to the describer's input size alone
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
            references stored at --storage float32|float16|int8 (default float32)
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
-and the scaling grid by 100x (a smoke test; its figures are not the documented ones).
+(describe: the first 10 images) and the scaling grid by 100x (a smoke test; its figures are
+not the documented ones).
 The figures are printed on standard output, a line per measurement; no file is written.
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments.
@@ -330,8 +337,9 @@ void Scaling(int repeats, int scale, StoragePrecision storage) {
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,scaling";
+  std::string sections = "fusion,query,batch,evaluate,describe,scaling";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
+  std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
   StoragePrecision storage = StoragePrecision::kFloat32;
   for (int i = 1; i < argc; ++i) {
@@ -354,6 +362,8 @@ int Run(int argc, char** argv) {
       storage = ParseStoragePrecision(v);
     else if (f == "--evaluate-dir")
       evaluate_dir = v;
+    else if (f == "--images")
+      images = v;
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -368,11 +378,14 @@ int Run(int argc, char** argv) {
       Batch(repeats, scale);
     else if (s == "evaluate")
       tools::BenchmarkEvaluate(repeats, scale, evaluate_dir + (scale == 1 ? "" : "_quick"));
+    else if (s == "describe")
+      tools::BenchmarkDescribe(repeats, scale, images,
+                               std::string(BSF_SOURCE_DIR) + "/test/data/models");
     else if (s == "scaling")
       Scaling(repeats, scale, storage);
     else
       throw std::invalid_argument("unknown section '" + s +
-                                  "' (fusion, query, batch, evaluate, scaling)");
+                                  "' (fusion, query, batch, evaluate, describe, scaling)");
   }
   return 0;
 }

@@ -21,12 +21,19 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
   for (const char* fragment :
        {"fusion  M=3 N=300", "faster", "the memory limit", "FAISS's time", "of the GEMM throughput",
         "scaling     1000", "int8", "float32's time", "NumPy + OpenBLAS", "cores busy",
-        "bsf_evaluate's phases: load"}) {
+        "bsf_evaluate's phases: load", "describe  10 images of 256x144", "cv::imdecode",
+        "patchnorm_64x32_p8       input 64x32, D=2048", "hog_64x32_c8_b9          input 64x32",
+        "onnx resnet50_light      input 224x224, D=1000", "onnx squeezenet_light",
+        "x the resize"}) {
     EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
   }
   EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("RESULTS DIFFER"), std::string::npos) << r.output;
   EXPECT_EQ(RunCommand(std::string(BSF_BENCHMARK_PATH) + " --sections warp").exit_code, 2);
+  const Result no_images = RunCommand(std::string(BSF_BENCHMARK_PATH) +
+                                      " --quick --sections describe --images /nonexistent");
+  EXPECT_EQ(no_images.exit_code, 2) << no_images.output;
+  EXPECT_NE(no_images.output.find("/nonexistent"), std::string::npos) << no_images.output;
   const Result int8 = RunCommand(std::string(BSF_BENCHMARK_PATH) +
                                  " --quick --repeats 1 --sections scaling --storage int8");
   ASSERT_EQ(int8.exit_code, 0) << int8.output;

@@ -9,6 +9,8 @@ namespace names {
 constexpr char kImageTopic[] = "image";                       // sensor_msgs/Image in
 constexpr char kExternalDescriptorTopic[] = "descriptor_in";  // bsf_vpr/Descriptor in
 constexpr char kDescriptorTopic[] = "descriptor";             // bsf_vpr/Descriptor out
+// std_msgs/Float64 out, private namespace: seconds each image took to describe.
+constexpr char kDescribeTimeTopic[] = "describe_time";
 
 // fusion
 constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out

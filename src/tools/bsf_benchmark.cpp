@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "benchmark_evaluate.h"
+#include "benchmark_large.h"
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "cli_util.h"
@@ -44,6 +45,9 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            results written) vs scripts/numpy_bsf, the same method in NumPy + OpenBLAS, as
            separate processes on the same files (written once to --evaluate-dir DIR, default
            /tmp/bsf_benchmark_evaluate, 196 MB); also the cores each kept busy
+  large    one query against M=10 sets of N=100,000 places, D=4096, int8 storage (4.1 GB of
+           random data: time only), exact vs the pca first stage with re-ranking (its index's
+           build time and memory too)
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
            references stored at --storage float32|float16|int8 (default float32)
@@ -334,7 +338,7 @@ void Scaling(int repeats, int scale, StoragePrecision storage) {
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,scaling";
+  std::string sections = "fusion,query,batch,evaluate,large,scaling";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   int repeats = 7, scale = 1;
   StoragePrecision storage = StoragePrecision::kFloat32;
@@ -370,13 +374,15 @@ int Run(int argc, char** argv) {
       Query(repeats, scale);
     else if (s == "batch")
       Batch(repeats, scale);
+    else if (s == "large")
+      tools::BenchmarkLarge(std::max(repeats, 3), scale == 1 ? 1 : 100);
     else if (s == "evaluate")
       tools::BenchmarkEvaluate(repeats, scale, evaluate_dir + (scale == 1 ? "" : "_quick"));
     else if (s == "scaling")
       Scaling(repeats, scale, storage);
     else
       throw std::invalid_argument("unknown section '" + s +
-                                  "' (fusion, query, batch, evaluate, scaling)");
+                                  "' (fusion, query, batch, evaluate, large, scaling)");
   }
   return 0;
 }

@@ -5,7 +5,10 @@
 
 namespace bsf_vpr {
 
-void RecognizerOptions::Validate() const { method_options.Validate(); }
+void RecognizerOptions::Validate() const {
+  method_options.Validate();
+  first_stage.Validate();
+}
 
 const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
   static const OptionTable<RecognizerOptions> kTable =
@@ -16,12 +19,14 @@ const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
               "+filter (temporal filter prior) and/or +seq (sequence matching)",
               "", {}, /*live=*/true)
           .Include(
-              MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; });
+              MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; })
+          .Include(FirstStageOptionsTable(), [](auto& o) -> auto& { return o.first_stage; });
   return kTable;
 }
 
 PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move(options)) {
   options_.Validate();
+  distances_.SetOptions(options_.first_stage);
   // The method is checked against the sets when they are known (SetOptions / Recognize).
 }
 
@@ -29,6 +34,7 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
   options.Validate();
   Method method = ParseMethod(options.method, map_.SetNames());
   const bool restart = options.method != options_.method || options.metric != options_.metric;
+  distances_.SetOptions(options.first_stage);
   options_ = options;
   method_ = method;
   if (restart || !runner_) {
@@ -40,6 +46,7 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   map_.Add(std::move(set));
+  distances_.Invalidate();
   runner_.reset();
   ResetPrior();
 }
@@ -57,6 +64,7 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
                                 options_.method + "'; change the method first");
   }
   map_.Remove(name);
+  distances_.Invalidate();
   runner_.reset();
   ResetPrior();
 }
@@ -85,7 +93,7 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const std::string problem = DescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
   const RowMatrixXf query = descriptor.transpose();
-  const std::vector<RowMatrixXf> distances = ComputeDistances(options_.metric, query, map_);
+  const std::vector<RowMatrixXf> distances = distances_.Distances(options_.metric, query, map_);
   std::vector<const std::vector<int>*> ids;
   for (const StoredReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids());
   const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);

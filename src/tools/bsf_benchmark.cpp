@@ -17,6 +17,7 @@
 
 #include "benchmark_describe.h"
 #include "benchmark_evaluate.h"
+#include "benchmark_large.h"
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "cli_util.h"
@@ -51,6 +52,9 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            image describer (patchnorm and hog with their defaults, onnx with the test models
            test/data/models/{resnet50_light,squeezenet_light}, 224x224 input) vs cv::resize
            of the same image to the describer's input size alone
+  large    one query against M=10 sets of N=100,000 places, D=4096, int8 storage (4.1 GB of
+           random data: time only), exact vs the pca first stage with re-ranking (its index's
+           build time and memory too)
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
            references stored at --storage float32|float16|int8 (default float32)
@@ -337,7 +341,7 @@ void Scaling(int repeats, int scale, StoragePrecision storage) {
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,describe,scaling";
+  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
@@ -376,6 +380,8 @@ int Run(int argc, char** argv) {
       Query(repeats, scale);
     else if (s == "batch")
       Batch(repeats, scale);
+    else if (s == "large")
+      tools::BenchmarkLarge(std::max(repeats, 3), scale == 1 ? 1 : 100);
     else if (s == "evaluate")
       tools::BenchmarkEvaluate(repeats, scale, evaluate_dir + (scale == 1 ? "" : "_quick"));
     else if (s == "describe")
@@ -385,7 +391,7 @@ int Run(int argc, char** argv) {
       Scaling(repeats, scale, storage);
     else
       throw std::invalid_argument("unknown section '" + s +
-                                  "' (fusion, query, batch, evaluate, describe, scaling)");
+                                  "' (fusion, query, batch, evaluate, large, describe, scaling)");
   }
   return 0;
 }

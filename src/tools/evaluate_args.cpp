@@ -69,6 +69,9 @@ Methods:
 Method options (the fusion node's parameters of the same names):
 )" + OptionsUsage(MethodOptionsTable().Infos()) +
          R"(
+Distances for large maps (descriptor inputs; the fusion node's parameters of the same names):
+)" + OptionsUsage(FirstStageOptionsTable().Infos()) +
+         R"(
 Image descriptor, for image folders (the ingest nodelet's parameters of the same names):
 )" + DescriberUsage() +
          R"(
@@ -145,6 +148,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.methods = value;
     } else if (MethodOptionsTable().SetFromFlag(flag, value, &a.options)) {
       // --gamma-fraction, --threshold, --sequence-*, --filter-*: the method options
+    } else if (FirstStageOptionsTable().SetFromFlag(flag, value, &a.first_stage)) {
+      // --first-stage, --first-stage-dimensions, --rerank-candidates, --first-stage-sample-rows
     } else if (ParseDescriberFlag(flag, value, &a.describer)) {
       // --image-descriptor, --patch-*, --hog-*, --onnx-*: the image descriptor
     } else if (flag == "--out") {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
 #include "query_bag.h"
@@ -41,6 +42,7 @@ struct EvaluateArgs {
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;
+  FirstStageOptions first_stage;  // descriptor inputs: exact or the pca first stage
   ImageDescriberOptions describer;  // for image folders
   std::string out_dir;
   bool progress = true;

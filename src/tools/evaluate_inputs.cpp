@@ -131,15 +131,23 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
     data->input.set_names.push_back(s.name());
     data->input.place_ids.push_back(s.place_ids());
   }
+  data->stage.SetOptions(args.first_stage);
+  data->stage.Prepare(data->map);  // the pca index, built once for the whole evaluation
   data->input.distances = [data, metric](int begin, int end, std::vector<RowMatrixXf>* block) {
     const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
-    *block = ComputeDistances(metric, q, data->map);
+    *block = data->stage.Distances(metric, q, data->map);
   };
   data->description = std::to_string(data->map.num_sets()) + " reference set(s), " +
                       std::to_string(data->map.num_places()) + " places, " +
                       std::to_string(data->input.num_queries) + " queries, dimension " +
                       std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
-                      " storage, " + ToString(metric) + " distance" + how;
+                      " storage, " + ToString(metric) + " distance" + how +
+                      (data->stage.index() ? ", first stage pca (" +
+                                                 std::to_string(data->stage.index()->dimensions()) +
+                                                 " dimensions, " +
+                                                 std::to_string(args.first_stage.approximate.rerank) +
+                                                 " re-ranked per set)"
+                                           : "");
 }
 
 void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {

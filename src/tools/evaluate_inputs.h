@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/evaluation_runner.h"
+#include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "evaluate_args.h"
 
@@ -21,6 +22,7 @@ struct EvaluationData {
   EvaluationData& operator=(const EvaluationData&) = delete;
 
   ReferenceMap map;     // descriptor mode
+  DistanceStage stage;  // descriptor mode: exact or the pca first stage
   RowMatrixXf queries;  // descriptor mode, Q x D
   // descriptor mode with --tolerance-m: from the query YAML or --query-poses (else empty)
   std::vector<PlacePose> query_poses;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/core/reference_set.h"
 
@@ -22,6 +23,8 @@ struct RecognizerOptions {
   // The belief is carried between queries by the +filter suffix (method_options.filter);
   // without it every query has a uniform prior, the paper's single-image setting.
   MethodOptions method_options;
+  // Exact distances, or the compressed first stage for large maps (first_stage.h).
+  FirstStageOptions first_stage;
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -74,6 +77,11 @@ class PlaceRecognizer {
   // Forgets everything carried between queries.
   void ResetPrior();
 
+  // Builds what the first stage needs for the current map now (first_stage pca: the
+  // index, seconds for a large map) rather than at the next query.
+  void PrepareFirstStage() { distances_.Prepare(map_); }
+  const DistanceStage& distance_stage() const { return distances_; }
+
  private:
   MethodRunner& Runner();  // built on demand against the current sets
 
@@ -81,6 +89,7 @@ class PlaceRecognizer {
   Method method_;
   ReferenceMap map_;
   std::unique_ptr<MethodRunner> runner_;  // null: to be rebuilt
+  DistanceStage distances_;
 };
 
 }  // namespace bsf_vpr

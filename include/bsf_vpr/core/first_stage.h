@@ -1,0 +1,50 @@
+// How the distances from a query to every reference row are computed: exactly, from every
+// stored descriptor (ComputeDistances, distances.h), or by the compressed first stage with
+// exact re-ranking (ApproximateIndex, approximate_distances.h) for maps too large to search
+// exactly at camera rate. PlaceRecognizer and bsf_evaluate both go through DistanceStage.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/approximate_distances.h"
+#include "bsf_vpr/core/options.h"
+
+namespace bsf_vpr {
+
+struct FirstStageOptions {
+  std::string kind = "exact";  // "exact" or "pca"
+  ApproximateOptions approximate;
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// first_stage, first_stage_dimensions, rerank_candidates, first_stage_sample_rows.
+const OptionTable<FirstStageOptions>& FirstStageOptionsTable();
+
+// The distances of a map through the configured first stage. With "pca" the index is built
+// from the map on first use (or by Prepare) and rebuilt after Invalidate() or new options.
+// Not thread-safe (its owner serialises calls).
+class DistanceStage {
+ public:
+  // Validates; keeps the index when the options it was built with are unchanged.
+  void SetOptions(const FirstStageOptions& options);
+  const FirstStageOptions& options() const { return options_; }
+  // The map changed: the index, if any, is rebuilt at the next use.
+  void Invalidate() { index_.reset(); }
+  // Builds the index now for "pca" (a no-op for "exact" or when it is built).
+  void Prepare(const ReferenceMap& map);
+  // Q x N_u per set, as ComputeDistances gives them (approximate for "pca" except each set's
+  // rerank_candidates smallest per query, which are exact).
+  std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
+                                     const ReferenceMap& map);
+  // The index in use, or null (exact, or not built yet).
+  const ApproximateIndex* index() const { return index_.get(); }
+
+ private:
+  FirstStageOptions options_;
+  std::unique_ptr<ApproximateIndex> index_;
+};
+
+}  // namespace bsf_vpr

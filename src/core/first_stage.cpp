@@ -1,0 +1,65 @@
+#include "bsf_vpr/core/first_stage.h"
+
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+void FirstStageOptions::Validate() const {
+  if (kind != "exact" && kind != "pca") {
+    throw std::invalid_argument("first_stage must be exact or pca, got '" + kind + "'");
+  }
+  approximate.Validate();
+}
+
+const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
+  static const OptionTable<FirstStageOptions> kTable =
+      OptionTable<FirstStageOptions>()
+          .AddChoice(
+              "first_stage", [](auto& o) -> auto& { return o.kind; },
+              "how distances to the reference rows are computed: exact (every stored "
+              "descriptor) or pca (a compressed first stage for maps too large to search "
+              "exactly at camera rate: approximate distances to every row from int8 "
+              "projections onto a PCA basis of the map, then each set's rerank_candidates "
+              "nearest made exact; docs/performance.md gives its error on real data)",
+              {"exact", "pca"}, [](const std::string& s) { return s; })
+          .Add(
+              "first_stage_dimensions", [](auto& o) -> auto& { return o.approximate.dimensions; },
+              "pca: projected dimensions d' (bytes per row the first stage reads)", "dimensions",
+              AtLeast(1))
+          .Add(
+              "rerank_candidates", [](auto& o) -> auto& { return o.approximate.rerank; },
+              "pca: rows per set and query whose distance is made exact (the nearest by the "
+              "approximate distance)",
+              "rows", AtLeast(0))
+          .Add(
+              "first_stage_sample_rows", [](auto& o) -> auto& { return o.approximate.sample_rows; },
+              "pca: rows drawn from the map to fit the basis (fitting costs O(rows^2 D + rows^3))",
+              "rows", AtLeast(1));
+  return kTable;
+}
+
+void DistanceStage::SetOptions(const FirstStageOptions& options) {
+  options.Validate();
+  const ApproximateOptions& a = options.approximate;
+  const ApproximateOptions& b = options_.approximate;
+  if (options.kind != options_.kind || a.dimensions != b.dimensions || a.rerank != b.rerank ||
+      a.sample_rows != b.sample_rows || a.seed != b.seed) {
+    index_.reset();
+  }
+  options_ = options;
+}
+
+void DistanceStage::Prepare(const ReferenceMap& map) {
+  if (options_.kind == "pca" && !index_ && map.num_sets() > 0) {
+    index_ = std::make_unique<ApproximateIndex>(map, options_.approximate);
+  }
+}
+
+std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const RowMatrixXf& queries,
+                                                  const ReferenceMap& map) {
+  if (options_.kind == "exact") return ComputeDistances(metric, queries, map);
+  Prepare(map);
+  return index_->Distances(metric, queries, map);
+}
+
+}  // namespace bsf_vpr

@@ -71,6 +71,7 @@ void FusionNode::Start() {
              s.size(), s.dimension(), ToString(s.precision()).c_str());
   }
   recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
+  PrepareFirstStage();
   const Method& method = recognizer_.method();
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
@@ -214,6 +215,20 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
   return odometry_->StepPlaces(stamp, spacing);
 }
 
+void FusionNode::PrepareFirstStage() {
+  if (recognizer_.options().first_stage.kind == "exact" || recognizer_.map().num_sets() == 0) {
+    return;
+  }
+  const ros::WallTime start = ros::WallTime::now();
+  recognizer_.PrepareFirstStage();
+  const ApproximateIndex& index = *recognizer_.distance_stage().index();
+  ROS_INFO(
+      "bsf_vpr: first stage pca: %d dimensions fitted to %d rows, %d places projected in "
+      "%.2f s (%.1f MB)",
+      index.dimensions(), index.sample_rows(), recognizer_.map().num_places(),
+      (ros::WallTime::now() - start).toSec(), index.MemoryBytes() / 1e6);
+}
+
 double FusionNode::PlaceSpacing() const {
   if (params_.place_spacing_m > 0) return params_.place_spacing_m;
   const double median = recognizer_.map().MedianPlaceSpacing().value_or(1.0);
@@ -263,6 +278,15 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped descriptors", rejected_);
   status.add("method", recognizer_.options().method);
   status.add("distance", ToString(recognizer_.options().metric));
+  const FirstStageOptions& first = recognizer_.options().first_stage;
+  if (first.kind == "exact") {
+    status.add("first stage", "exact");
+  } else if (const ApproximateIndex* index = recognizer_.distance_stage().index()) {
+    status.addf("first stage", "pca: %d dimensions, %d re-ranked per set, %.1f MB",
+                index->dimensions(), first.approximate.rerank, index->MemoryBytes() / 1e6);
+  } else {
+    status.add("first stage", "pca: no index (no reference set loaded)");
+  }
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());

@@ -39,9 +39,9 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "fusion_params.h"
 #include "odometry_tracker.h"
-#include "robot_pose.h"
 #include "recognition_publisher.h"
 #include "recording.h"
+#include "robot_pose.h"
 #include "selection_counters.h"
 
 namespace bsf_vpr {
@@ -63,6 +63,9 @@ class FusionNode {
   // The distance between places in metres: place_spacing_m, or the median spacing of the
   // loaded place poses, or 1. Caller holds mutex_.
   double PlaceSpacing() const;
+  // The first stage's index for the current sets (first_stage pca), built now and logged, so
+  // that the next descriptor does not wait for it. Called with mutex_ held.
+  void PrepareFirstStage();
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void RejectMessage(const std::string& why);
@@ -103,7 +106,7 @@ class FusionNode {
   int processed_ = 0, rejected_ = 0;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string last_rejection_;
-  std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
+  std::string type_mismatch_;   // the last descriptor_type that differs from the sets'
   SelectionCounters counters_;  // since start or the last statistics reset
   ros::WallTime last_diagnostics_;
 };

@@ -40,6 +40,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     const std::string name = set.name;
     const int places = set.size();
     recognizer_.AddReferenceSet(std::move(set));
+    PrepareFirstStage();
     res.success = true;
     res.message = "loaded '" + name + "' (" + std::to_string(places) + " places)";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -60,6 +61,7 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
     }
     recognizer_.RemoveReferenceSet(req.name);
     counters_.Forget(req.name);
+    PrepareFirstStage();
     res.success = true;
     res.message = "unloaded '" + req.name + "'";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -105,8 +107,9 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
     const RecordingPlaces places =
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
     if (places == RecordingPlaces::kPose && params_.pose_source == "none") {
-      throw std::invalid_argument("recording by pose needs the robot's pose: set pose_source "
-                                  "to tf or topic");
+      throw std::invalid_argument(
+          "recording by pose needs the robot's pose: set pose_source "
+          "to tf or topic");
     }
     recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map(), places);
     res.success = true;
@@ -136,6 +139,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     res.path = saved.path;
     try {
       recognizer_.AddReferenceSet(std::move(saved.set));
+      PrepareFirstStage();
     } catch (const std::exception& e) {
       res.success = true;
       res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +

@@ -3,18 +3,12 @@
 // (scripts/numpy_bsf), both as separate processes on the same files, alternating.
 #pragma once
 
-#include <algorithm>
 #include <string>
-#include <vector>
+
+#include "benchmark_util.h"
 
 namespace bsf_vpr {
 namespace tools {
-
-// The median of `v` (the upper one of an even count), as every section reports.
-inline double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 // Writes the data once into `data_dir` (bsf_make_synthetic: 3 sets of N = 3000 / scale places,
 // D = 4096 / scale, Q = N queries), then times `repeats` runs of each program; prints the

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmark_util.h"
 #include "bsf_vpr/core/place_recognizer.h"
 
 namespace bsf_vpr {
@@ -20,18 +21,7 @@ double Ms(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-double ResidentMb() {
-  std::ifstream in("/proc/self/status");
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return 0;
-}
+double ResidentMb() { return ResidentBytes() / 1e6; }
 
 // Uniform values in [-1, 1) from xorshift64*: a 4 GB map is made in seconds (a normal
 // generator would take minutes). Random rows have no low-dimensional structure, so the

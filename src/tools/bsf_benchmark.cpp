@@ -18,6 +18,7 @@
 #include "benchmark_describe.h"
 #include "benchmark_evaluate.h"
 #include "benchmark_large.h"
+#include "benchmark_util.h"
 #include "bsf_vpr/core/evaluation_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "cli_util.h"
@@ -27,6 +28,7 @@ namespace {
 
 using namespace bsf_vpr;
 using tools::Median;
+using tools::ResidentBytes;
 
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
@@ -85,15 +87,6 @@ RowMatrixXf Random(Eigen::Index rows, Eigen::Index cols, uint64_t seed) {
   RowMatrixXf m(rows, cols);
   for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = normal(rng);
   return m;
-}
-
-// Resident memory of this process, bytes (VmRSS).
-size_t ResidentBytes() {
-  std::ifstream in("/proc/self/status");
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stoul(line.substr(6)) * 1024;
-  }
-  return 0;
 }
 
 volatile float g_sink;  // keeps the probes from being optimised away

@@ -83,8 +83,9 @@ TEST(PlaceRecognizer, ReconfiguringKeepsOnlyTheStateTheChangeLeavesValid) {
   other.method = "bayes_full+filter";
   r.SetOptions(other);
   PlaceRecognizer fresh = Loaded(data, other);
-  EXPECT_TRUE(r.Recognize(next, false).belief.log_posterior.isApprox(
-      fresh.Recognize(next, false).belief.log_posterior));
+  EXPECT_TRUE(
+      r.Recognize(next, false)
+          .belief.log_posterior.isApprox(fresh.Recognize(next, false).belief.log_posterior));
 }
 
 TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
@@ -122,6 +123,56 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
   EXPECT_EQ(r.map().num_sets(), 1);
   EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
             std::vector<int>{0});
+}
+
+// The pca first stage through the recognizer: with every row re-ranked its recognitions are
+// bitwise the exact ones; its index follows the map (a set added or removed is projected
+// before the next query, not refused as another map), and a bad option is refused with the
+// options in force kept.
+TEST(PlaceRecognizer, PcaFirstStageFollowsTheMapAndIsExactWhenEveryRowIsReRanked) {
+  const SyntheticData data = Data();
+  RecognizerOptions pca;
+  pca.first_stage.kind = "pca";
+  pca.first_stage.approximate.dimensions = 4;
+  pca.first_stage.approximate.rerank = data.map.num_places();  // every row exact
+  PlaceRecognizer exact = Loaded(data);
+  PlaceRecognizer approximate = Loaded(data, pca);
+  EXPECT_EQ(approximate.distance_stage().index(), nullptr);  // built on first use
+  approximate.PrepareFirstStage();
+  ASSERT_NE(approximate.distance_stage().index(), nullptr);
+  EXPECT_EQ(approximate.distance_stage().index()->dimensions(), 4);
+  for (int q = 0; q < 20; ++q) {
+    const Eigen::VectorXf query = data.queries.row(q).transpose();
+    const Recognition a = exact.Recognize(query, true);
+    const Recognition b = approximate.Recognize(query, true);
+    EXPECT_EQ(a.belief.match, b.belief.match) << q;
+    EXPECT_EQ(a.belief.confidence, b.belief.confidence) << q;
+  }
+  // Fewer candidates than places: approximate, but over a map that changes.
+  pca.first_stage.approximate.rerank = 3;
+  approximate.SetOptions(pca);
+  EXPECT_EQ(approximate.distance_stage().index(), nullptr);  // new options: rebuilt
+  approximate.RemoveReferenceSet("c1");
+  EXPECT_EQ(approximate.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
+            std::vector<int>{0});
+  approximate.AddReferenceSet(data.map.sets()[1].ToReferenceSet());
+  EXPECT_NO_THROW(approximate.Recognize(data.queries.row(1).transpose(), true));
+  RecognizerOptions bad = pca;
+  bad.first_stage.kind = "pq";
+  EXPECT_THROW(approximate.SetOptions(bad), std::invalid_argument);
+  bad = pca;
+  bad.first_stage.approximate.dimensions = 0;
+  EXPECT_THROW(approximate.SetOptions(bad), std::invalid_argument);
+  EXPECT_EQ(approximate.options().first_stage.approximate.rerank, 3);
+  EXPECT_THROW(PlaceRecognizer{bad}, std::invalid_argument);
+  // The option table names the parameters the node and bsf_evaluate take.
+  RecognizerOptions parsed;
+  EXPECT_TRUE(RecognizerOptionsTable().SetFromFlag("--first-stage", "pca", &parsed));
+  EXPECT_EQ(parsed.first_stage.kind, "pca");
+  EXPECT_TRUE(RecognizerOptionsTable().SetFromFlag("--rerank-candidates", "7", &parsed));
+  EXPECT_EQ(parsed.first_stage.approximate.rerank, 7);
+  EXPECT_THROW(RecognizerOptionsTable().SetFromFlag("--first-stage", "faiss", &parsed),
+               std::invalid_argument);
 }
 
 }  // namespace

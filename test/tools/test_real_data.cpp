@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -133,8 +134,12 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
   // The paper's relative rule compares raw minimum distances: across techniques whose
   // scales differ it selects by scale, not by evidence (bsf 0.222).
   ExpectAucs(args,
-             {{"bsf", 0.2222}, {"bayes_full", 0.9013}, {"med", 0.9094},
-              {"med_selective", 0.2680}, {"nn:HybridNet", 0.8441}, {"nn:NetVLAD", 0.5553}},
+             {{"bsf", 0.2222},
+              {"bayes_full", 0.9013},
+              {"med", 0.9094},
+              {"med_selective", 0.2680},
+              {"nn:HybridNet", 0.8441},
+              {"nn:NetVLAD", 0.5553}},
              "corridor, relative selection");
   // The default mixture: each technique its own descriptor group, so the ten multiply
   // (bayes_full); declared one descriptor, they are mixed and weighed by raw minima.
@@ -152,6 +157,44 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
   ExpectAucs(args, {{"bsf", 0.7493}, {"med_selective", 0.7068}}, "corridor, standardized",
              " --selection standardized --gamma-fraction 0.04 --likelihood one_sided"
              " --fusion product");
+}
+
+// The pca first stage (first_stage.h) with its defaults (d' = 256, 100 re-ranked per set)
+// keeps R@1 within one point of exact search on the real data, for single images and over
+// time (+seq, +filter, which read every distance, most of them approximate); with too few
+// dimensions and candidates it loses recall (docs/performance.md, where it breaks), which
+// also shows the flags reach the index.
+TEST_F(RealData, ThePcaFirstStageKeepsRecallAtOneWithinOnePointOfExact) {
+  const std::string pca = " --first-stage pca";
+  const std::string small = " --first-stage pca --first-stage-dimensions 32 --rerank-candidates 5";
+  struct PcaCase {
+    std::string name, args, methods;
+  };
+  const std::vector<PcaCase> cases = {
+      {"Gardens Point (HDC-DELF, 4096-D)",
+       " --reference day=" + kData + "gardens_point_hdc_delf/day_left.npy --query " + kData +
+           "gardens_point_hdc_delf/night_right.npy --distance cosine --tolerance 8",
+       "bsf,nn:day"},
+      {"Nordland 1500 (HOG)",
+       " --reference summer=" + kData + "nordland_64x32/summer --query " + kData +
+           "nordland_64x32/winter --image-descriptor hog --tolerance 2",
+       "bsf,bsf+seq,bsf+filter"},
+      {"Nordland-100 winter from summer and fall (patchnorm)",
+       NordlandHundredArgs("winter", "patchnorm"), "bsf,bsf+seq,nn:summer,nn:fall"},
+  };
+  for (const PcaCase& c : cases) {
+    const auto exact = Run(c.args + " --methods " + c.methods);
+    const auto approximate = Run(c.args + " --methods " + c.methods + pca);
+    const auto broken = Run(c.args + " --methods " + c.methods + small);
+    ASSERT_FALSE(exact.empty() || approximate.empty() || broken.empty()) << c.name;
+    double loss_small = 0;
+    for (const auto& [method, row] : exact) {
+      const double r1 = row.at("r_at_1");
+      EXPECT_NEAR(approximate.at(method).at("r_at_1"), r1, 0.01) << c.name << " " << method;
+      loss_small = std::max(loss_small, r1 - broken.at(method).at("r_at_1"));
+    }
+    EXPECT_GE(loss_small, 0.01) << c.name << ": d'=32 with 5 candidates lost no recall";
+  }
 }
 
 // Issue 14's promise: on every real case in the repository the default bsf (fusion mixture,

@@ -2,6 +2,7 @@
 // (see --help and docs/performance.md). Every figure is the median of --repeats runs.
 #include <cblas.h>
 #include <faiss/IndexFlat.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
@@ -58,8 +59,10 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            random data: time only), exact vs the pca first stage with re-ranking (its index's
            build time and memory too)
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
-           D in {256,1024,4096} (combinations over 6 GB of memory are skipped), with the
-           references stored at --storage float32|float16|int8 (default float32)
+           D in {256,1024,4096} (combinations needing over 3/4 of the memory available are
+           skipped), with the references stored at --storage float32|float16|int8 (default
+           float32); exact, and for D > 256 also the pca first stage at its defaults (time
+           per query, its index's build time and memory; random data: time only)
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
 (describe: the first 10 images) and the scaling grid by 100x (a smoke test; its figures are
 not the documented ones).
@@ -304,9 +307,34 @@ void Batch(int repeats, int scale) {
       100.0 * gemm / ours);
 }
 
+// Bytes of memory the kernel reports available (MemAvailable), 0 if unknown.
+double AvailableBytes() {
+  std::ifstream in("/proc/meminfo");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("MemAvailable:", 0) == 0) return std::stod(line.substr(13)) * 1024;
+  }
+  return 0;
+}
+
+// Each shape exact, then (D above the first stage's d') with the pca first stage at its
+// defaults: its index's build time and bytes, and the time per query through it.
 void Scaling(int repeats, int scale, StoragePrecision storage) {
-  std::printf("scaling (%s storage)\n", ToString(storage).c_str());
-  std::printf("scaling        N     M      D   ms/query   descriptor MB   resident MB   ratio\n");
+  const FirstStageOptions pca = [] {
+    FirstStageOptions o;
+    o.kind = "pca";
+    return o;
+  }();
+  std::printf("scaling (%s storage; pca: d'=%d, %d re-ranked per set, basis from %d rows)\n",
+              ToString(storage).c_str(), pca.approximate.dimensions, pca.approximate.rerank,
+              pca.approximate.sample_rows);
+  std::printf(
+      "scaling        N     M      D   exact ms/query   descriptor MB   resident MB   ratio"
+      "   pca ms/query   speed-up   index s   index MB\n");
+  const double limit = 0.75 * AvailableBytes();
+  // Every block of 1 MB or more mapped on its own and returned when freed: otherwise glibc
+  // raises its threshold after the first large free and the next shape reuses the heap the
+  // last one left, so that its resident growth reads as zero.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
   for (int n : {1000, 10000, 100000}) {
     for (int m : {1, 3, 10}) {
       for (int d : {256, 1024, 4096}) {
@@ -314,20 +342,37 @@ void Scaling(int repeats, int scale, StoragePrecision storage) {
         const double bytes = static_cast<double>(BytesPerElement(storage)) * s.m * s.n * s.d;
         // A reduced-precision set is made as float32 first and converted.
         const double peak = bytes + (storage == StoragePrecision::kFloat32 ? 0.0 : 4.0 * s.n * s.d);
-        if (peak > 6e9) {
-          std::printf("scaling  %7d  %4d  %5d   skipped (%.1f GB of descriptors)\n", s.n, m, d,
-                      bytes / 1e9);
+        if (peak > limit) {
+          std::printf(
+              "scaling  %7d  %4d  %5d   skipped (%.1f GB of descriptors; %.1f GB is 3/4 of the "
+              "memory available)\n",
+              s.n, m, d, bytes / 1e9, limit / 1e9);
           continue;
         }
         const size_t before = ResidentBytes();
         PlaceRecognizer r = MakeRecognizer(s, 30, storage);
         const Eigen::VectorXf q = Random(1, d, 5).row(0).transpose();
-        const double ms = TimeMs(std::max(1, repeats / 2), [&] {
-          g_sink = static_cast<float>(r.Recognize(q, false).belief.match);
-        });
+        const auto time_query = [&] {
+          return TimeMs(std::max(1, repeats / 2),
+                        [&] { g_sink = static_cast<float>(r.Recognize(q, false).belief.match); });
+        };
+        const double ms = time_query();
         const double resident = static_cast<double>(ResidentBytes() - before);
-        std::printf("scaling  %7d  %4d  %5d  %9.2f  %14.1f  %12.1f   %.2f\n", s.n, m, d, ms,
+        std::printf("scaling  %7d  %4d  %5d  %15.2f  %14.1f  %12.1f   %5.2f", s.n, m, d, ms,
                     bytes / 1e6, resident / 1e6, resident / bytes);
+        if (d > pca.approximate.dimensions) {
+          RecognizerOptions options;
+          options.first_stage = pca;
+          r.SetOptions(options);
+          const auto t0 = std::chrono::steady_clock::now();
+          r.PrepareFirstStage();
+          const double index_s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          const double pca_ms = time_query();
+          std::printf("  %13.2f  %8.1fx  %8.2f  %9.1f", pca_ms, ms / pca_ms, index_s,
+                      r.distance_stage().index()->MemoryBytes() / 1e6);
+        }
+        std::printf("\n");
       }
     }
   }

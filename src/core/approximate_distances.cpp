@@ -232,6 +232,7 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
       basis_.data(), dp, dimension_, dimension_, set.precision() == StoragePrecision::kInt8);
   const kernels::RefRows rows = StoredRows(set);
   const Split split(n, kProjectRows);
+  std::vector<double> part_energy(static_cast<size_t>(split.parts), 0.0);
   RunParallel(split.parts, DistanceThreads(), [&](int t) {
     const int r0 = split.Begin(t), r1 = split.Begin(t + 1), m = r1 - r0;
     std::vector<float> coords(static_cast<size_t>(dp) *
@@ -239,9 +240,14 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
     kernels::Dots(rows, r0, r1, directions, coords.data(), m);
     // Loops along the rows (contiguous in `coords`): the scale of each row, then its codes.
     std::vector<float> max_abs(static_cast<size_t>(m), 0.0f), inverse(static_cast<size_t>(m));
+    double energy = 0;
     for (int j = 0; j < dp; ++j) {
-      for (int i = 0; i < m; ++i) max_abs[i] = std::max(max_abs[i], std::fabs(coords[j * m + i]));
+      for (int i = 0; i < m; ++i) {
+        max_abs[i] = std::max(max_abs[i], std::fabs(coords[j * m + i]));
+        energy += static_cast<double>(coords[j * m + i]) * coords[j * m + i];
+      }
     }
+    part_energy[static_cast<size_t>(t)] = energy;
     for (int i = 0; i < m; ++i) {
       out.row_scales[static_cast<size_t>(r0 + i)] = max_abs[i] / 127.0f;
       inverse[i] = max_abs[i] > 0 ? 127.0f / max_abs[i] : 0.0f;
@@ -254,7 +260,19 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
       }
     }
   });
+  // Summed in the parts' order: the same figure on any number of threads.
+  for (const double e : part_energy) out.projected_energy += e;
+  for (int r = 0; r < n; ++r) out.energy += set.squared_norms()(r);
   return out;
+}
+
+double ApproximateIndex::RetainedEnergy() const {
+  double projected = 0, energy = 0;
+  for (const SetCodes& c : sets_) {
+    projected += c.projected_energy;
+    energy += c.energy;
+  }
+  return energy > 0 ? std::min(1.0, projected / energy) : 1.0;
 }
 
 void ApproximateIndex::CheckSameMap(const ReferenceMap& map) const {

@@ -1,5 +1,6 @@
 #include "bsf_vpr/core/first_stage.h"
 
+#include <cstdio>
 #include <stdexcept>
 
 namespace bsf_vpr {
@@ -60,6 +61,18 @@ std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const R
   if (options_.kind == "exact") return ComputeDistances(metric, queries, map);
   Prepare(map);
   return index_->Distances(metric, queries, map);
+}
+
+std::string DistanceStage::Summary() const {
+  if (options_.kind == "exact") return "exact";
+  if (!index_) return "pca: no index built yet";
+  char text[160];
+  std::snprintf(text, sizeof text,
+                "pca: %d dimensions keeping %.1f%% of the rows' energy, %d re-ranked per set, "
+                "%.1f MB",
+                index_->dimensions(), 100.0 * index_->RetainedEnergy(), index_->options().rerank,
+                index_->MemoryBytes() / 1e6);
+  return text;
 }
 
 }  // namespace bsf_vpr

@@ -221,12 +221,9 @@ void FusionNode::PrepareFirstStage() {
   }
   const ros::WallTime start = ros::WallTime::now();
   recognizer_.PrepareFirstStage();
-  const ApproximateIndex& index = *recognizer_.distance_stage().index();
-  ROS_INFO(
-      "bsf_vpr: first stage pca: %d dimensions fitted to %d rows, %d places projected in "
-      "%.2f s (%.1f MB)",
-      index.dimensions(), index.sample_rows(), recognizer_.map().num_places(),
-      (ros::WallTime::now() - start).toSec(), index.MemoryBytes() / 1e6);
+  ROS_INFO("bsf_vpr: first stage %s, %d places projected in %.2f s",
+           recognizer_.distance_stage().Summary().c_str(), recognizer_.map().num_places(),
+           (ros::WallTime::now() - start).toSec());
 }
 
 double FusionNode::PlaceSpacing() const {
@@ -278,15 +275,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped descriptors", rejected_);
   status.add("method", recognizer_.options().method);
   status.add("distance", ToString(recognizer_.options().metric));
-  const FirstStageOptions& first = recognizer_.options().first_stage;
-  if (first.kind == "exact") {
-    status.add("first stage", "exact");
-  } else if (const ApproximateIndex* index = recognizer_.distance_stage().index()) {
-    status.addf("first stage", "pca: %d dimensions, %d re-ranked per set, %.1f MB",
-                index->dimensions(), first.approximate.rerank, index->MemoryBytes() / 1e6);
-  } else {
-    status.add("first stage", "pca: no index (no reference set loaded)");
-  }
+  status.add("first stage", recognizer_.distance_stage().Summary());
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());

@@ -42,7 +42,7 @@ RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
 
 }  // namespace
 
-void BenchmarkLarge(int repeats, int scale) {
+void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage) {
   const int m = 10, n = 100000 / scale, d = 4096;
   PlaceRecognizer recognizer;
   recognizer.SetStoragePrecision(StoragePrecision::kInt8);
@@ -67,7 +67,7 @@ void BenchmarkLarge(int repeats, int scale) {
   const double exact_ms = time_queries(recognizer);
 
   RecognizerOptions options;
-  options.first_stage.kind = "pca";
+  options.first_stage = first_stage;
   recognizer.SetOptions(options);
   const double rss1 = ResidentMb();
   t0 = Clock::now();

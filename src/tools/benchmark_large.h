@@ -3,11 +3,14 @@
 // against the pca first stage with exact re-ranking (first_stage.h), in the same run.
 #pragma once
 
+#include "bsf_vpr/core/first_stage.h"
+
 namespace bsf_vpr {
 namespace tools {
 
-// `scale` divides N (the --quick smoke test); `repeats` queries are timed per stage.
-void BenchmarkLarge(int repeats, int scale);
+// `scale` divides N (the --quick smoke test); `repeats` queries are timed per stage;
+// `first_stage` is the pca stage timed against exact search.
+void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage);
 
 }  // namespace tools
 }  // namespace bsf_vpr

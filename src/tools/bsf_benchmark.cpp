@@ -33,7 +33,8 @@ using tools::ResidentBytes;
 
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
-                     [--images DIR] [--quick]
+                     [--images DIR] [--first-stage-dimensions D] [--rerank-candidates K]
+                     [--first-stage-sample-rows S] [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
 and the GEMM probe (OpenBLAS sgemm).
@@ -61,11 +62,14 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations needing over 3/4 of the memory available are
            skipped), with the references stored at --storage float32|float16|int8 (default
-           float32); exact, and for D > 256 also the pca first stage at its defaults (time
-           per query, its index's build time and memory; random data: time only)
+           float32); exact, and for D above the first stage's d' also the pca first stage
+           (time per query, its index's build time and memory; random data: time only)
+The large and scaling sections take the pca first stage's options as bsf_evaluate and the
+fusion node do (defaults: d' = 256, 1000 re-ranked per set, basis from 2048 rows):
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
 (describe: the first 10 images) and the scaling grid by 100x (a smoke test; its figures are
 not the documented ones).
+  --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
 The figures are printed on standard output, a line per measurement; no file is written.
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments.
@@ -318,12 +322,7 @@ double AvailableBytes() {
 
 // Each shape exact, then (D above the first stage's d') with the pca first stage at its
 // defaults: its index's build time and bytes, and the time per query through it.
-void Scaling(int repeats, int scale, StoragePrecision storage) {
-  const FirstStageOptions pca = [] {
-    FirstStageOptions o;
-    o.kind = "pca";
-    return o;
-  }();
+void Scaling(int repeats, int scale, StoragePrecision storage, const FirstStageOptions& pca) {
   std::printf("scaling (%s storage; pca: d'=%d, %d re-ranked per set, basis from %d rows)\n",
               ToString(storage).c_str(), pca.approximate.dimensions, pca.approximate.rerank,
               pca.approximate.sample_rows);
@@ -384,6 +383,8 @@ int Run(int argc, char** argv) {
   std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
   StoragePrecision storage = StoragePrecision::kFloat32;
+  FirstStageOptions first_stage;  // of the large and scaling sections
+  first_stage.kind = "pca";
   for (int i = 1; i < argc; ++i) {
     const std::string f = argv[i];
     if (f == "-h" || f == "--help") {
@@ -406,6 +407,8 @@ int Run(int argc, char** argv) {
       evaluate_dir = v;
     else if (f == "--images")
       images = v;
+    else if (f != "--first-stage" && FirstStageOptionsTable().SetFromFlag(f, v, &first_stage))
+      continue;  // --first-stage-dimensions, --rerank-candidates, --first-stage-sample-rows
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -419,14 +422,14 @@ int Run(int argc, char** argv) {
     else if (s == "batch")
       Batch(repeats, scale);
     else if (s == "large")
-      tools::BenchmarkLarge(std::max(repeats, 3), scale == 1 ? 1 : 100);
+      tools::BenchmarkLarge(std::max(repeats, 3), scale == 1 ? 1 : 100, first_stage);
     else if (s == "evaluate")
       tools::BenchmarkEvaluate(repeats, scale, evaluate_dir + (scale == 1 ? "" : "_quick"));
     else if (s == "describe")
       tools::BenchmarkDescribe(repeats, scale, images,
                                std::string(BSF_SOURCE_DIR) + "/test/data/models");
     else if (s == "scaling")
-      Scaling(repeats, scale, storage);
+      Scaling(repeats, scale, storage, first_stage);
     else
       throw std::invalid_argument("unknown section '" + s +
                                   "' (fusion, query, batch, evaluate, large, describe, scaling)");

@@ -142,12 +142,7 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
                       std::to_string(data->input.num_queries) + " queries, dimension " +
                       std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
                       " storage, " + ToString(metric) + " distance" + how +
-                      (data->stage.index() ? ", first stage pca (" +
-                                                 std::to_string(data->stage.index()->dimensions()) +
-                                                 " dimensions, " +
-                                                 std::to_string(args.first_stage.approximate.rerank) +
-                                                 " re-ranked per set)"
-                                           : "");
+                      (data->stage.index() ? ", first stage " + data->stage.Summary() : "");
 }
 
 void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cstring>
 #include <numeric>
@@ -74,9 +75,10 @@ std::string ErrorOf(F f) {
 TEST(ApproximateOptions, ValidateNamesTheBadField) {
   EXPECT_NO_THROW(ApproximateOptions().Validate());
   EXPECT_NO_THROW(Options(1, 0, 1).Validate());
-  for (const auto& [field, options] :
+  for (const auto& [field, bad] :
        {std::pair{"dimensions", Options(0, 10)}, std::pair{"rerank", Options(8, -1)},
         std::pair{"sample_rows", Options(8, 10, 0)}}) {
+    const ApproximateOptions options = bad;  // a structured binding cannot be captured (C++17)
     const std::string error = ErrorOf([&] { options.Validate(); });
     EXPECT_NE(error.find(std::string("ApproximateOptions.") + field), std::string::npos) << error;
     const ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
@@ -357,6 +359,44 @@ TEST(ApproximateRealData, NordlandRecallWithinOnePointOfExactSearch) {
   // Far from it (measured -5.1 and -4.3 points; -4.1 to -5.5 over seeds 0-7).
   EXPECT_LT(ApproximateCorrect(data, Options(64, 10, 512)), exact - 45);
   EXPECT_LT(ApproximateCorrect(data, Options(256, 0, 512)), exact - 45);
+}
+
+// RetainedEnergy is sum ||P r||^2 / sum ||r||^2 over every row of the map: computed here from
+// the basis directly (the exact distances of rows to their projections do not depend on the
+// codes); 1 with as many dimensions as the rows' rank, less with fewer, the same on any
+// number of threads.
+TEST(ApproximateIndex, RetainedEnergyIsTheShareOfTheRowsNormsTheBasisKeeps) {
+  const ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
+  double previous = 0;
+  for (int dimensions : {1, 3, 6, 40}) {
+    const ApproximateIndex index(map, Options(dimensions, 0));
+    const double retained = index.RetainedEnergy();
+    // The same share from the sample's own singular values: the map's rows are all in the
+    // sample (273 < 2048), so the top d' squared singular values over their sum.
+    int total = 0;
+    for (const StoredReferenceSet& s : map.sets()) total += s.size();
+    RowMatrixXf all(total, map.dimension());
+    int at = 0;
+    for (const StoredReferenceSet& s : map.sets()) {
+      const RowMatrixXf rows = s.ToReferenceSet().descriptors;
+      all.middleRows(at, rows.rows()) = rows;
+      at += static_cast<int>(rows.rows());
+    }
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(all.cast<double>());
+    const Eigen::VectorXd sv2 = svd.singularValues().array().square();
+    const double expected =
+        sv2.head(std::min<Eigen::Index>(dimensions, sv2.size())).sum() / sv2.sum();
+    EXPECT_NEAR(retained, expected, 1e-4) << dimensions << " dimensions";
+    EXPECT_GT(retained, previous) << dimensions << " dimensions";
+    previous = retained;
+    {
+      ScopedDistanceThreads one(1);
+      EXPECT_EQ(ApproximateIndex(map, Options(dimensions, 0)).RetainedEnergy(), retained);
+    }
+  }
+  EXPECT_NEAR(previous, 1.0, 1e-5);  // 40 dimensions: the rows' whole space
+  // Six directions carry the rows (plus noise of 0.05): nearly all their energy.
+  EXPECT_GT(ApproximateIndex(map, Options(6, 0)).RetainedEnergy(), 0.98);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """rostest: the fusion node with the pca first stage, on Gardens Point (real HDC-DELF)."""
 import os
+import re
 import shutil
 import sys
 import unittest
@@ -54,8 +55,8 @@ class FirstStage(unittest.TestCase):
     def test_matches_are_exact_searchs_through_loads_and_unloads(self):
         r = self.load(path="day.yaml", name="", condition="")
         self.assertTrue(r.success, r.message)
-        wait_for(lambda: (self.first_stage_status() or "").startswith("pca: 64 dimensions, 20 "
-                                                                      "re-ranked per set"),
+        wait_for(lambda: re.match(r"pca: 64 dimensions keeping \d+\.\d% of the rows' energy, "
+                                  r"20 re-ranked per set", self.first_stage_status() or ""),
                  20, "diagnostics reporting the pca first stage")
         # One set: bsf matches the nearest place by cosine distance, which the 20 re-ranked
         # candidates make exact whenever the nearest is among them.

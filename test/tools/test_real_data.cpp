@@ -159,41 +159,43 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
              " --fusion product");
 }
 
-// The pca first stage (first_stage.h) with its defaults (d' = 256, 100 re-ranked per set)
-// keeps R@1 within one point of exact search on the real data, for single images and over
-// time (+seq, +filter, which read every distance, most of them approximate); with too few
-// dimensions and candidates it loses recall (docs/performance.md, where it breaks), which
-// also shows the flags reach the index.
-TEST_F(RealData, ThePcaFirstStageKeepsRecallAtOneWithinOnePointOfExact) {
-  const std::string pca = " --first-stage pca";
-  const std::string small = " --first-stage pca --first-stage-dimensions 32 --rerank-candidates 5";
+// The pca first stage (first_stage.h) on the real data, for single images and over time
+// (+seq, +filter, which read every distance, most of them approximate):
+//  - Nordland 1500 with HOG (D = 756 > d' = 256, 1500 rows): re-ranking 1% of the rows (15;
+//    the default's share of a 100,000-place set) keeps R@1 within one point of exact search;
+//    32 dimensions and 5 candidates lose recall.
+//  - Gardens Point (HDC-DELF, 4096-D, 200 rows): a basis fitted to all rows spans them, so the
+//    first stage is exact but for int8 rounding; fitted to half of them it no longer fits
+//    the other half (the energy it keeps falls, printed in the description) and recall drops:
+//    where the approximation breaks (docs/performance.md).
+TEST_F(RealData, ThePcaFirstStageKeepsRecallAtOneWithinOnePointOfExactWhereItFitsTheMap) {
   struct PcaCase {
-    std::string name, args, methods;
+    std::string name, args, methods, kept, broken;
   };
   const std::vector<PcaCase> cases = {
-      {"Gardens Point (HDC-DELF, 4096-D)",
-       " --reference day=" + kData + "gardens_point_hdc_delf/day_left.npy --query " + kData +
-           "gardens_point_hdc_delf/night_right.npy --distance cosine --tolerance 8",
-       "bsf,nn:day"},
       {"Nordland 1500 (HOG)",
        " --reference summer=" + kData + "nordland_64x32/summer --query " + kData +
            "nordland_64x32/winter --image-descriptor hog --tolerance 2",
-       "bsf,bsf+seq,bsf+filter"},
-      {"Nordland-100 winter from summer and fall (patchnorm)",
-       NordlandHundredArgs("winter", "patchnorm"), "bsf,bsf+seq,nn:summer,nn:fall"},
+       "bsf,bsf+seq,bsf+filter", " --first-stage pca --rerank-candidates 15",
+       " --first-stage pca --first-stage-dimensions 32 --rerank-candidates 5"},
+      {"Gardens Point (HDC-DELF, 4096-D)",
+       " --reference day=" + kData + "gardens_point_hdc_delf/day_left.npy --query " + kData +
+           "gardens_point_hdc_delf/night_right.npy --distance cosine --tolerance 8",
+       "bsf,bsf+seq", " --first-stage pca --rerank-candidates 2",
+       " --first-stage pca --rerank-candidates 2 --first-stage-sample-rows 100"},
   };
   for (const PcaCase& c : cases) {
     const auto exact = Run(c.args + " --methods " + c.methods);
-    const auto approximate = Run(c.args + " --methods " + c.methods + pca);
-    const auto broken = Run(c.args + " --methods " + c.methods + small);
-    ASSERT_FALSE(exact.empty() || approximate.empty() || broken.empty()) << c.name;
-    double loss_small = 0;
+    const auto kept = Run(c.args + " --methods " + c.methods + c.kept);
+    const auto broken = Run(c.args + " --methods " + c.methods + c.broken);
+    ASSERT_FALSE(exact.empty() || kept.empty() || broken.empty()) << c.name;
+    double loss = 0;
     for (const auto& [method, row] : exact) {
       const double r1 = row.at("r_at_1");
-      EXPECT_NEAR(approximate.at(method).at("r_at_1"), r1, 0.01) << c.name << " " << method;
-      loss_small = std::max(loss_small, r1 - broken.at(method).at("r_at_1"));
+      EXPECT_NEAR(kept.at(method).at("r_at_1"), r1, 0.01) << c.name << " " << method;
+      loss = std::max(loss, r1 - broken.at(method).at("r_at_1"));
     }
-    EXPECT_GE(loss_small, 0.01) << c.name << ": d'=32 with 5 candidates lost no recall";
+    EXPECT_GE(loss, 0.02) << c.name << ": " << c.broken << " lost no recall";
   }
 }
 

@@ -32,6 +32,8 @@ void ApproximateOptions::Validate() const {
   require(dimensions >= 1, "dimensions", ">= 1", dimensions);
   require(rerank >= 0, "rerank", ">= 0", rerank);
   require(sample_rows >= 1, "sample_rows", ">= 1", sample_rows);
+  require(sample_rows <= kMaxSampleRows, "sample_rows", "<= " + std::to_string(kMaxSampleRows),
+          sample_rows);
 }
 
 namespace {
@@ -204,7 +206,9 @@ void ApproximateIndex::FitBasis(const ReferenceMap& map) {
   const Eigen::VectorXf& lambda = solver.eigenvalues();  // ascending
   const float largest = lambda(s - 1);
   int k = 0;
-  while (k < std::min(options_.dimensions, s) && lambda(s - 1 - k) > kRankTolerance * largest) ++k;
+  // At most D directions: past the rows' rank the eigenvalues are rounding noise.
+  const int most = std::min({options_.dimensions, s, d});
+  while (k < most && lambda(s - 1 - k) > kRankTolerance * largest) ++k;
   dimensions_ = std::max(k, 1);  // an all-zero sample keeps one zero direction
   // Row j of `weights` is v_j / sqrt(lambda_j) (zero past the rank); basis row j is then
   // <weights_j, column i of X> for every i, a product of the kernels with X transposed.
@@ -264,6 +268,12 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
   for (const double e : part_energy) out.projected_energy += e;
   for (int r = 0; r < n; ++r) out.energy += set.squared_norms()(r);
   return out;
+}
+
+int64_t ApproximateIndex::rows() const {
+  int64_t n = 0;
+  for (const SetCodes& c : sets_) n += c.rows;
+  return n;
 }
 
 double ApproximateIndex::RetainedEnergy() const {

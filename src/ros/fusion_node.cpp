@@ -220,10 +220,22 @@ void FusionNode::PrepareFirstStage() {
     return;
   }
   const ros::WallTime start = ros::WallTime::now();
-  recognizer_.PrepareFirstStage();
-  ROS_INFO("bsf_vpr: first stage %s, %d places projected in %.2f s",
-           recognizer_.distance_stage().Summary().c_str(), recognizer_.map().num_places(),
-           (ros::WallTime::now() - start).toSec());
+  try {
+    recognizer_.PrepareFirstStage();
+  } catch (const std::exception& e) {
+    // The sets stay as they are; exact search answers until the node is restarted, rather
+    // than every descriptor trying the build again.
+    RecognizerOptions exact = recognizer_.options();
+    exact.first_stage.kind = "exact";
+    recognizer_.SetOptions(exact);
+    params_.recognizer.first_stage.kind = "exact";
+    first_stage_error_ = e.what();
+    ROS_ERROR("bsf_vpr: the pca first stage could not be built (%s): exact search from now on",
+              e.what());
+    return;
+  }
+  ROS_INFO("bsf_vpr: first stage %s, built in %.2f s",
+           recognizer_.distance_stage().Summary().c_str(), (ros::WallTime::now() - start).toSec());
 }
 
 double FusionNode::PlaceSpacing() const {
@@ -264,6 +276,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
                     rejected_, last_rejection_.c_str());
   } else if (map.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
+  } else if (!first_stage_error_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "first stage pca failed, exact search instead: " + first_stage_error_);
   } else if (!type_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
   } else {
@@ -275,7 +290,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped descriptors", rejected_);
   status.add("method", recognizer_.options().method);
   status.add("distance", ToString(recognizer_.options().metric));
-  status.add("first stage", recognizer_.distance_stage().Summary());
+  status.add("first stage", first_stage_error_.empty()
+                                ? recognizer_.distance_stage().Summary()
+                                : "exact: pca failed: " + first_stage_error_);
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());

@@ -64,7 +64,9 @@ class FusionNode {
   // loaded place poses, or 1. Caller holds mutex_.
   double PlaceSpacing() const;
   // The first stage's index for the current sets (first_stage pca), built now and logged, so
-  // that the next descriptor does not wait for it. Called with mutex_ held.
+  // that the next descriptor does not wait for it (descriptors wait meanwhile: the map is
+  // under mutex_, which the caller holds). Never throws: a failed build (memory) falls back
+  // to exact search, logged and in diagnostics, the sets as they are.
   void PrepareFirstStage();
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -105,6 +107,7 @@ class FusionNode {
   // Statistics since the last diagnostics update (guarded by mutex_).
   int processed_ = 0, rejected_ = 0;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
+  std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
   std::string last_rejection_;
   std::string type_mismatch_;   // the last descriptor_type that differs from the sets'
   SelectionCounters counters_;  // since start or the last statistics reset

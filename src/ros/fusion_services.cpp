@@ -18,7 +18,8 @@ bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response
 
 bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
   // Runs on the load queue's own thread: the files are read without the lock, so
-  // descriptors keep flowing meanwhile; only adding the set takes it.
+  // descriptors keep flowing meanwhile; only adding the set takes it (and, with
+  // first_stage pca, building the index for the new map: seconds for a large map).
   try {
     if (!data_dir_) {
       throw std::invalid_argument("no data directory is configured (parameter data_directory)");

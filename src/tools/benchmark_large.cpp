@@ -44,6 +44,15 @@ RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
 
 void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage) {
   const int m = 10, n = 100000 / scale, d = 4096;
+  // int8 rows, plus one set at float32 while it is made and converted.
+  const double needed = (static_cast<double>(m) + 4.0) * n * d;
+  if (needed > 0.75 * AvailableBytes()) {
+    std::printf(
+        "large   M=%d N=%d D=%d int8: skipped (needs %.1f GB; %.1f GB is 3/4 of the "
+        "memory available)\n",
+        m, n, d, needed / 1e9, 0.75 * AvailableBytes() / 1e9);
+    return;
+  }
   PlaceRecognizer recognizer;
   recognizer.SetStoragePrecision(StoragePrecision::kInt8);
   const double rss0 = ResidentMb();

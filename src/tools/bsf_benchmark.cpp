@@ -28,6 +28,7 @@
 namespace {
 
 using namespace bsf_vpr;
+using tools::AvailableBytes;
 using tools::Median;
 using tools::ResidentBytes;
 
@@ -309,15 +310,6 @@ void Batch(int repeats, int scale) {
       "throughput\n",
       nq, s.m, s.n, s.d, ours, ours / nq, distances, openblas_get_corename(), threads, gemm,
       100.0 * gemm / ours);
-}
-
-// Bytes of memory the kernel reports available (MemAvailable), 0 if unknown.
-double AvailableBytes() {
-  std::ifstream in("/proc/meminfo");
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("MemAvailable:", 0) == 0) return std::stod(line.substr(13)) * 1024;
-  }
-  return 0;
 }
 
 // Each shape exact, then (D above the first stage's d') with the pca first stage at its

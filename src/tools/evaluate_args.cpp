@@ -176,6 +176,20 @@ void CheckCombination(const EvaluateArgs& a) {
         "one --query are one descriptor already)");
   }
   const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
+  const ApproximateOptions defaults;
+  const ApproximateOptions& approximate = a.first_stage.approximate;
+  if (a.first_stage.kind == "exact" &&
+      (approximate.dimensions != defaults.dimensions || approximate.rerank != defaults.rerank ||
+       approximate.sample_rows != defaults.sample_rows)) {
+    throw std::invalid_argument(
+        "--first-stage-dimensions, --rerank-candidates and --first-stage-sample-rows go with "
+        "--first-stage pca");
+  }
+  if (a.first_stage.kind != "exact" && (matrix_mode || !a.results_bag.empty())) {
+    throw std::invalid_argument(
+        "--first-stage pca computes distances from descriptors (--reference/--query): "
+        "--distances/--similarities and --results-bag give them already");
+  }
   if (!a.query_poses.empty() && a.tolerance_m < 0) {
     throw std::invalid_argument("--query-poses goes with --tolerance-m R");
   }

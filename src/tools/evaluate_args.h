@@ -42,7 +42,7 @@ struct EvaluateArgs {
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;
-  FirstStageOptions first_stage;  // descriptor inputs: exact or the pca first stage
+  FirstStageOptions first_stage;    // descriptor inputs: exact or the pca first stage
   ImageDescriberOptions describer;  // for image folders
   std::string out_dir;
   bool progress = true;

@@ -33,15 +33,6 @@ class FirstStage(unittest.TestCase):
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append)
         attach_fusion_services(cls, NS)
 
-    def first_stage_status(self):
-        """The latest 'first stage' value the fusion node's diagnostics reported, or None."""
-        for array in reversed(self.diagnostics):
-            for status in array.status:
-                for kv in status.values:
-                    if kv.key == "first stage":
-                        return kv.value
-        return None
-
     def matches(self, queries):
         out = []
         for q in queries:
@@ -52,12 +43,33 @@ class FirstStage(unittest.TestCase):
             out.append(r.belief.match)
         return out
 
+    def index_rows_after(self, stamp):
+        """The rows of the index in the first diagnostics published after `stamp`; fails the
+        test if they report no index (the node did not build it when the map changed)."""
+        found = []
+
+        def reported():
+            for array in self.diagnostics:
+                if array.header.stamp <= stamp:
+                    continue
+                for status in array.status:
+                    for kv in status.values:
+                        if kv.key == "first stage":
+                            found.append(kv.value)
+                            return True
+            return False
+        wait_for(reported, 20, "diagnostics after %s" % stamp.to_sec())
+        m = re.match(r"pca: 64 dimensions keeping (\d+\.\d)% of the energy of (\d+) rows, "
+                     r"20 re-ranked per set, [\d.]+ MB", found[0])
+        self.assertIsNotNone(m, found[0])
+        self.assertGreater(float(m.group(1)), 50.0, found[0])
+        return int(m.group(2))
+
     def test_matches_are_exact_searchs_through_loads_and_unloads(self):
         r = self.load(path="day.yaml", name="", condition="")
         self.assertTrue(r.success, r.message)
-        wait_for(lambda: re.match(r"pca: 64 dimensions keeping \d+\.\d% of the rows' energy, "
-                                  r"20 re-ranked per set", self.first_stage_status() or ""),
-                 20, "diagnostics reporting the pca first stage")
+        # Built at the load, before any descriptor: the diagnostics report it at once.
+        self.assertEqual(self.index_rows_after(rospy.Time.now()), 200)
         # One set: bsf matches the nearest place by cosine distance, which the 20 re-ranked
         # candidates make exact whenever the nearest is among them.
         day = self.day / np.linalg.norm(self.day, axis=1, keepdims=True)
@@ -67,15 +79,16 @@ class FirstStage(unittest.TestCase):
         got = self.matches(queries)
         same = sum(a == b for a, b in zip(got, nearest))
         self.assertGreaterEqual(same, len(queries) - 1, list(zip(queries, got, nearest)))
-        # The map changes: the index follows it (a second set, then the first unloaded).
+        # The map changes: the index follows it at once, before any descriptor asks for it.
         r = self.load(path="day.npy", name="again", condition="")
         self.assertTrue(r.success, r.message)
+        self.assertEqual(self.index_rows_after(rospy.Time.now()), 400)
         self.assertEqual(len(self.matches(queries[:5])), 5)
         r = self.unload(name="day")
         self.assertTrue(r.success, r.message)
+        self.assertEqual(self.index_rows_after(rospy.Time.now()), 200)
         got = self.matches(queries)
         self.assertGreaterEqual(sum(a == b for a, b in zip(got, nearest)), len(queries) - 1)
-
 
 if __name__ == "__main__":
     rostest.rosrun("bsf_vpr", "first_stage", FirstStage)

@@ -652,6 +652,16 @@ TEST_F(EvaluateTool, BadInputGivesOneLineNamingTheProblemAndExitCode2) {
       {"--distances a=" + dir_ + "/neg.npy --tolerance 2", "negative"},
       {"--reference day=" + kSource + "/test --query " + night + " --tolerance 2",
        "no image files"},
+      // The first stage: its values, and where it cannot apply.
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --first-stage pq",
+       "--first-stage must be exact | pca"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --first-stage pca" +
+           " --first-stage-sample-rows 100000",
+       "--first-stage-sample-rows must be in [1, 8192]"},
+      {"--reference day=" + day + " --query " + night + " --tolerance 2 --rerank-candidates 5",
+       "go with --first-stage pca"},
+      {"--distances a=" + day + " --tolerance 2 --first-stage pca",
+       "--distances/--similarities and --results-bag give them already"},
   };
   for (const auto& [args, fragment] : cases) {
     ExpectOneLineRefusal(Evaluate(args), fragment, args);

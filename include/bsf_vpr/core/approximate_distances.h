@@ -39,9 +39,12 @@ struct ApproximateOptions {
   // map holds fewer) to fit the basis. Fitting costs O(sample_rows^2 D + sample_rows^3).
   int sample_rows = 2048;
   uint64_t seed = 0;  // of the sample
+  // The fit holds a sample_rows^2 Gram matrix (256 MB at this bound) and solves it in
+  // O(sample_rows^3): beyond it a fit would take hours.
+  static constexpr int kMaxSampleRows = 8192;
 
   // Throws std::invalid_argument naming the field: dimensions < 1, rerank < 0,
-  // sample_rows < 1.
+  // sample_rows < 1 or > kMaxSampleRows.
   void Validate() const;
 };
 
@@ -69,6 +72,7 @@ class ApproximateIndex {
   const ApproximateOptions& options() const { return options_; }
   int dimensions() const { return dimensions_; }    // d' in use (options' capped at the rank)
   int sample_rows() const { return sample_rows_; }  // rows the basis was fitted to
+  int64_t rows() const;                             // rows projected, over every set
   // The share of the rows' squared norms that their projections keep, over every row of
   // every set: sum ||P r||^2 / sum ||r||^2, in [0, 1]. The first stage's error on a row is
   // |<q, r> - <Pq, Pr>| <= ||q|| ||r|| sqrt(1 - ||P r||^2 / ||r||^2), whatever the query, so

@@ -42,7 +42,8 @@ class DistanceStage {
   // The index in use, or null (exact, or not built yet).
   const ApproximateIndex* index() const { return index_.get(); }
   // One line for logs and diagnostics: "exact", or "pca: 256 dimensions keeping 97.2% of
-  // the rows' energy, 1000 re-ranked per set, 264.2 MB" (or "pca: no index built yet").
+  // the energy of 1000000 rows, 1000 re-ranked per set, 264.2 MB" (or "pca: no index built
+  // yet").
   std::string Summary() const;
 
  private:

@@ -50,7 +50,6 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& stats,
 // log c_k + (e_k)^2 / (2 sigma^2) without the shift: PlaceMatchLogLikelihood minus one
 // constant per set. Enough where the constant cancels (a set that covers every place once).
 void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& stats,
-                                         const LikelihoodOptions& options,
-                                         double* log_likelihood);
+                                         const LikelihoodOptions& options, double* log_likelihood);
 
 }  // namespace bsf_vpr

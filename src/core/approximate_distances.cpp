@@ -168,15 +168,6 @@ void ToDistances(DistanceMetric metric, float query_squared_norm, const float* r
   }
 }
 
-void CheckFinite(const RowMatrixXf& queries) {
-  for (Eigen::Index q = 0; q < queries.rows(); ++q) {
-    const std::string problem = DescriptorProblem(queries.row(q));
-    if (!problem.empty()) {
-      throw std::invalid_argument("query descriptor " + std::to_string(q) + " " + problem);
-    }
-  }
-}
-
 }  // namespace
 
 ApproximateIndex::ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options)
@@ -327,7 +318,7 @@ std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
         "query descriptors have dimension " + std::to_string(queries.cols()) + ", reference set '" +
         sets_.front().name + "' has dimension " + std::to_string(dimension_));
   }
-  CheckFinite(queries);
+  CheckQueryDescriptors(queries);
   const int nq = static_cast<int>(queries.rows());
   Eigen::VectorXf qn(nq);  // squared norms, as ComputeDistances computes them
   for (int q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), dimension_);

@@ -33,7 +33,9 @@ void CheckDimension(const RowMatrixXf& queries, const std::string& set_name, int
   }
 }
 
-void CheckFinite(const RowMatrixXf& queries) {
+}  // namespace
+
+void CheckQueryDescriptors(const RowMatrixXf& queries) {
   for (Eigen::Index q = 0; q < queries.rows(); ++q) {
     const std::string problem = DescriptorProblem(queries.row(q));
     if (!problem.empty()) {
@@ -41,8 +43,6 @@ void CheckFinite(const RowMatrixXf& queries) {
     }
   }
 }
-
-}  // namespace
 
 namespace {
 
@@ -122,7 +122,7 @@ void PrepareJob(const RowMatrixXf& queries, const SetRows& set, int threads, Set
 std::vector<RowMatrixXf> ComputeAll(DistanceMetric metric, const RowMatrixXf& queries,
                                     const std::vector<SetRows>& sets) {
   for (const SetRows& set : sets) CheckDimension(queries, *set.name, set.refs.cols);
-  CheckFinite(queries);  // once, not per set
+  CheckQueryDescriptors(queries);  // once, not per set
   const int threads = DistanceThreads();
   std::vector<SetJob> jobs(sets.size());
   std::vector<std::pair<size_t, int>> tasks;  // (set, part)

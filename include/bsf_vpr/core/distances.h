@@ -68,6 +68,10 @@ RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
                                           const ReferenceMap& map);
 
+// Throws std::invalid_argument naming the first query row that DescriptorProblem refuses
+// (NaN, infinity, or values whose squared norm overflows): every distance function's check.
+void CheckQueryDescriptors(const RowMatrixXf& queries);
+
 // Views on row `query` of each per-set matrix, with each set's place ids and group (`groups`
 // empty: every set in group 0).
 std::vector<SetDistances> QueryRowViews(const std::vector<RowMatrixXf>& per_set, int query,

@@ -20,7 +20,8 @@ const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
               "", {}, /*live=*/true)
           .Include(
               MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; })
-          .Include(FirstStageOptionsTable(), [](auto& o) -> auto& { return o.first_stage; });
+          .Include(
+              FirstStageOptionsTable(), [](auto& o) -> auto& { return o.first_stage; });
   return kTable;
 }
 
@@ -93,7 +94,37 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const std::string problem = DescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
   const RowMatrixXf query = descriptor.transpose();
-  const std::vector<RowMatrixXf> distances = distances_.Distances(options_.metric, query, map_);
+  return Decide(distances_.Distances(options_.metric, query, map_), update_state, step_places);
+}
+
+Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& distances,
+                                                bool update_state,
+                                                std::optional<double> step_places) {
+  if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
+  if (static_cast<int>(distances.size()) != map_.num_sets()) {
+    throw std::invalid_argument("distances for " + std::to_string(distances.size()) +
+                                " set(s), the map holds " + std::to_string(map_.num_sets()));
+  }
+  for (int u = 0; u < map_.num_sets(); ++u) {
+    const RowMatrixXf& d = distances[static_cast<size_t>(u)];
+    const StoredReferenceSet& set = map_.set(u);
+    if (d.rows() != 1 || d.cols() != set.size()) {
+      throw std::invalid_argument("distances to set '" + set.name() + "' are " +
+                                  std::to_string(d.rows()) + " x " + std::to_string(d.cols()) +
+                                  ", expected 1 x " + std::to_string(set.size()));
+    }
+    // A distance is finite and not negative (NaN compares false): anything else would
+    // silently corrupt the belief.
+    if (!(d.array() >= 0.0f).all() || !d.allFinite()) {
+      throw std::invalid_argument("distances to set '" + set.name() +
+                                  "' hold a negative, NaN or infinite value");
+    }
+  }
+  return Decide(distances, update_state, step_places);
+}
+
+Recognition PlaceRecognizer::Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
+                                    std::optional<double> step_places) {
   std::vector<const std::vector<int>*> ids;
   for (const StoredReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids());
   const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
+
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/synthetic.h"
 
@@ -173,6 +176,91 @@ TEST(PlaceRecognizer, PcaFirstStageFollowsTheMapAndIsExactWhenEveryRowIsReRanked
   EXPECT_EQ(parsed.first_stage.approximate.rerank, 7);
   EXPECT_THROW(RecognizerOptionsTable().SetFromFlag("--first-stage", "faiss", &parsed),
                std::invalid_argument);
+}
+
+// A sharded map: each shard holds some of the sets and computes their distances alone; a
+// recognizer over the whole map's sets fuses them (RecognizeDistances) and gives bitwise
+// the single recognizer's beliefs, for every method with +filter and +seq, with 2 and 3
+// shards, both metrics, float32 and int8 storage.
+TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
+  SyntheticOptions opt;
+  opt.num_places = 90;
+  opt.dimension = 24;
+  opt.set_noise = {0.3, 0.4, 0.6};
+  opt.condition_strength = 0.5;
+  opt.query_noise = 0.3;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  const std::vector<std::vector<std::vector<int>>> shardings = {{{0}, {1, 2}}, {{2}, {0}, {1}}};
+  for (const StoragePrecision precision : {StoragePrecision::kFloat32, StoragePrecision::kInt8}) {
+    for (const DistanceMetric metric : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+      for (const std::string method :
+           {"bsf", "bsf+filter", "bsf+seq", "bsf+filter+seq", "bayes_full+filter", "med",
+            "med_selective+seq", "nn:c1+seq", "bayes:c2+filter"}) {
+        for (const auto& shards : shardings) {
+          RecognizerOptions o;
+          o.method = method;
+          o.metric = metric;
+          PlaceRecognizer single, combiner;
+          std::vector<PlaceRecognizer> holders(shards.size());
+          for (PlaceRecognizer* r : {&single, &combiner}) {
+            r->SetStoragePrecision(precision);
+            for (const StoredReferenceSet& s : data.map.sets()) {
+              r->AddReferenceSet(s.ToReferenceSet());
+            }
+            r->SetOptions(o);
+          }
+          for (size_t k = 0; k < shards.size(); ++k) {
+            holders[k].SetStoragePrecision(precision);
+            for (int u : shards[k]) holders[k].AddReferenceSet(data.map.set(u).ToReferenceSet());
+          }
+          const std::string what = method + ", " + ToString(metric) + ", " + ToString(precision) +
+                                   ", " + std::to_string(shards.size()) + " shards";
+          for (int q = 0; q < 25; ++q) {
+            const Eigen::VectorXf query = data.queries.row(q).transpose();
+            std::vector<RowMatrixXf> distances(3);
+            for (size_t k = 0; k < shards.size(); ++k) {
+              const std::vector<RowMatrixXf> own =
+                  ComputeDistances(metric, query.transpose(), holders[k].map());
+              for (size_t i = 0; i < shards[k].size(); ++i) distances[shards[k][i]] = own[i];
+            }
+            const Recognition a = single.Recognize(query, true);
+            const Recognition b = combiner.RecognizeDistances(distances, true);
+            ASSERT_EQ(a.belief.match, b.belief.match) << what << ", query " << q;
+            ASSERT_EQ(std::memcmp(&a.belief.confidence, &b.belief.confidence, sizeof(double)), 0)
+                << what << ", query " << q;
+            ASSERT_EQ(a.belief.accepted, b.belief.accepted) << what;
+            ASSERT_EQ(a.belief.top_places, b.belief.top_places) << what;
+            ASSERT_EQ(a.belief.log_posterior.size(), b.belief.log_posterior.size()) << what;
+            ASSERT_EQ(std::memcmp(a.belief.log_posterior.data(), b.belief.log_posterior.data(),
+                                  sizeof(double) * a.belief.log_posterior.size()),
+                      0)
+                << what << ", query " << q;
+            ASSERT_EQ(a.closest_set, b.closest_set) << what;
+          }
+        }
+      }
+    }
+  }
+}
+
+// What a shard sends is checked: the count of sets, each one's size, and its values.
+TEST(PlaceRecognizer, RecognizeDistancesRefusesWhatCannotBeTheSetsDistances) {
+  const SyntheticData data = Data();
+  PlaceRecognizer r = Loaded(data);
+  const std::vector<RowMatrixXf> good =
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), r.map());
+  EXPECT_NO_THROW(r.RecognizeDistances(good, false));
+  EXPECT_THROW(r.RecognizeDistances({good[0]}, true), std::invalid_argument);
+  std::vector<RowMatrixXf> bad = good;
+  bad[1] = good[1].leftCols(5);
+  EXPECT_THROW(r.RecognizeDistances(bad, true), std::invalid_argument);
+  for (const float value : {-1.0f, NAN, INFINITY}) {
+    bad = good;
+    bad[0](0, 3) = value;
+    EXPECT_THROW(r.RecognizeDistances(bad, true), std::invalid_argument) << value;
+  }
+  PlaceRecognizer empty;
+  EXPECT_THROW(empty.RecognizeDistances({}, true), std::invalid_argument);
 }
 
 }  // namespace

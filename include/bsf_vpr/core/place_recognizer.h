@@ -74,6 +74,16 @@ class PlaceRecognizer {
   Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state,
                         std::optional<double> step_places = std::nullopt);
 
+  // The same from the query's distances to every set, computed elsewhere: `distances[u]` is
+  // 1 x N_u for set u of map() (in its order), as ComputeDistances gives them. A process that
+  // holds some of the sets (a shard of a sharded map) computes them for its sets alone:
+  // ComputeDistances gives each set's distances in the same bits whatever other sets share
+  // its map, so the recognition is bitwise Recognize's. Throws std::invalid_argument (the
+  // state untouched) for the wrong number of sets, a wrong size, or a value that is
+  // negative, NaN or infinite.
+  Recognition RecognizeDistances(const std::vector<RowMatrixXf>& distances, bool update_state,
+                                 std::optional<double> step_places = std::nullopt);
+
   // Forgets everything carried between queries.
   void ResetPrior();
 
@@ -84,6 +94,9 @@ class PlaceRecognizer {
 
  private:
   MethodRunner& Runner();  // built on demand against the current sets
+  // Fusion, state and the closest set from checked distances (Recognize, RecognizeDistances).
+  Recognition Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
+                     std::optional<double> step_places);
 
   RecognizerOptions options_;
   Method method_;

@@ -67,10 +67,10 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            (time per query, its index's build time and memory; random data: time only)
 The large and scaling sections take the pca first stage's options as bsf_evaluate and the
 fusion node do (defaults: d' = 256, 1000 re-ranked per set, basis from 2048 rows):
+  --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
 --sections takes a comma-separated subset (default: all). --quick shrinks the shapes by 10x
 (describe: the first 10 images) and the scaling grid by 100x (a smoke test; its figures are
 not the documented ones).
-  --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
 The figures are printed on standard output, a line per measurement; no file is written.
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments.

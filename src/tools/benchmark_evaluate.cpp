@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/file_util.h"
+#include "cli_util.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -37,8 +38,7 @@ struct Run {
 
 // Runs `command` through the shell; its wall time and the CPU time of it and its children.
 Run Timed(const std::string& command) {
-  rusage before{}, after{};
-  getrusage(RUSAGE_CHILDREN, &before);
+  const double cpu_before = CpuSeconds(RUSAGE_CHILDREN);
   const auto t0 = std::chrono::steady_clock::now();
   FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (!pipe) throw std::runtime_error("cannot run: " + command);
@@ -47,10 +47,7 @@ Run Timed(const std::string& command) {
   for (size_t got; (got = fread(buf, 1, sizeof buf, pipe)) > 0;) r.output.append(buf, got);
   const int status = pclose(pipe);
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  getrusage(RUSAGE_CHILDREN, &after);
-  const auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
-  r.cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) + seconds(after.ru_stime) -
-            seconds(before.ru_stime);
+  r.cpu_s = CpuSeconds(RUSAGE_CHILDREN) - cpu_before;
   if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw std::runtime_error("failed: " + command + "\n" + r.output);
   }

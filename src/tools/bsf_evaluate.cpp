@@ -34,12 +34,9 @@ class PhaseTimes {
     double wall = 0, cpu = 0;
   };
   static Point Now() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    const auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
     return {
         std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(),
-        seconds(u.ru_utime) + seconds(u.ru_stime)};
+        bsf_vpr::tools::CpuSeconds(RUSAGE_SELF)};
   }
   static std::string Format(double v, int decimals) {
     char buf[32];

@@ -1,5 +1,7 @@
 #include "cli_util.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -8,6 +10,13 @@
 
 namespace bsf_vpr {
 namespace tools {
+
+double CpuSeconds(int who) {
+  rusage u{};
+  getrusage(who, &u);
+  const auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
+  return seconds(u.ru_utime) + seconds(u.ru_stime);
+}
 
 double ParseNumber(const std::string& flag, const std::string& value) {
   size_t used = 0;

@@ -1,5 +1,5 @@
-// Shared by the command-line tools: number parsing with messages naming the flag, and the
-// convention that any error ends the tool with one line on stderr and exit status 2.
+// Shared by the command-line tools: number parsing with messages naming the flag, CPU time,
+// and the convention that any error ends the tool with one line on stderr and exit status 2.
 #pragma once
 
 #include <string>
@@ -14,6 +14,10 @@ constexpr int kExitBadInput = 2;
 // A finite number / a whole number; throws std::invalid_argument "<flag> expects ...".
 double ParseNumber(const std::string& flag, const std::string& value);
 int ParseInteger(const std::string& flag, const std::string& value);
+
+// User plus system CPU seconds so far of this process (RUSAGE_SELF) or of its waited-for
+// children (RUSAGE_CHILDREN), as getrusage(2) gives them.
+double CpuSeconds(int who);
 
 // Creates `dir` and its missing parents / the folder that will hold `file` (nothing when the
 // path has no folder part). Throws std::runtime_error naming the folder and the reason.

@@ -152,22 +152,6 @@ void SmallestRows(const float* values, int n, int k, std::vector<int>* rows) {
   std::sort(rows->begin(), rows->end());  // the map's rows in memory order
 }
 
-// row[r] from the inner product in it to the distance, for r0 <= r < r1 (one loop per
-// metric, as in ComputeDistances).
-void ToDistances(DistanceMetric metric, float query_squared_norm, const float* row_squared_norms,
-                 int r0, int r1, float* row) {
-  if (metric == DistanceMetric::kEuclidean) {
-    for (int r = r0; r < r1; ++r) {
-      row[r] = formula::Euclidean(query_squared_norm, row_squared_norms[r], row[r]);
-    }
-  } else {
-    const float query_norm = std::sqrt(query_squared_norm);
-    for (int r = r0; r < r1; ++r) {
-      row[r] = formula::Cosine(query_norm, row_squared_norms[r], row[r]);
-    }
-  }
-}
-
 }  // namespace
 
 ApproximateIndex::ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options)
@@ -357,7 +341,7 @@ void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf
     for (int q = 0; q < nq; ++q) {
       float* row = dist.row(q).data();
       for (int r = r0; r < r1; ++r) row[r] *= set.row_scales[static_cast<size_t>(r)];
-      ToDistances(metric, qn(q), norms, r0, r1, row);
+      formula::ToDistances(metric, qn(q), norms, r0, r1, row);
     }
   });
 }
@@ -388,7 +372,7 @@ void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& quer
     SmallestRows(row, set.size(), options_.rerank, &candidates);
     for (int r : candidates) {
       kernels::Dots(rows, r, r + 1, prepared[static_cast<size_t>(q)], row + r, 1);
-      ToDistances(metric, qn(q), set.squared_norms().data(), r, r + 1, row);
+      formula::ToDistances(metric, qn(q), set.squared_norms().data(), r, r + 1, row);
     }
   });
 }

@@ -49,22 +49,14 @@ namespace {
 std::atomic<int> g_threads{0};  // 0: hardware concurrency
 
 // Fills out(q, r) for every query and the reference rows [r0, r1): inner products by the
-// fixed-order kernel, then the metric from them and the squared norms (one loop per metric,
-// without branches, so that the compiler vectorises the square roots).
+// fixed-order kernel, then the metric from them and the squared norms.
 void DistanceRows(DistanceMetric metric, const kernels::Queries& queries,
                   const kernels::RefRows& refs, const float* ref_norms, const Eigen::VectorXf& qn,
                   int r0, int r1, RowMatrixXf* out) {
   const int nr = static_cast<int>(out->cols());
   kernels::Dots(refs, r0, r1, queries, out->data() + r0, nr);
   for (Eigen::Index q = 0; q < out->rows(); ++q) {
-    float* row = out->row(q).data();
-    const float qq = qn(q);
-    if (metric == DistanceMetric::kEuclidean) {
-      for (int r = r0; r < r1; ++r) row[r] = formula::Euclidean(qq, ref_norms[r], row[r]);
-    } else {
-      const float q_norm = std::sqrt(qq);
-      for (int r = r0; r < r1; ++r) row[r] = formula::Cosine(q_norm, ref_norms[r], row[r]);
-    }
+    formula::ToDistances(metric, qn(q), ref_norms, r0, r1, out->row(q).data());
   }
 }
 

@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -65,13 +64,8 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
   const RowMatrixXf queries = Uniform(repeats + 1, d, 7);
   // Median time of Recognize over `repeats` queries, after one warm-up query.
   const auto time_queries = [&](PlaceRecognizer& r) {
-    std::vector<double> ms;
-    for (int q = 0; q <= repeats; ++q) {
-      const auto start = Clock::now();
-      r.Recognize(queries.row(q).transpose(), false);
-      if (q > 0) ms.push_back(Ms(start));
-    }
-    return Median(ms);
+    int q = 0;
+    return TimeMs(repeats, [&] { r.Recognize(queries.row(q++).transpose(), false); });
   };
   const double exact_ms = time_queries(recognizer);
 

@@ -1,10 +1,12 @@
-// What every bsf_benchmark section reports with: the median of its repeats, the process's
-// resident memory and the memory available.
+// What every bsf_benchmark section reports with: the median of its repeats, a timed median,
+// the process's resident memory and the memory available.
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,19 @@ namespace tools {
 inline double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
+}
+
+// Median wall time of `fn` in milliseconds over `repeats` runs (after one warm-up run).
+inline double TimeMs(int repeats, const std::function<void()>& fn) {
+  fn();
+  std::vector<double> ms;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    fn();
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return Median(ms);
 }
 
 // Resident memory of this process, bytes (VmRSS).

@@ -31,6 +31,7 @@ using namespace bsf_vpr;
 using tools::AvailableBytes;
 using tools::Median;
 using tools::ResidentBytes;
+using tools::TimeMs;
 
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
@@ -75,19 +76,6 @@ The figures are printed on standard output, a line per measurement; no file is w
   -h, --help             this help
 Exit status 2 with one line naming the problem on bad arguments.
 )";
-
-// Median wall time of `fn` in milliseconds over `repeats` runs (after one warm-up run).
-double TimeMs(int repeats, const std::function<void()>& fn) {
-  fn();
-  std::vector<double> ms;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return Median(ms);
-}
 
 RowMatrixXf Random(Eigen::Index rows, Eigen::Index cols, uint64_t seed) {
   std::mt19937_64 rng(seed);

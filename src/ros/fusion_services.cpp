@@ -109,8 +109,7 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
     if (places == RecordingPlaces::kPose && params_.pose_source == "none") {
       throw std::invalid_argument(
-          "recording by pose needs the robot's pose: set pose_source "
-          "to tf or topic");
+          "recording by pose needs the robot's pose: set pose_source to tf or topic");
     }
     recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map(), places);
     res.success = true;

@@ -1,6 +1,9 @@
 #include "bsf_vpr/core/method_runner.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace bsf_vpr {
 
@@ -27,15 +30,71 @@ void MethodRunner::Reset() {
   last_log_posterior_.resize(0);
 }
 
+namespace {
+
+// RunMethod on the available sets alone, its belief re-indexed to every set of `sets`.
+PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>& sets,
+                           const std::vector<bool>& available, int num_places,
+                           const MethodOptions& options, const Eigen::VectorXd* log_prior) {
+  if (available.size() != sets.size()) {
+    throw std::invalid_argument("availability given for " + std::to_string(available.size()) +
+                                " set(s), the query has " + std::to_string(sets.size()));
+  }
+  std::vector<SetDistances> present;
+  std::vector<int> index;  // index[k]: the set of present[k]
+  for (size_t u = 0; u < sets.size(); ++u) {
+    if (!available[u]) continue;
+    present.push_back(sets[u]);
+    index.push_back(static_cast<int>(u));
+  }
+  if (present.empty()) throw std::invalid_argument("no set's distances are available");
+  Method m = method;
+  if (m.kind == MethodKind::kNearestNeighbour || m.kind == MethodKind::kBayesSingle) {
+    const auto it = std::find(index.begin(), index.end(), m.set_index);
+    if (it == index.end()) {
+      throw std::invalid_argument("method '" + m.Name() + "' needs set '" + m.set_name +
+                                  "', whose distances are missing");
+    }
+    m.set_index = static_cast<int>(it - index.begin());
+  }
+  PlaceBelief b = RunMethod(m, present, num_places, options, log_prior);
+  const auto to_full = [&index](std::vector<int>* v) {
+    for (int& u : *v) u = index.at(static_cast<size_t>(u));
+  };
+  b.selection.best = index.at(static_cast<size_t>(b.selection.best));
+  to_full(&b.selection.selected);
+  to_full(&b.used_sets);
+  DistanceStats missing;
+  missing.min = std::numeric_limits<float>::quiet_NaN();
+  missing.argmin = -1;
+  missing.mean = missing.stddev = std::numeric_limits<double>::quiet_NaN();
+  std::vector<DistanceStats> stats(sets.size(), missing);
+  std::vector<double> weights(sets.size(), 0.0);
+  for (size_t k = 0; k < index.size(); ++k) {
+    stats[static_cast<size_t>(index[k])] = b.selection.set_stats.at(k);
+    weights[static_cast<size_t>(index[k])] = b.set_weights.at(k);
+  }
+  b.selection.set_stats = std::move(stats);
+  b.set_weights = std::move(weights);
+  return b;
+}
+
+}  // namespace
+
 PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_places,
                                const Eigen::VectorXd* log_prior, std::optional<double> step_places,
-                               bool update_state) {
+                               bool update_state, const std::vector<bool>* available) {
   Eigen::VectorXd predicted;
   if (method_.temporal_filter && last_log_posterior_.size() == num_places) {
     predicted = PredictLogPrior(last_log_posterior_, options_.filter, step_places);
     log_prior = &predicted;
   }
-  PlaceBelief b = RunMethod(method_, sets, num_places, options_, log_prior);
+  const bool all = !available || (available->size() == sets.size() &&
+                                  std::find(available->begin(), available->end(), false) ==
+                                      available->end());
+  PlaceBelief b = all ? RunMethod(method_, sets, num_places, options_, log_prior)
+                      : RunOnAvailable(method_, sets, *available, num_places, options_,
+                                       log_prior);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace

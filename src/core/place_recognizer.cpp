@@ -85,6 +85,11 @@ MethodRunner& PlaceRecognizer::Runner() {
 
 Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                                        bool update_state, std::optional<double> step_places) {
+  return Decide(Distances(descriptor), update_state, step_places, nullptr);
+}
+
+std::vector<RowMatrixXf> PlaceRecognizer::Distances(
+    const Eigen::Ref<const Eigen::VectorXf>& descriptor) {
   if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
   if (descriptor.size() != map_.dimension()) {
     throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
@@ -94,7 +99,7 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   const std::string problem = DescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
   const RowMatrixXf query = descriptor.transpose();
-  return Decide(distances_.Distances(options_.metric, query, map_), update_state, step_places);
+  return distances_.Distances(options_.metric, query, map_);
 }
 
 Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& distances,
@@ -105,9 +110,14 @@ Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& 
     throw std::invalid_argument("distances for " + std::to_string(distances.size()) +
                                 " set(s), the map holds " + std::to_string(map_.num_sets()));
   }
+  std::vector<bool> available(distances.size(), true);
   for (int u = 0; u < map_.num_sets(); ++u) {
     const RowMatrixXf& d = distances[static_cast<size_t>(u)];
     const StoredReferenceSet& set = map_.set(u);
+    if (d.size() == 0 && d.rows() == 0) {
+      available[static_cast<size_t>(u)] = false;  // missing (a set is never empty)
+      continue;
+    }
     if (d.rows() != 1 || d.cols() != set.size()) {
       throw std::invalid_argument("distances to set '" + set.name() + "' are " +
                                   std::to_string(d.rows()) + " x " + std::to_string(d.cols()) +
@@ -120,18 +130,31 @@ Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& 
                                   "' hold a negative, NaN or infinite value");
     }
   }
-  return Decide(distances, update_state, step_places);
+  if (std::find(available.begin(), available.end(), false) == available.end()) {
+    return Decide(distances, update_state, step_places, nullptr);
+  }
+  return Decide(distances, update_state, step_places, &available);
 }
 
 Recognition PlaceRecognizer::Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
-                                    std::optional<double> step_places) {
-  std::vector<const std::vector<int>*> ids;
-  for (const StoredReferenceSet& s : map_.sets()) ids.push_back(&s.place_ids());
-  const std::vector<SetDistances> views = QueryRowViews(distances, 0, ids);
+                                    std::optional<double> step_places,
+                                    const std::vector<bool>* available) {
+  std::vector<SetDistances> views(distances.size());
+  for (size_t u = 0; u < distances.size(); ++u) {
+    if (available && !(*available)[u]) continue;  // count 0: never read
+    views[u].values = distances[u].data();
+    views[u].count = static_cast<int>(distances[u].cols());
+    views[u].place_ids = map_.set(static_cast<int>(u)).place_ids().data();
+  }
 
   const int n = map_.num_places();
   Recognition out;
-  out.belief = Runner().Step(views, n, nullptr, step_places, update_state);
+  out.belief = Runner().Step(views, n, nullptr, step_places, update_state, available);
+  if (available) {
+    for (size_t u = 0; u < available->size(); ++u) {
+      if (!(*available)[u]) out.missing_sets.push_back(static_cast<int>(u));
+    }
+  }
 
   // The set that supplied the match: the closest image of the match among the sets the
   // method relied on (a mixture's used sets of weight below 1 only when also selected).

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/core/synthetic.h"
 
 namespace bsf_vpr {
@@ -202,15 +203,19 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
           o.metric = metric;
           PlaceRecognizer single, combiner;
           std::vector<PlaceRecognizer> holders(shards.size());
-          for (PlaceRecognizer* r : {&single, &combiner}) {
-            r->SetStoragePrecision(precision);
-            for (const StoredReferenceSet& s : data.map.sets()) {
-              r->AddReferenceSet(s.ToReferenceSet());
-            }
-            r->SetOptions(o);
+          single.SetStoragePrecision(precision);
+          for (const StoredReferenceSet& s : data.map.sets()) {
+            single.AddReferenceSet(s.ToReferenceSet());
+            // The combiner holds the sets' layout alone, as the fusion node's combiner does.
+            combiner.AddReferenceSet(LayoutOnlySet(s.ToReferenceSet()));
           }
+          single.SetOptions(o);
+          combiner.SetOptions(o);
           for (size_t k = 0; k < shards.size(); ++k) {
             holders[k].SetStoragePrecision(precision);
+            RecognizerOptions metric_only;  // a shard computes distances, it decides nothing
+            metric_only.metric = metric;
+            holders[k].SetOptions(metric_only);
             for (int u : shards[k]) holders[k].AddReferenceSet(data.map.set(u).ToReferenceSet());
           }
           const std::string what = method + ", " + ToString(metric) + ", " + ToString(precision) +
@@ -219,8 +224,7 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
             const Eigen::VectorXf query = data.queries.row(q).transpose();
             std::vector<RowMatrixXf> distances(3);
             for (size_t k = 0; k < shards.size(); ++k) {
-              const std::vector<RowMatrixXf> own =
-                  ComputeDistances(metric, query.transpose(), holders[k].map());
+              const std::vector<RowMatrixXf> own = holders[k].Distances(query);
               for (size_t i = 0; i < shards[k].size(); ++i) distances[shards[k][i]] = own[i];
             }
             const Recognition a = single.Recognize(query, true);
@@ -264,6 +268,111 @@ TEST(PlaceRecognizer, RecognizeDistancesRefusesWhatCannotBeTheSetsDistances) {
   }
   PlaceRecognizer empty;
   EXPECT_THROW(empty.RecognizeDistances({}, true), std::invalid_argument);
+  // Every set missing: nothing to decide on.
+  EXPECT_THROW(r.RecognizeDistances(std::vector<RowMatrixXf>(good.size()), true),
+               std::invalid_argument);
+}
+
+// A shard that does not answer: the combiner decides on the sets it has, exactly as a
+// recognizer that holds only those sets would (same places, same carried state), and names
+// the missing sets; the belief still indexes every set of the map. When the shard answers
+// again, the next belief fuses every set.
+TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  opt.dimension = 16;
+  opt.set_noise = {0.3, 0.35, 0.4};  // three sets covering the same places
+  opt.condition_strength = 0.5;
+  opt.query_noise = 0.3;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  for (const std::string method :
+       {"bsf", "bsf+filter+seq", "bayes_full+filter", "med+seq", "med_selective", "nn:c0"}) {
+    RecognizerOptions o;
+    o.method = method;
+    PlaceRecognizer combiner, without_c1;
+    for (const StoredReferenceSet& s : data.map.sets()) {
+      combiner.AddReferenceSet(LayoutOnlySet(s.ToReferenceSet()));
+      if (s.name() != "c1") without_c1.AddReferenceSet(s.ToReferenceSet());
+    }
+    combiner.SetOptions(o);
+    without_c1.SetOptions(o);
+    for (int q = 0; q < 12; ++q) {
+      const RowMatrixXf query = data.queries.row(q);
+      std::vector<RowMatrixXf> d =
+          ComputeDistances(DistanceMetric::kEuclidean, query, data.map);
+      d[1].resize(0, 0);  // c1's shard did not answer
+      const Recognition a = without_c1.Recognize(query.row(0).transpose(), true);
+      const Recognition b = combiner.RecognizeDistances(d, true);
+      ASSERT_EQ(b.missing_sets, std::vector<int>{1}) << method;
+      ASSERT_EQ(a.belief.match, b.belief.match) << method << ", query " << q;
+      ASSERT_EQ(a.belief.confidence, b.belief.confidence) << method << ", query " << q;
+      ASSERT_EQ(a.belief.log_posterior.size(), b.belief.log_posterior.size());
+      for (Eigen::Index i = 0; i < a.belief.log_posterior.size(); ++i) {
+        ASSERT_EQ(a.belief.log_posterior[i], b.belief.log_posterior[i]) << method;
+      }
+      // Indexed by the map's sets: c1 has weight 0, NaN statistics, is never used.
+      ASSERT_EQ(b.belief.set_weights.size(), 3u);
+      EXPECT_EQ(b.belief.set_weights[1], 0.0);
+      EXPECT_TRUE(std::isnan(b.belief.selection.set_stats.at(1).min));
+      for (int u : b.belief.used_sets) EXPECT_NE(u, 1) << method;
+      for (int u : b.belief.selection.selected) EXPECT_NE(u, 1) << method;
+      // The others in the map's numbering (c2 is set 2 here, set 1 in without_c1).
+      EXPECT_EQ(b.belief.selection.set_stats.at(2).min, a.belief.selection.set_stats.at(1).min);
+      EXPECT_EQ(b.belief.set_weights[2], a.belief.set_weights.at(1));
+      EXPECT_EQ(b.closest_set == 2, a.closest_set == 1) << method;
+    }
+    // c1 answers again: every set is fused, and nothing is missing.
+    const RowMatrixXf query = data.queries.row(12);
+    const Recognition back = combiner.RecognizeDistances(
+        ComputeDistances(DistanceMetric::kEuclidean, query, data.map), true);
+    EXPECT_TRUE(back.missing_sets.empty());
+    EXPECT_EQ(back.belief.set_weights.size(), 3u);
+    EXPECT_FALSE(std::isnan(back.belief.selection.set_stats.at(1).min));
+  }
+  // nn: of a missing set cannot be answered; the state is left as it was.
+  RecognizerOptions o;
+  o.method = "nn:c1";
+  PlaceRecognizer r = Loaded(data);
+  r.SetOptions(o);
+  std::vector<RowMatrixXf> d =
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), data.map);
+  d[1].resize(0, 0);
+  EXPECT_THROW(r.RecognizeDistances(d, true), std::invalid_argument);
+}
+
+// The fingerprint tells sets apart by what distances read: same file, same fingerprint;
+// another row, name, pose or precision, another fingerprint.
+TEST(Sharding, SetFingerprintFollowsWhatTheSetHolds) {
+  const SyntheticData data = Data();
+  const ReferenceSet c0 = data.map.set(0).ToReferenceSet();
+  const auto fingerprint = [](const ReferenceSet& set, StoragePrecision precision) {
+    ReferenceMap map;
+    map.SetStoragePrecision(precision);
+    map.Add(set);
+    return SetFingerprint(map.set(0));
+  };
+  const uint64_t base = fingerprint(c0, StoragePrecision::kFloat32);
+  EXPECT_EQ(base, fingerprint(c0, StoragePrecision::kFloat32));
+  EXPECT_EQ(base, SetFingerprint(data.map.set(0)));
+  EXPECT_NE(base, fingerprint(c0, StoragePrecision::kInt8));
+  ReferenceSet changed = c0;
+  changed.descriptors(3, 2) += 1e-3f;
+  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
+  changed = c0;
+  changed.name = "c0b";
+  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
+  changed = c0;
+  changed.place_ids.back() += 1000;
+  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
+  changed = c0;
+  changed.poses.assign(c0.place_ids.size(), PlacePose{});
+  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
+  // A layout-only set keeps the layout, not the descriptors.
+  const ReferenceSet layout = LayoutOnlySet(c0);
+  EXPECT_EQ(layout.place_ids, c0.place_ids);
+  EXPECT_EQ(layout.size(), c0.size());
+  EXPECT_EQ(layout.dimension(), 1);
+  EXPECT_EQ(layout.descriptors.squaredNorm(), 0.0f);
 }
 
 }  // namespace

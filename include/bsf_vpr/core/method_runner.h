@@ -23,9 +23,16 @@ class MethodRunner {
   // query is appended to the history; without, the runner is left as it was.
   // With +seq, match, top_places and cost describe the best sequence ending at each place;
   // confidence is SequenceMatchLogOdds of the match and accepted compares it with h.
+  //
+  // `available` (null: every set) marks the sets whose distances this query has: a set of a
+  // sharded map whose shard did not answer is left out, and the method runs on the others
+  // as if it were not loaded, its history (over places) carried as usual. The belief still
+  // indexes the sets of `sets`: a missing set has weight 0, is neither selected nor used,
+  // and its statistics are NaN. Throws std::invalid_argument (history untouched) when no
+  // set is available, or the method is nn:/bayes: of a missing set.
   PlaceBelief Step(const std::vector<SetDistances>& sets, int num_places,
                    const Eigen::VectorXd* log_prior, std::optional<double> step_places,
-                   bool update_state);
+                   bool update_state, const std::vector<bool>* available = nullptr);
 
   // Forgets the history (call when the map or the traversal changes).
   void Reset();

@@ -38,6 +38,9 @@ struct Recognition {
   // Among the sets the method used, the one whose descriptor of the matched place is closest
   // to the query (-1 if none of them covers the match).
   int closest_set = -1;
+  // The sets whose distances were missing (RecognizeDistances: a shard that did not
+  // answer), ascending: the belief was decided without them.
+  std::vector<int> missing_sets;
 };
 
 class PlaceRecognizer {
@@ -81,8 +84,18 @@ class PlaceRecognizer {
   // its map, so the recognition is bitwise Recognize's. Throws std::invalid_argument (the
   // state untouched) for the wrong number of sets, a wrong size, or a value that is
   // negative, NaN or infinite.
+  //
+  // An empty matrix (0 x 0) stands for a set whose distances are missing (its shard did not
+  // answer): the method decides on the others (MethodRunner::Step's `available`) and
+  // Recognition::missing_sets names it. Throws when every set is missing or the method is
+  // nn:/bayes: of a missing one.
   Recognition RecognizeDistances(const std::vector<RowMatrixXf>& distances, bool update_state,
                                  std::optional<double> step_places = std::nullopt);
+
+  // The query's distances to every set of map() (1 x N_u each), as Recognize decides from
+  // them: what a shard of a sharded map publishes. Throws std::invalid_argument as
+  // Recognize does for the descriptor.
+  std::vector<RowMatrixXf> Distances(const Eigen::Ref<const Eigen::VectorXf>& descriptor);
 
   // Forgets everything carried between queries.
   void ResetPrior();
@@ -95,8 +108,9 @@ class PlaceRecognizer {
  private:
   MethodRunner& Runner();  // built on demand against the current sets
   // Fusion, state and the closest set from checked distances (Recognize, RecognizeDistances).
+  // `available` null: every set.
   Recognition Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
-                     std::optional<double> step_places);
+                     std::optional<double> step_places, const std::vector<bool>* available);
 
   RecognizerOptions options_;
   Method method_;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "bsf_vpr/core/sharding.h"
+
 namespace bsf_vpr {
 
 void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
@@ -41,6 +43,8 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   out->used_sets.clear();
   for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name());
   out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
+  out->missing_sets.clear();
+  for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name());
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;
@@ -89,6 +93,49 @@ ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
   info.memory_bytes = set.MemoryBytes();
   info.storage = ToString(set.precision());
   return info;
+}
+
+
+ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {
+  ShardSet m;
+  m.name = set.name();
+  m.condition = set.condition();
+  m.descriptor_type = set.descriptor_type();
+  m.fingerprint = fingerprint;
+  m.dimension = set.dimension();
+  m.memory_bytes = set.MemoryBytes();
+  m.storage = ToString(set.precision());
+  m.place_ids.assign(set.place_ids().begin(), set.place_ids().end());
+  m.poses.reserve(4 * set.poses().size());
+  for (const PlacePose& p : set.poses()) {
+    m.poses.insert(m.poses.end(), {p.x_m, p.y_m, p.z_m, p.yaw_rad});
+  }
+  m.images = set.images();
+  m.image_files = set.image_files();
+  return m;
+}
+
+ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg) {
+  ReferenceSet set;
+  set.name = msg.name;
+  set.condition = msg.condition;
+  set.descriptor_type = msg.descriptor_type;
+  set.place_ids.assign(msg.place_ids.begin(), msg.place_ids.end());
+  if (!msg.poses.empty()) {
+    if (msg.poses.size() != 4 * msg.place_ids.size()) {
+      throw std::invalid_argument("shard set '" + msg.name + "' has " +
+                                  std::to_string(msg.poses.size()) + " pose values for " +
+                                  std::to_string(msg.place_ids.size()) +
+                                  " places (4 per place expected)");
+    }
+    for (size_t k = 0; k < msg.place_ids.size(); ++k) {
+      const double* p = &msg.poses[4 * k];
+      set.poses.push_back(PlacePose{p[0], p[1], p[2], p[3]});
+    }
+  }
+  set.images = msg.images;
+  set.image_files = msg.image_files;
+  return LayoutOnlySet(std::move(set));
 }
 
 }  // namespace bsf_vpr

@@ -6,6 +6,7 @@
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/Match.h>
 #include <bsf_vpr/ReferenceSetInfo.h>
+#include <bsf_vpr/ShardSet.h>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/TransformStamped.h>
 
@@ -38,5 +39,11 @@ geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ro
                                                     const std::string& place_frame);
 
 ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set);
+
+// A shard's set for the combiner: its layout and fingerprint (SetFingerprint), no rows.
+ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint);
+// The layout-only set (LayoutOnlySet) the combiner holds for `msg`. Throws
+// std::invalid_argument naming the set when its poses are not 4 per place or it is invalid.
+ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg);
 
 }  // namespace bsf_vpr

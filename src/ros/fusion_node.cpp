@@ -8,6 +8,7 @@
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 #include "reconfigure_options.h"
+#include "set_loading.h"
 
 namespace bsf_vpr {
 
@@ -16,14 +17,6 @@ FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 FusionNode::~FusionNode() {
   if (load_spinner_) load_spinner_->stop();
-}
-
-void FusionNode::CheckDistance(const ReferenceSet& set, const std::string& where) const {
-  const std::string metric = ToString(params_.recognizer.metric);
-  if (!set.distance.empty() && set.distance != metric) {
-    throw std::invalid_argument("reference set '" + set.name + "' (" + where + ") is meant for " +
-                                set.distance + " distance, the node uses " + metric);
-  }
 }
 
 void FusionNode::Start() {
@@ -37,35 +30,26 @@ void FusionNode::Start() {
     }
   }
   recording_ = std::make_unique<Recording>(data_dir_.get());
-  // Config paths are relative to the data directory when one is set. The configuration is
-  // the operator's own file: its paths are not confined like service requests.
-  const std::string base = params_.data_directory.empty() ? "." : params_.data_directory;
-  std::vector<std::pair<ReferenceSet, std::string>> sets;
-  for (const ReferenceSetEntry& e : params_.reference_sets) {
-    const std::string path = ResolvePath(base, e.path);
-    ReferenceSet set = LoadReferenceSetFile(path, e.name);
-    if (!e.condition.empty()) set.condition = e.condition;
-    sets.emplace_back(std::move(set), path);
-  }
-  if (!params_.distance_given()) {
-    // No distance configured: the one the sets were made for, if they agree on one.
-    std::string declared;
-    for (const auto& [set, path] : sets) {
-      if (set.distance.empty()) continue;
-      if (!declared.empty() && set.distance != declared) {
-        throw std::invalid_argument("the reference sets are meant for different distances (" +
-                                    declared + " and " + set.distance + " for '" + set.name +
-                                    "'); set the parameter distance");
-      }
-      declared = set.distance;
+  if (!params_.shards.empty()) {
+    if (!params_.reference_sets.empty()) {
+      throw std::invalid_argument(
+          "a fusion node with shards fuses the shards' sets and holds none of its own: give "
+          "reference_sets to the shards (docs/sharding.md)");
     }
-    if (!declared.empty()) params_.recognizer.metric = ParseDistanceMetric(declared);
+    if (params_.recognizer.first_stage.kind != "exact") {
+      ROS_WARN("bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
+               "distances",
+               params_.recognizer.first_stage.kind.c_str());
+      params_.recognizer.first_stage.kind = "exact";
+    }
   }
+  std::vector<ConfiguredSet> sets = ReadConfiguredSets(params_);
+  ChooseDeclaredDistance(sets, &params_);
   recognizer_.SetStoragePrecision(params_.storage);
   recognizer_.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
-  for (auto& [set, path] : sets) {
-    CheckDistance(set, path);
-    recognizer_.AddReferenceSet(std::move(set));
+  for (ConfiguredSet& c : sets) {
+    CheckSetDistance(c.set, params_.recognizer.metric, c.path);
+    recognizer_.AddReferenceSet(std::move(c.set));
     const StoredReferenceSet& s = recognizer_.map().sets().back();
     ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name().c_str(),
              s.size(), s.dimension(), ToString(s.precision()).c_str());
@@ -100,11 +84,18 @@ void FusionNode::Start() {
         },
         ros::VoidConstPtr(), &load_queue_);
     services_.push_back(nh_.advertiseService(load));
+    // On the same thread: with a sharded map both wait for the shard's new shard_info,
+    // which arrives on the node's own queue.
+    ros::AdvertiseServiceOptions unload = ros::AdvertiseServiceOptions::create<UnloadReferenceSet>(
+        names::kUnloadReferenceSetService,
+        [this](UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
+          return OnUnload(req, res);
+        },
+        ros::VoidConstPtr(), &load_queue_);
+    services_.push_back(nh_.advertiseService(unload));
     load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
     load_spinner_->start();
   }
-  services_.push_back(
-      nh_.advertiseService(names::kUnloadReferenceSetService, &FusionNode::OnUnload, this));
   services_.push_back(nh_.advertiseService(names::kQueryPlaceService, &FusionNode::OnQuery, this));
   services_.push_back(
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
@@ -129,6 +120,22 @@ void FusionNode::Start() {
       nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
   robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
                                                   params_.map_frame, params_.base_frame);
+  if (!params_.shards.empty()) {
+    ShardCombiner::Callbacks callbacks;
+    callbacks.layout = [this](std::vector<ReferenceSet> sets, DistanceMetric metric,
+                              const std::string& why) {
+      OnShardLayout(std::move(sets), metric, why);
+    };
+    callbacks.query = [this](ShardCombiner::Query& query) { OnShardQuery(query); };
+    callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
+    std::lock_guard<std::mutex> lock(mutex_);
+    combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
+                                                params_.queue_size, &mutex_,
+                                                std::move(callbacks));
+    ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
+             params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
+    return;
+  }
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -208,6 +215,50 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   publisher_->Publish(msg->header, r, recognizer_, seconds);
 }
 
+void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric,
+                               const std::string& why) {
+  // A new map from the shards' layouts, in their order; refused (thrown) as a load would be
+  // (poses that contradict, a method naming a set no shard holds is only logged).
+  RecognizerOptions options = recognizer_.options();
+  if (params_.distance_given() && metric != params_.recognizer.metric) {
+    throw std::invalid_argument("the shards use " + ToString(metric) + " distance, this node " +
+                                ToString(params_.recognizer.metric));
+  }
+  options.metric = metric;
+  PlaceRecognizer fresh(options);
+  fresh.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
+  for (ReferenceSet& set : sets) fresh.AddReferenceSet(std::move(set));
+  try {
+    fresh.SetOptions(options);
+  } catch (const std::exception& e) {
+    ROS_ERROR("bsf_vpr: %s", e.what());  // every query says so until the method is changed
+  }
+  recognizer_ = std::move(fresh);
+  params_.recognizer.metric = metric;
+  ROS_INFO("bsf_vpr: sharded map: %s: %d set(s), %d places; the belief starts afresh",
+           why.c_str(), recognizer_.map().num_sets(), recognizer_.map().num_places());
+}
+
+void FusionNode::OnShardQuery(ShardCombiner::Query& query) {
+  const auto start = std::chrono::steady_clock::now();
+  Recognition r;
+  try {
+    r = recognizer_.RecognizeDistances(query.distances, true, OdometryStep(query.header.stamp));
+  } catch (const std::exception& e) {
+    RejectMessage(e.what());
+    return;
+  }
+  // The core's own time: the slowest shard's distances and the fusion here.
+  const double seconds =
+      query.shard_seconds +
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++processed_;
+  processing_s_sum_ += seconds;
+  processing_s_max_ = std::max(processing_s_max_, seconds);
+  counters_.Count(r, recognizer_.map());
+  publisher_->Publish(query.header, r, recognizer_, seconds);
+}
+
 std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
   const double spacing = params_.place_spacing_m > 0
                              ? params_.place_spacing_m
@@ -215,40 +266,8 @@ std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
   return odometry_->StepPlaces(stamp, spacing);
 }
 
-// Below this share of the rows' energy the first stage's basis warns (docs/performance.md).
-constexpr double kFirstStageEnergyWarning = 0.99;
-
 void FusionNode::PrepareFirstStage() {
-  if (recognizer_.options().first_stage.kind == "exact" || recognizer_.map().num_sets() == 0) {
-    return;
-  }
-  const ros::WallTime start = ros::WallTime::now();
-  try {
-    recognizer_.PrepareFirstStage();
-  } catch (const std::exception& e) {
-    // The sets stay as they are; exact search answers until the node is restarted, rather
-    // than every descriptor trying the build again.
-    RecognizerOptions exact = recognizer_.options();
-    exact.first_stage.kind = "exact";
-    recognizer_.SetOptions(exact);
-    params_.recognizer.first_stage.kind = "exact";
-    first_stage_error_ = e.what();
-    ROS_ERROR("bsf_vpr: the pca first stage could not be built (%s): exact search from now on",
-              e.what());
-    return;
-  }
-  ROS_INFO("bsf_vpr: first stage %s, built in %.2f s",
-           recognizer_.distance_stage().Summary().c_str(), (ros::WallTime::now() - start).toSec());
-  const double energy = recognizer_.distance_stage().index()->RetainedEnergy();
-  if (energy < kFirstStageEnergyWarning) {
-    // On the real data, bases keeping under 99% lost 2 points of R@1 and more.
-    ROS_WARN(
-        "bsf_vpr: the first stage's basis keeps only %.1f%% of the rows' energy: recall "
-        "may fall short of exact search; raise first_stage_dimensions or "
-        "first_stage_sample_rows, or measure with bsf_evaluate --first-stage pca "
-        "(docs/performance.md, large maps)",
-        100.0 * energy);
-  }
+  PrepareFirstStageOrFallBack(&recognizer_, &params_, &first_stage_error_);
 }
 
 double FusionNode::PlaceSpacing() const {
@@ -287,6 +306,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
                     rejected_, last_rejection_.c_str());
+  } else if (combiner_ && !combiner_->MissingSummary().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "deciding without shard(s) " + combiner_->MissingSummary());
   } else if (map.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
   } else if (!first_stage_error_.empty()) {
@@ -315,6 +337,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
                 100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);
   }
   recording_->Diagnose(status);
+  if (combiner_) combiner_->Diagnose(status);
   processed_ = rejected_ = 0;
   type_mismatch_.clear();
   processing_s_sum_ = processing_s_max_ = 0;

@@ -13,6 +13,7 @@
 // reads its files without the lock, so a large load never stops recognition.
 #pragma once
 
+#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/FusionConfig.h>
 #include <bsf_vpr/GetSelectionStatistics.h>
@@ -43,6 +44,7 @@
 #include "recording.h"
 #include "robot_pose.h"
 #include "selection_counters.h"
+#include "shard_combiner.h"
 
 namespace bsf_vpr {
 
@@ -57,6 +59,16 @@ class FusionNode {
 
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
+  // Sharded map (parameter shards): the combiner's callbacks, with mutex_ held.
+  void OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric,
+                     const std::string& why);
+  void OnShardQuery(ShardCombiner::Query& query);
+  // load_reference_set / unload_reference_set on a combiner: the request goes to the shard
+  // (`shard`), and the answer comes once the shard's new shard_info is in the map. Called
+  // without mutex_.
+  template <typename Service>
+  bool RouteToShard(int shard, const std::string& service, Service* srv, std::string* message);
+  void QueryShards(QueryPlace::Request& req, QueryPlace::Response& res);
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
@@ -80,8 +92,6 @@ class FusionNode {
   bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res);
   bool OnStatistics(GetSelectionStatistics::Request& req, GetSelectionStatistics::Response& res);
 
-  // Refuses a set meant for another distance than the node's.
-  void CheckDistance(const ReferenceSet& set, const std::string& where) const;
   // Warns (log and diagnostics) when a descriptor's type differs from the loaded sets'.
   void CheckDescriptorType(const std::string& type);
 
@@ -100,6 +110,7 @@ class FusionNode {
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<OdometryTracker> odometry_;
   std::unique_ptr<RobotPoseSource> robot_pose_;  // for recording by pose
+  std::unique_ptr<ShardCombiner> combiner_;      // sharded map: null on a node with its sets
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;

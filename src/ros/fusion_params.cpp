@@ -3,6 +3,7 @@
 #include <ros/param.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <algorithm>
 #include <optional>
 #include <stdexcept>
 
@@ -47,6 +48,28 @@ std::vector<ReferenceSetEntry> LoadReferenceSetEntries(RosParamSource& source) {
     }
     out.push_back({Member(e, "name", idx, false), Member(e, "path", idx, true),
                    Member(e, "condition", idx, false)});
+  }
+  return out;
+}
+
+std::vector<std::string> LoadShardNames(RosParamSource& source) {
+  std::vector<std::string> out;
+  std::optional<XmlRpc::XmlRpcValue> raw = source.GetRaw("shards");
+  if (!raw) return out;
+  XmlRpc::XmlRpcValue& list = *raw;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    throw std::invalid_argument("shards must be a list of shard names, e.g. [shard_0, shard_1]");
+  }
+  for (int i = 0; i < list.size(); ++i) {
+    if (list[i].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        static_cast<std::string>(list[i]).empty()) {
+      throw std::invalid_argument("shards[" + std::to_string(i) + "] is not a shard name");
+    }
+    const std::string name = static_cast<std::string>(list[i]);
+    if (std::find(out.begin(), out.end(), name) != out.end()) {
+      throw std::invalid_argument("shards names '" + name + "' twice");
+    }
+    out.push_back(name);
   }
   return out;
 }
@@ -161,7 +184,19 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "carry it): rviz and the match image mark the true places; \"\": none")
           .Add(
               "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
-              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0));
+              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0))
+          .AddExternal("shards",
+                       "sharded map (docs/sharding.md): the fusion shards whose sets this node "
+                       "fuses, a list of their names (resolved in this node's namespace, e.g. "
+                       "[shard_0, shard_1]); the map's set order is theirs, shard by shard. "
+                       "Empty: this node holds its own sets (reference_sets), the usual case",
+                       "[]")
+          .Add(
+              "shard_timeout", [](auto& p) -> auto& { return p.shard_timeout; },
+              "sharded map: how long a query waits for the shards that have not answered "
+              "after the first one did; then it is decided without their sets "
+              "(Belief.missing_sets)",
+              "s", Above(0));
   return kTable;
 }
 
@@ -176,6 +211,7 @@ FusionParams LoadFusionParams(RosParamSource& source) {
   }
   FusionParams p = LoadOptions(FusionParamsTable(), source);
   p.reference_sets = LoadReferenceSetEntries(source);
+  p.shards = LoadShardNames(source);
   source.RefuseUnread();
   p.recognizer.metric = ParseDistanceMetric(p.distance_given() ? p.distance : "euclidean");
   p.recognizer.Validate();

@@ -4,39 +4,116 @@
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/reference_set_io.h"
+#include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 #include "fusion_node.h"
+#include "set_loading.h"
 
 namespace bsf_vpr {
 
 bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const StoredReferenceSet& s : recognizer_.map().sets()) res.sets.push_back(ToInfoMsg(s));
+  for (const StoredReferenceSet& s : recognizer_.map().sets()) {
+    res.sets.push_back(ToInfoMsg(s));
+    const ShardSet* held = combiner_ ? combiner_->SetInfo(s.name()) : nullptr;
+    if (held) {  // the combiner holds the layout; the shard, the rows
+      ReferenceSetInfo& info = res.sets.back();
+      info.dimension = held->dimension;
+      info.memory_bytes = held->memory_bytes;
+      info.storage = held->storage;
+      info.shard = combiner_->shard_name(combiner_->OwnerOf(s.name()));
+    }
+  }
   res.num_places = recognizer_.map().num_places();
   return true;
+}
+
+// How long a routed load or unload waits for the shard's new shard_info.
+constexpr double kShardInfoWaitS = 10.0;
+
+template <typename Service>
+bool FusionNode::RouteToShard(int shard, const std::string& service, Service* srv,
+                              std::string* message) {
+  std::string name;
+  uint64_t infos = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    name = combiner_->shard_name(shard);
+    infos = combiner_->info_count(shard);
+  }
+  if (!ros::service::call(name + "/" + service, *srv)) {
+    *message = "shard " + name + " did not answer " + service;
+    return false;
+  }
+  if (!srv->response.success) {
+    *message = "shard " + name + ": " + srv->response.message;
+    return false;
+  }
+  // The shard published its new sets before answering: wait for them to reach the map.
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(kShardInfoWaitS);
+  while (ros::WallTime::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (combiner_->info_count(shard) > infos) {
+        *message = srv->response.message;
+        return true;
+      }
+    }
+    ros::WallDuration(0.01).sleep();
+  }
+  *message = srv->response.message + ", but its new shard_info has not reached this node in " +
+             std::to_string(static_cast<int>(kShardInfoWaitS)) + " s (see diagnostics)";
+  return false;
 }
 
 bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
   // Runs on the load queue's own thread: the files are read without the lock, so
   // descriptors keep flowing meanwhile; only adding the set takes it (and, with
   // first_stage pca, building the index for the new map: seconds for a large map).
+  if (combiner_) {
+    // Routed to the shard asked for, or the one holding the fewest places; the path is
+    // below that shard's data directory.
+    int shard = -1;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (int k = 0; k < combiner_->num_shards(); ++k) {
+        const std::string& name = combiner_->shard_name(k);
+        if (!req.shard.empty() && (name == req.shard || name == nh_.resolveName(req.shard))) {
+          shard = k;
+        }
+      }
+      if (req.shard.empty()) shard = combiner_->LeastLoaded();
+    }
+    if (shard < 0) {
+      res.success = false;
+      res.message = req.shard.empty() ? "no shard has published its sets yet"
+                                       : "no shard named " + QuotedForMessage(req.shard) +
+                                             " (parameter shards)";
+    } else {
+      LoadReferenceSet forward;
+      forward.request = req;
+      forward.request.shard.clear();
+      res.success = RouteToShard(shard, names::kLoadReferenceSetService, &forward, &res.message);
+    }
+    if (!res.success) ROS_WARN("bsf_vpr: load_reference_set refused: %s", res.message.c_str());
+    return true;
+  }
   try {
+    if (!req.shard.empty()) {
+      throw std::invalid_argument("shard " + QuotedForMessage(req.shard) +
+                                  " given, but this node fuses no shards (parameter shards)");
+    }
     if (!data_dir_) {
       throw std::invalid_argument("no data directory is configured (parameter data_directory)");
     }
     ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
     if (!req.condition.empty()) set.condition = req.condition;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!params_.distance_given() && recognizer_.map().num_sets() == 0 && !set.distance.empty()) {
-      // No distance configured and nothing loaded yet: the first set's own distance.
-      RecognizerOptions o = recognizer_.options();
-      o.metric = ParseDistanceMetric(set.distance);
-      recognizer_.SetOptions(o);
-      params_.recognizer.metric = o.metric;
+    if (AdoptDistanceOfFirstSet(set, &params_, &recognizer_)) {
       ROS_INFO("bsf_vpr: distance %s, as the reference set '%s' declares", set.distance.c_str(),
                set.name.c_str());
     }
-    CheckDistance(set, data_dir_->Relative(req.path));
+    CheckSetDistance(set, params_.recognizer.metric, data_dir_->Relative(req.path));
     recording_->CheckNotRecording(set.name);
     const std::string name = set.name;
     const int places = set.size();
@@ -54,6 +131,22 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
 }
 
 bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
+  if (combiner_) {
+    int shard = -1;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      shard = combiner_->OwnerOf(req.name);
+    }
+    if (shard < 0) {
+      res.success = false;
+      res.message = "no shard holds a reference set named " + QuotedForMessage(req.name);
+      return true;
+    }
+    UnloadReferenceSet forward;
+    forward.request = req;
+    res.success = RouteToShard(shard, names::kUnloadReferenceSetService, &forward, &res.message);
+    return true;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   try {
     if (recognizer_.map().IndexOf(req.name) < 0) {
@@ -73,7 +166,45 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
   return true;
 }
 
+void FusionNode::QueryShards(QueryPlace::Request& req, QueryPlace::Response& res) {
+  // Each shard's distances through its get_distances service (without the lock: the
+  // shards answer while descriptors stream in), then the fusion, the state untouched.
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::string> shards;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (int k = 0; k < combiner_->num_shards(); ++k) shards.push_back(combiner_->shard_name(k));
+  }
+  std::vector<GetShardDistances> calls(shards.size());
+  std::vector<const ShardDistances*> answers(shards.size(), nullptr);
+  for (size_t k = 0; k < shards.size(); ++k) {
+    calls[k].request.descriptor = req.descriptor;
+    if (ros::service::call(shards[k] + "/" + names::kShardDistancesService, calls[k])) {
+      answers[k] = &calls[k].response.distances;
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  ShardCombiner::Query query;
+  std::string error;
+  if (!combiner_->Assemble(answers, &query, &error)) throw std::invalid_argument(error);
+  const Recognition r = recognizer_.RecognizeDistances(query.distances, false);
+  res.belief.header = req.descriptor.header;
+  ToBeliefMsg(r, recognizer_, params_.belief_top_k, &res.belief);
+  res.belief.processing_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
+  if (combiner_) {
+    try {
+      QueryShards(req, res);
+      res.success = true;
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = e.what();
+    }
+    return true;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   try {
     const auto start = std::chrono::steady_clock::now();
@@ -105,6 +236,11 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
 bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
+    if (combiner_) {
+      throw std::invalid_argument(
+          "this node fuses shards and sees no descriptors: record with a fusion node of its "
+          "own sets, then load the recorded set on a shard (load_reference_set with shard)");
+    }
     const RecordingPlaces places =
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
     if (places == RecordingPlaces::kPose && params_.pose_source == "none") {

@@ -92,10 +92,27 @@ class ConfigFiles(unittest.TestCase):
             args = {"bag": "/tmp/none.bag"} if path.endswith("replay.launch") else {}
             if path.endswith("benchmark_pipeline.launch"):
                 args = {"data_directory": "/tmp"}
+            if path.endswith("benchmark_sharded.launch"):
+                args = {"data_directory": "/tmp", "sharded": "false"}
+            shards = {"shard_%d_config" % k: os.path.join(
+                self.pkg, "config", "benchmark_shard_%d.yaml" % k) for k in range(3)}
+            if path.endswith("/sharded.launch"):
+                args = shards
             config = self.load_launch(path, args)
             names = {n.name for n in config.nodes}
             self.assertIn("fusion", names, path)
             self.assertIn("descriptor_ingest", names, path)
+            if path.endswith("/sharded.launch"):
+                # Three shard processes, each on its own machine tag, and the combiner.
+                self.assertLessEqual({"shard_0", "shard_1", "shard_2"}, names)
+                self.assertEqual(config.params["/bsf_vpr/fusion/shards"].value,
+                                 ["shard_0", "shard_1", "shard_2"])
+                for node in config.nodes:
+                    if node.name.startswith("shard_"):
+                        self.assertEqual(node.machine_name, node.name + "_host")
+                        self.assertEqual(node.type, "shard_node")
+                self.assertEqual(config.params["/bsf_vpr/shard_1/reference_sets"].value,
+                                 [{"name": "c1", "path": "c1.npy"}])
             if "data_directory" not in args:  # not in the package's source folder
                 self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
                                  os.path.expanduser("~/.ros/bsf_vpr"), path)

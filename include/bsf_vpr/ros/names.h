@@ -27,5 +27,11 @@ constexpr char kStartRecordingService[] = "start_recording";
 constexpr char kStopRecordingService[] = "stop_recording";
 constexpr char kSelectionStatisticsService[] = "get_selection_statistics";
 
+// fusion shard (a shard of a sharded map, shard_node.h), in its private namespace; it
+// subscribes to kDescriptorTopic and serves the three reference-set services there too.
+constexpr char kShardDistancesTopic[] = "distances";  // bsf_vpr/ShardDistances out
+constexpr char kShardInfoTopic[] = "shard_info";      // bsf_vpr/ShardInfo out, latched
+constexpr char kShardDistancesService[] = "get_distances";
+
 }  // namespace names
 }  // namespace bsf_vpr

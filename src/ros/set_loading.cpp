@@ -1,0 +1,95 @@
+#include "set_loading.h"
+
+#include <ros/console.h>
+#include <ros/wall_timer.h>
+
+#include "bsf_vpr/core/file_util.h"
+#include "bsf_vpr/core/reference_set_io.h"
+
+namespace bsf_vpr {
+
+std::vector<ConfiguredSet> ReadConfiguredSets(const FusionParams& params) {
+  const std::string base = params.data_directory.empty() ? "." : params.data_directory;
+  std::vector<ConfiguredSet> sets;
+  for (const ReferenceSetEntry& e : params.reference_sets) {
+    const std::string path = ResolvePath(base, e.path);
+    ReferenceSet set = LoadReferenceSetFile(path, e.name);
+    if (!e.condition.empty()) set.condition = e.condition;
+    sets.push_back({std::move(set), path});
+  }
+  return sets;
+}
+
+void ChooseDeclaredDistance(const std::vector<ConfiguredSet>& sets, FusionParams* params) {
+  if (params->distance_given()) return;
+  std::string declared;
+  for (const ConfiguredSet& s : sets) {
+    if (s.set.distance.empty()) continue;
+    if (!declared.empty() && s.set.distance != declared) {
+      throw std::invalid_argument("the reference sets are meant for different distances (" +
+                                  declared + " and " + s.set.distance + " for '" + s.set.name +
+                                  "'); set the parameter distance");
+    }
+    declared = s.set.distance;
+  }
+  if (!declared.empty()) params->recognizer.metric = ParseDistanceMetric(declared);
+}
+
+bool AdoptDistanceOfFirstSet(const ReferenceSet& set, FusionParams* params,
+                             PlaceRecognizer* recognizer) {
+  if (params->distance_given() || recognizer->map().num_sets() > 0 || set.distance.empty()) {
+    return false;
+  }
+  RecognizerOptions o = recognizer->options();
+  o.metric = ParseDistanceMetric(set.distance);
+  recognizer->SetOptions(o);
+  params->recognizer.metric = o.metric;
+  return true;
+}
+
+void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std::string& where) {
+  const std::string name = ToString(metric);
+  if (!set.distance.empty() && set.distance != name) {
+    throw std::invalid_argument("reference set '" + set.name + "' (" + where + ") is meant for " +
+                                set.distance + " distance, the node uses " + name);
+  }
+}
+
+// Below this share of the rows' energy the first stage's basis warns (docs/performance.md).
+constexpr double kFirstStageEnergyWarning = 0.99;
+
+void PrepareFirstStageOrFallBack(PlaceRecognizer* recognizer, FusionParams* params,
+                                 std::string* error) {
+  if (recognizer->options().first_stage.kind == "exact" || recognizer->map().num_sets() == 0) {
+    return;
+  }
+  const ros::WallTime start = ros::WallTime::now();
+  try {
+    recognizer->PrepareFirstStage();
+  } catch (const std::exception& e) {
+    // The sets stay as they are; exact search answers until the node is restarted, rather
+    // than every descriptor trying the build again.
+    RecognizerOptions exact = recognizer->options();
+    exact.first_stage.kind = "exact";
+    recognizer->SetOptions(exact);
+    params->recognizer.first_stage.kind = "exact";
+    *error = e.what();
+    ROS_ERROR("bsf_vpr: the pca first stage could not be built (%s): exact search from now on",
+              e.what());
+    return;
+  }
+  ROS_INFO("bsf_vpr: first stage %s, built in %.2f s",
+           recognizer->distance_stage().Summary().c_str(), (ros::WallTime::now() - start).toSec());
+  const double energy = recognizer->distance_stage().index()->RetainedEnergy();
+  if (energy < kFirstStageEnergyWarning) {
+    // On the real data, bases keeping under 99% lost 2 points of R@1 and more.
+    ROS_WARN(
+        "bsf_vpr: the first stage's basis keeps only %.1f%% of the rows' energy: recall "
+        "may fall short of exact search; raise first_stage_dimensions or "
+        "first_stage_sample_rows, or measure with bsf_evaluate --first-stage pca "
+        "(docs/performance.md, large maps)",
+        100.0 * energy);
+  }
+}
+
+}  // namespace bsf_vpr

@@ -53,6 +53,14 @@ void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
 }
 
 void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
+  CheckRemovable(name);
+  map_.Remove(name);
+  distances_.Invalidate();
+  runner_.reset();
+  ResetPrior();
+}
+
+void PlaceRecognizer::CheckRemovable(const std::string& name) const {
   if (map_.IndexOf(name) < 0) {
     throw std::invalid_argument("no reference set named '" + name + "' is loaded");
   }
@@ -64,10 +72,6 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
     throw std::invalid_argument("reference set '" + name + "' is used by method '" +
                                 options_.method + "'; change the method first");
   }
-  map_.Remove(name);
-  distances_.Invalidate();
-  runner_.reset();
-  ResetPrior();
 }
 
 void PlaceRecognizer::ResetPrior() {

@@ -73,6 +73,25 @@ void FusionNode::Start() {
   publishing.view = params_.view;
   publishing.ground_truth_topic = params_.ground_truth_topic;
   publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
+  odometry_ = std::make_unique<OdometryTracker>(
+      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
+  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
+                                                  params_.map_frame, params_.base_frame);
+  // Sharded map: the combiner exists before any service can ask for it (and decides
+  // queries from now on: what it calls exists).
+  if (!params_.shards.empty()) {
+    ShardCombiner::Callbacks callbacks;
+    callbacks.layout = [this](std::vector<ReferenceSet> sets, DistanceMetric metric,
+                              const std::string& why) {
+      OnShardLayout(std::move(sets), metric, why);
+    };
+    callbacks.query = [this](ShardCombiner::Query& query) { OnShardQuery(query); };
+    callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
+    std::lock_guard<std::mutex> lock(mutex_);  // its callbacks take it
+    combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
+                                                params_.queue_size, &mutex_,
+                                                std::move(callbacks));
+  }
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {
@@ -96,7 +115,15 @@ void FusionNode::Start() {
     load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
     load_spinner_->start();
   }
-  services_.push_back(nh_.advertiseService(names::kQueryPlaceService, &FusionNode::OnQuery, this));
+  {
+    // A combiner's query_place calls every shard: on the load queue's thread, so that a
+    // shard that does not answer holds up no descriptor (a single node's answers at once).
+    ros::AdvertiseServiceOptions query = ros::AdvertiseServiceOptions::create<QueryPlace>(
+        names::kQueryPlaceService,
+        [this](QueryPlace::Request& req, QueryPlace::Response& res) { return OnQuery(req, res); },
+        ros::VoidConstPtr(), combiner_ ? &load_queue_ : nullptr);
+    services_.push_back(nh_.advertiseService(query));
+  }
   services_.push_back(
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
   services_.push_back(
@@ -116,22 +143,7 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
-  odometry_ = std::make_unique<OdometryTracker>(
-      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
-  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
-                                                  params_.map_frame, params_.base_frame);
-  if (!params_.shards.empty()) {
-    ShardCombiner::Callbacks callbacks;
-    callbacks.layout = [this](std::vector<ReferenceSet> sets, DistanceMetric metric,
-                              const std::string& why) {
-      OnShardLayout(std::move(sets), metric, why);
-    };
-    callbacks.query = [this](ShardCombiner::Query& query) { OnShardQuery(query); };
-    callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
-    std::lock_guard<std::mutex> lock(mutex_);
-    combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
-                                                params_.queue_size, &mutex_,
-                                                std::move(callbacks));
+  if (combiner_) {
     ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
              params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
     return;
@@ -220,7 +232,7 @@ void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric me
   // A new map from the shards' layouts, in their order; refused (thrown) as a load would be
   // (poses that contradict, a method naming a set no shard holds is only logged).
   RecognizerOptions options = recognizer_.options();
-  if (params_.distance_given() && metric != params_.recognizer.metric) {
+  if (!sets.empty() && params_.distance_given() && metric != params_.recognizer.metric) {
     throw std::invalid_argument("the shards use " + ToString(metric) + " distance, this node " +
                                 ToString(params_.recognizer.metric));
   }

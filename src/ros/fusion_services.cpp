@@ -35,11 +35,12 @@ template <typename Service>
 bool FusionNode::RouteToShard(int shard, const std::string& service, Service* srv,
                               std::string* message) {
   std::string name;
-  uint64_t infos = 0;
+  uint64_t infos = 0, refusals = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     name = combiner_->shard_name(shard);
     infos = combiner_->info_count(shard);
+    refusals = combiner_->refusal_count(shard);
   }
   if (!ros::service::call(name + "/" + service, *srv)) {
     *message = "shard " + name + " did not answer " + service;
@@ -49,15 +50,33 @@ bool FusionNode::RouteToShard(int shard, const std::string& service, Service* sr
     *message = "shard " + name + ": " + srv->response.message;
     return false;
   }
-  // The shard published its new sets before answering: wait for them to reach the map.
+  // The shard published its new sets before answering: wait for the map to take them, or
+  // to refuse them (a set that cannot share the map with the other shards' sets).
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(kShardInfoWaitS);
   while (ros::WallTime::now() < deadline) {
+    std::vector<std::string> added;
+    std::string refusal;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (combiner_->info_count(shard) > infos) {
         *message = srv->response.message;
         return true;
       }
+      if (combiner_->refusal_count(shard) > refusals) {
+        added = combiner_->RefusedNewSets(shard);
+        refusal = combiner_->refusal(shard);
+      }
+    }
+    if (!refusal.empty()) {
+      // Take the shard back to the sets the map holds (without the lock: a call).
+      for (const std::string& set : added) {
+        UnloadReferenceSet undo;
+        undo.request.name = set;
+        ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
+      }
+      *message = "the map refused shard " + name + "'s new sets (" + refusal + ")" +
+                 (added.empty() ? "" : "; unloaded again from the shard");
+      return false;
     }
     ros::WallDuration(0.01).sleep();
   }
@@ -83,6 +102,13 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
         }
       }
       if (req.shard.empty()) shard = combiner_->LeastLoaded();
+      if (!req.name.empty() && combiner_->OwnerOf(req.name) >= 0) {
+        res.success = false;
+        res.message = "a reference set named " + QuotedForMessage(req.name) +
+                      " is already loaded, on shard " +
+                      combiner_->shard_name(combiner_->OwnerOf(req.name));
+        return true;
+      }
     }
     if (shard < 0) {
       res.success = false;
@@ -133,18 +159,26 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
 bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
   if (combiner_) {
     int shard = -1;
-    {
+    try {
       std::lock_guard<std::mutex> lock(mutex_);
       shard = combiner_->OwnerOf(req.name);
-    }
-    if (shard < 0) {
+      if (shard < 0) {
+        throw std::invalid_argument("no shard holds a reference set named " +
+                                    QuotedForMessage(req.name));
+      }
+      recognizer_.CheckRemovable(req.name);  // e.g. the method nn:<set> needs it
+    } catch (const std::exception& e) {
       res.success = false;
-      res.message = "no shard holds a reference set named " + QuotedForMessage(req.name);
+      res.message = e.what();
       return true;
     }
     UnloadReferenceSet forward;
     forward.request = req;
     res.success = RouteToShard(shard, names::kUnloadReferenceSetService, &forward, &res.message);
+    if (res.success) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.Forget(req.name);
+    }
     return true;
   }
   std::lock_guard<std::mutex> lock(mutex_);

@@ -10,10 +10,6 @@
 namespace bsf_vpr {
 namespace {
 
-// An answer this much older than the last query decided is taken for time going back (a
-// replay started again), not for a late answer: the combiner starts a new timeline.
-constexpr double kTimeJumpTimeouts = 20;
-
 std::string SetList(const ShardInfo* info) {
   if (!info || info->sets.empty()) return "no sets";
   std::string out;
@@ -80,6 +76,20 @@ const ShardSet* ShardCombiner::SetInfo(const std::string& set) const {
   return nullptr;
 }
 
+std::vector<std::string> ShardCombiner::RefusedNewSets(int k) const {
+  const Shard& shard = shards_.at(static_cast<size_t>(k));
+  std::vector<std::string> out;
+  if (!shard.refused_info) return out;
+  for (const ShardSet& s : shard.refused_info->sets) {
+    bool held = false;
+    if (shard.info) {
+      for (const ShardSet& t : shard.info->sets) held = held || t.name == s.name;
+    }
+    if (!held) out.push_back(s.name);
+  }
+  return out;
+}
+
 int ShardCombiner::LeastLoaded() const {
   int best = -1;
   size_t fewest = 0;
@@ -103,47 +113,77 @@ void ShardCombiner::OnInfo(int k, const ShardInfo::ConstPtr& msg) {
     shard.info = msg;
     ++shard.info_count;
     if (shard.missing) ROS_INFO("bsf_vpr: shard %s is back", shard.name.c_str());
-    MarkAnswering(k);
     return;
   }
-  try {
-    DistanceMetric metric = ParseDistanceMetric(msg->distance);
-    std::vector<ReferenceSet> sets;
-    int dimension = 0;
-    for (size_t j = 0; j < shards_.size(); ++j) {
-      const ShardInfo* info = static_cast<int>(j) == k ? msg.get() : shards_[j].info.get();
-      if (!info) continue;
-      if (!info->sets.empty() && ParseDistanceMetric(info->distance) != metric) {
-        throw std::invalid_argument("it uses " + msg->distance + " distance, shard " +
-                                    shards_[j].name + " " + info->distance);
-      }
-      for (const ShardSet& s : info->sets) {
-        for (const ReferenceSet& held : sets) {
-          if (held.name == s.name) {
-            throw std::invalid_argument("set '" + s.name + "' is held by two shards");
-          }
-        }
-        if (dimension != 0 && s.dimension != dimension) {
-          throw std::invalid_argument("set '" + s.name + "' has dimension " +
-                                      std::to_string(s.dimension) + ", the map " +
-                                      std::to_string(dimension));
-        }
-        dimension = s.dimension;
-        sets.push_back(LayoutFromShardSetMsg(s));
-      }
+  if (!TakeInfo(k, msg)) return;
+  // A layout refused earlier may fit now (the clash it had may be gone).
+  for (size_t j = 0; j < shards_.size(); ++j) {
+    if (shards_[j].refused_info) TakeInfo(static_cast<int>(j), shards_[j].refused_info);
+  }
+}
+
+std::vector<ReferenceSet> ShardCombiner::LayoutWith(int k, const ShardInfo& info,
+                                                    DistanceMetric* metric) const {
+  // Every shard's info, shard k's replaced by `info`.
+  std::vector<const ShardInfo*> infos;
+  for (size_t j = 0; j < shards_.size(); ++j) {
+    infos.push_back(static_cast<int>(j) == k ? &info : shards_[j].info.get());
+  }
+  // The distance of the map: that of the shards holding sets (one without sets has its
+  // configured or default distance, which does not matter).
+  std::string distance;
+  std::vector<ReferenceSet> sets;
+  int dimension = 0;
+  for (size_t j = 0; j < infos.size(); ++j) {
+    if (!infos[j] || infos[j]->sets.empty()) continue;
+    if (distance.empty()) distance = infos[j]->distance;
+    if (infos[j]->distance != distance) {
+      throw std::invalid_argument("the shards' sets are meant for different distances (" +
+                                  distance + ", and " + infos[j]->distance + " on shard " +
+                                  shards_[j].name + ")");
     }
+    for (const ShardSet& s : infos[j]->sets) {
+      for (const ReferenceSet& held : sets) {
+        if (held.name == s.name) {
+          throw std::invalid_argument("set '" + s.name + "' is held by two shards");
+        }
+      }
+      if (dimension != 0 && s.dimension != dimension) {
+        throw std::invalid_argument("set '" + s.name + "' has dimension " +
+                                    std::to_string(s.dimension) + ", the map " +
+                                    std::to_string(dimension));
+      }
+      dimension = s.dimension;
+      sets.push_back(LayoutFromShardSetMsg(s));
+    }
+  }
+  *metric = ParseDistanceMetric(distance.empty() ? info.distance : distance);
+  return sets;
+}
+
+bool ShardCombiner::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
+  Shard& shard = shards_[static_cast<size_t>(k)];
+  try {
+    DistanceMetric metric;
+    std::vector<ReferenceSet> sets = LayoutWith(k, *msg, &metric);
     const std::string why = "shard " + shard.name + " holds " + SetList(msg.get()) +
                             (shard.info ? " (was " + SetList(shard.info.get()) + ")" : "");
-    callbacks_.layout(std::move(sets), metric, why);
+    callbacks_.layout(std::move(sets), metric, why);  // logs it; throws to refuse
     shard.info = msg;
     shard.refused.clear();
+    shard.refused_info.reset();
     ++shard.info_count;
-    MarkAnswering(k);
-    ROS_INFO("bsf_vpr: %s", why.c_str());
+    ++layouts_;
+    return true;
   } catch (const std::exception& e) {
+    if (shard.refused != e.what()) {
+      ROS_ERROR("bsf_vpr: shard %s's sets are refused, the map keeps its previous layout: %s",
+                shard.name.c_str(), e.what());
+    }
     shard.refused = e.what();
-    ROS_ERROR("bsf_vpr: shard %s's sets are refused, the map keeps its previous layout: %s",
-              shard.name.c_str(), e.what());
+    shard.refused_info = msg;
+    ++shard.refusals;
+    return false;
   }
 }
 
@@ -171,28 +211,45 @@ void ShardCombiner::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
     return;
   }
   ++shard.answered;
-  MarkAnswering(k);
-  if (!last_decided_.isZero() && stamp <= last_decided_) {
-    if ((last_decided_ - stamp).toSec() < kTimeJumpTimeouts * timeout_.toSec()) {
-      ++shard.late;  // its query was decided without it
-      return;
-    }
-    last_decided_ = ros::Time();  // time went back: a new run
-  }
-  Pending& p = pending_[stamp];
+  const bool old = !last_decided_.isZero() && stamp <= last_decided_;
+  Pending& p = (old ? past_ : pending_)[stamp];
   if (p.answers.empty()) {
     p.header = msg->header;
     p.answers.resize(shards_.size());
     p.first = ros::WallTime::now();
   }
   if (p.answers[static_cast<size_t>(k)]) {
-    callbacks_.reject("shard " + shard.name + " answered twice for stamp " +
-                      std::to_string(stamp.toSec()) +
-                      ": a sharded map tells queries apart by header.stamp");
+    ROS_WARN_THROTTLE(5.0,
+                      "bsf_vpr: shard %s answered twice for stamp %.3f: a sharded map tells "
+                      "queries apart by header.stamp (the second answer is dropped)",
+                      shard.name.c_str(), stamp.toSec());
     return;
   }
   p.answers[static_cast<size_t>(k)] = msg;
-  Flush(ros::WallTime::now());
+  if (!old) {
+    MarkAnswering(k);  // on time: waited for again (a late answer does not bring it back)
+    Flush(ros::WallTime::now());
+    return;
+  }
+  // A stamp at or before the last decided query. One shard's answer is late (a lagging
+  // shard: dropped, its query was decided without it); every shard's answer is a query
+  // that came after the others in time but later on the wire (time went back: a bag
+  // replayed again, or descriptors published out of stamp order): decided, as a single
+  // node would, and the stamps start afresh from it.
+  ++shard.late;
+  bool complete = true;
+  for (size_t j = 0; j < shards_.size(); ++j) {
+    if (!p.answers[j] && Expected(static_cast<int>(j))) complete = false;
+  }
+  if (complete) {
+    for (size_t j = 0; j < shards_.size(); ++j) {
+      if (p.answers[j]) --shards_[j].late;
+    }
+    pending_.insert(past_.extract(stamp));
+    last_decided_ = ros::Time();
+    Flush(ros::WallTime::now());
+  }
+  while (past_.size() > queue_size_) past_.erase(past_.begin());
 }
 
 bool ShardCombiner::Assemble(const std::vector<const ShardDistances*>& answers, Query* query,
@@ -200,18 +257,22 @@ bool ShardCombiner::Assemble(const std::vector<const ShardDistances*>& answers, 
   query->distances.clear();
   query->missing_shards.clear();
   query->shard_seconds = 0;
+  std::string refusals;  // of the shards that refused the descriptor
+  bool any = false;      // a shard's distances are in
   for (size_t k = 0; k < shards_.size(); ++k) {
     const Shard& shard = shards_[k];
-    if (!shard.info) continue;
+    if (!shard.info) {
+      query->missing_shards.push_back(shard.name);  // no sets known yet
+      continue;
+    }
     const ShardDistances* a = answers.at(k);
     const std::vector<ShardSet>& sets = shard.info->sets;
-    if (a && !a->error.empty()) {
-      *error = "shard " + shard.name + ": " + a->error;
-      return false;
+    if (a && !a->error.empty() && !sets.empty()) {
+      refusals += (refusals.empty() ? "" : "; ") + ("shard " + shard.name + ": " + a->error);
     }
     // An answer for other sets than the layout's (a shard whose new shard_info has not
-    // arrived) counts as none.
-    bool usable = a && a->set_names.size() == sets.size() &&
+    // arrived, or was refused), a refusal, or a malformed one counts as none.
+    bool usable = a && a->error.empty() && a->set_names.size() == sets.size() &&
                   a->fingerprints.size() == sets.size() && a->counts.size() == sets.size();
     size_t total = 0;
     for (size_t i = 0; usable && i < sets.size(); ++i) {
@@ -225,6 +286,7 @@ bool ShardCombiner::Assemble(const std::vector<const ShardDistances*>& answers, 
       query->distances.resize(query->distances.size() + sets.size());  // 0 x 0: missing
       continue;
     }
+    any = any || !sets.empty();
     query->shard_seconds = std::max(query->shard_seconds, a->processing_time);
     size_t offset = 0;
     for (size_t i = 0; i < sets.size(); ++i) {
@@ -233,6 +295,12 @@ bool ShardCombiner::Assemble(const std::vector<const ShardDistances*>& answers, 
           Eigen::Map<const RowMatrixXf>(a->distances.data() + offset, 1, n));
       offset += static_cast<size_t>(n);
     }
+  }
+  // A descriptor every shard with distances refused is refused (its dimension, a NaN: the
+  // same reason on each); one shard's refusal alone makes that shard missing.
+  if (!any && !refusals.empty()) {
+    *error = refusals;
+    return false;
   }
   return true;
 }
@@ -279,16 +347,23 @@ void ShardCombiner::Flush(ros::WallTime now) {
 std::string ShardCombiner::MissingSummary() const {
   std::string out;
   for (const Shard& shard : shards_) {
-    const bool holds = shard.info && !shard.info->sets.empty();
-    if (holds && (shard.missing || shard.distances_sub.getNumPublishers() == 0)) {
-      out += (out.empty() ? "" : "; ") + shard.name + " (" + SetList(shard.info.get()) + ")";
+    std::string why;
+    if (!shard.info) {
+      why = "no shard_info yet";
+    } else if (!shard.refused.empty()) {
+      why = "its sets refused: " + shard.refused;
+    } else if (!shard.info->sets.empty() &&
+               (shard.missing || shard.distances_sub.getNumPublishers() == 0)) {
+      why = SetList(shard.info.get());
     }
+    if (!why.empty()) out += (out.empty() ? "" : "; ") + shard.name + " (" + why + ")";
   }
   return out;
 }
 
 void ShardCombiner::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   status.add("shards", static_cast<int>(shards_.size()));
+  status.add("map layouts taken", layouts_);
   status.add("queries decided", decided_);
   status.add("decided without some shard", decided_partial_);
   for (const Shard& shard : shards_) {

@@ -188,8 +188,16 @@ class ConfigFiles(unittest.TestCase):
                  (["_carry_prior:=true"], "+filter"),
                  ([], "missing.npy")]
         rospy.set_param("/bad/bad4/reference_sets", [{"path": "missing.npy", "name": "m"}])
+        # A combiner holds no sets of its own; shards is a list of names; a shard is no
+        # combiner.
+        cases += [([], "give reference_sets to the shards"), (["_shards:=shard_0"], "list"),
+                  ([], "shards is the combiner's")]
+        rospy.set_param("/bad/bad5/reference_sets", [{"path": "x.npy", "name": "x"}])
+        rospy.set_param("/bad/bad5/shards", ["shard_0"])
+        rospy.set_param("/bad/bad7/shards", ["shard_0"])
         for i, (params, fragment) in enumerate(cases):
-            r = subprocess.run(["rosrun", "bsf_vpr", "fusion_node", "__name:=bad%d" % i,
+            node = "shard_node" if i == 7 else "fusion_node"
+            r = subprocess.run(["rosrun", "bsf_vpr", node, "__name:=bad%d" % i,
                                 "__ns:=/bad"] + params,
                                capture_output=True, text=True, timeout=60, check=False)
             self.assertEqual(r.returncode, 1, params)

@@ -120,72 +120,90 @@ class Sharded(unittest.TestCase):
         if not self.kill:
             return
 
+        # An unstamped descriptor cannot be paired: dropped, and diagnostics say why.
+        d = Descriptor()
+        d.data = self.queries[5].tolist()
+        self.pub.publish(d)
+        wait_for(lambda: any("without a stamp" in st.message for array in self.diagnostics
+                             for st in array.status), 10, "diagnostics on the unstamped query")
+        self.assertNotIn(0, self.sharded)
+
         # 2. shard_2 dies (SIGKILL): the combiner answers from the others, marked.
-        infos = []
-        rospy.Subscriber("/bsf_vpr/shard_2/shard_info", ShardInfo, infos.append)
-        wait_for(lambda: len(infos) == 1, 10, "shard_2's latched shard_info")
-        os.kill(self.shard_pid("/bsf_vpr/shard_2"), signal.SIGKILL)
-        outage = self.publish(range(10, 20))
-        wait_for(lambda: all(s in self.sharded for s in outage), 30, "beliefs during the outage")
-        partial = [self.sharded[s] for s in outage if list(self.sharded[s].missing_sets)]
-        self.assertGreater(len(partial), 0, "no belief was marked as missing winter256")
-        for b in partial:
-            self.assertEqual(list(b.missing_sets), ["winter256"])
-            self.assertEqual(list(b.set_names), SETS)
-            self.assertTrue(math.isnan(b.set_min_distances[2]))
-            self.assertEqual(b.set_weights[2], 0.0)
-            self.assertNotIn("winter256", list(b.used_sets) + list(b.selected_sets))
-            self.assertFalse(math.isnan(b.set_min_distances[0]))
-        wait_for(lambda: any("deciding without shard" in st.message and "winter256" in st.message
-                             for array in self.diagnostics for st in array.status), 10,
-                 "diagnostics naming the missing shard")
+        self.infos = []
+        rospy.Subscriber("/bsf_vpr/shard_2/shard_info", ShardInfo, self.infos.append)
+        wait_for(lambda: len(self.infos) == 1, 10, "shard_2's latched shard_info")
+        layouts = self.fusion_diagnostic("map layouts taken")
+        self.restart_shard_2(lambda: self.check_outage(self.publish(range(10, 20)),
+                                                       ["winter256"]))
 
-        # 3. It respawns with the same set: taken back without a rebuild, bitwise again
-        # (a method without state carried between queries; see sharded_filter_seq).
-        wait_for(lambda: len(infos) >= 2, 30, "shard_2 respawned")
-        self.until_complete()
+        # 3. It respawned with the same set: taken back without a rebuild (the layout count
+        # is unchanged), bitwise again (bsf carries no state; sharded_filter_seq does).
         self.assert_bitwise(self.publish(range(30, 50)))
+        self.assertEqual(self.fusion_diagnostic("map layouts taken"), layouts)
 
-        # 4. Restarted with other sets (another storage precision: another fingerprint):
+        # 4. A shard that lags (stopped, then continued): decided without it after
+        # shard_timeout, its late answers dropped, taken back when it answers in time.
+        pid = self.shard_pid("/bsf_vpr/shard_1")
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            self.check_outage(self.publish(range(50, 55)), ["fall"])
+            start = len(self.diagnostics)
+            wait_for(lambda: any("deciding without shard" in st.message and "fall" in st.message
+                                 for array in self.diagnostics[start:] for st in array.status),
+                     10, "diagnostics naming the missing shard")
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        self.until_complete()
+        self.assert_bitwise(self.publish(range(55, 60)))
+
+        # 5. Restarted with other sets (another storage precision: another fingerprint):
         # detected, the map follows.
         rospy.set_param("/bsf_vpr/shard_2/storage", "int8")
-        os.kill(self.shard_pid("/bsf_vpr/shard_2"), signal.SIGKILL)
-        wait_for(lambda: len(infos) >= 3, 30, "shard_2 respawned at int8")
-        wait_for(lambda: [s.storage for s in self.list().sets] == ["float32", "float32", "int8"],
-                 10, "the combiner's list to follow shard_2")
-        self.until_complete()
+        self.restart_shard_2()
+        self.assertEqual([s.storage for s in self.list().sets], ["float32", "float32", "int8"])
+        self.assertGreater(self.fusion_diagnostic("map layouts taken"), layouts)
         after = self.publish(range(60, 70))
         wait_for(lambda: all(s in self.sharded for s in after), 30, "beliefs after the restart")
         for s in after:
             self.assertEqual(list(self.sharded[s].missing_sets), [])
             self.assertEqual(list(self.sharded[s].set_names), SETS)
 
-        # 5. Services are routed to the shard that owns the set.
+        # 6. Services are routed to the shard that owns the set.
         unload = rospy.ServiceProxy("/bsf_vpr/unload_reference_set", UnloadReferenceSet)
         load = rospy.ServiceProxy("/bsf_vpr/load_reference_set", LoadReferenceSet)
         r = unload(name="fall")
         self.assertTrue(r.success, r.message)
         self.assertEqual([s.name for s in self.list().sets], ["summer", "winter256"])
         self.assertFalse(unload(name="fall").success)
-        bad = load(path="../escape.yaml", shard="shard_1")
-        self.assertFalse(bad.success)
+        self.assertFalse(load(path="../escape.yaml", shard="shard_1").success)
         self.assertFalse(load(path="fall.yaml", shard="shard_9").success)
-        r = load(path="fall.yaml", shard="shard_1")
+        # Without a shard: the one holding the fewest places, the empty shard_1.
+        r = load(path="fall.yaml")
         self.assertTrue(r.success, r.message)
+        self.assertIn("shard_1", r.message)
         listed = self.list().sets
         self.assertEqual([s.name for s in listed], SETS)
         self.assertEqual([s.shard for s in listed],
                          ["/bsf_vpr/shard_0", "/bsf_vpr/shard_1", "/bsf_vpr/shard_2"])
         self.assertEqual({s.dimension for s in listed}, {self.queries.shape[1]})
+        # A set the map cannot take (its name is held by shard_1): refused by name, or, named
+        # by its file only, loaded on shard_0, refused by the map and unloaded there again.
+        r = load(path="fall.yaml", name="fall", shard="shard_0")
+        self.assertFalse(r.success)
+        self.assertIn("already loaded", r.message)
+        r = load(path="fall.yaml", shard="shard_0")
+        self.assertFalse(r.success)
+        self.assertIn("held by two shards", r.message)
+        self.assertIn("unloaded again", r.message)
+        shard_0 = rospy.ServiceProxy("/bsf_vpr/shard_0/list_reference_sets", ListReferenceSets)
+        self.assertEqual([s.name for s in shard_0().sets], ["summer"])
+        self.until_complete()
+
         # query_place through the shards' get_distances equals the single node's, once both
         # hold the same sets at the same precision.
         rospy.set_param("/bsf_vpr/shard_2/storage", "float32")
-        count = len(infos)
-        os.kill(self.shard_pid("/bsf_vpr/shard_2"), signal.SIGKILL)
-        wait_for(lambda: len(infos) > count, 30, "shard_2 respawned at float32")
-        wait_for(lambda: [s.storage for s in self.list().sets] == ["float32"] * 3, 10,
-                 "float32 again")
-        self.until_complete()
+        self.restart_shard_2()
+        self.assertEqual([s.storage for s in self.list().sets], ["float32"] * 3)
         d = Descriptor()
         d.data = self.queries[42].tolist()
         a = rospy.ServiceProxy("/single/query_place", QueryPlace)(descriptor=d)
@@ -198,6 +216,47 @@ class Sharded(unittest.TestCase):
         self.assertFalse(r.success)
         self.assertIn("dimension", r.message)
 
+    def check_outage(self, stamps, missing):
+        """The queries at `stamps` were all decided, and some without the sets `missing`,
+        which those beliefs mark."""
+        wait_for(lambda: all(s in self.sharded for s in stamps), 30, "beliefs during the outage")
+        partial = [self.sharded[s] for s in stamps if list(self.sharded[s].missing_sets)]
+        self.assertGreater(len(partial), 0, "no belief was marked as missing %s" % missing)
+        for b in partial:
+            self.assertEqual(list(b.missing_sets), missing)
+            self.assertEqual(list(b.set_names), SETS)
+            u = SETS.index(missing[0])
+            self.assertTrue(math.isnan(b.set_min_distances[u]))
+            self.assertEqual(b.set_weights[u], 0.0)
+            self.assertNotIn(missing[0], list(b.used_sets) + list(b.selected_sets))
+            self.assertFalse(math.isnan(b.set_min_distances[(u + 1) % 3]))
+
+    def restart_shard_2(self, while_down=None):
+        """SIGKILLs shard_2, runs while_down, waits for the respawned shard's shard_info and
+        its first answer in time."""
+        count = len(self.infos)
+        os.kill(self.shard_pid("/bsf_vpr/shard_2"), signal.SIGKILL)
+        if while_down:
+            while_down()
+        wait_for(lambda: len(self.infos) > count, 30, "shard_2 respawned")
+        wait_for(lambda: self.list().sets and self.list().sets[-1].storage
+                 == rospy.get_param("/bsf_vpr/shard_2/storage", "float32"), 10,
+                 "the combiner's list to follow shard_2")
+        self.until_complete()
+
+    def fusion_diagnostic(self, key):
+        """The combiner's latest diagnostics value of `key`, as an int."""
+        wait_for(lambda: any(st.name.endswith("fusion: fusion") for array in self.diagnostics
+                             for st in array.status), 10, "the combiner's diagnostics")
+        start = len(self.diagnostics)
+        wait_for(lambda: len(self.diagnostics) > start + 2, 10, "fresh diagnostics")
+        for array in reversed(self.diagnostics):
+            for st in array.status:
+                if st.name.startswith("bsf_vpr/fusion"):
+                    for kv in st.values:
+                        if kv.key == key:
+                            return int(kv.value)
+        self.fail("no diagnostics key %r" % key)
 
 if __name__ == "__main__":
     rostest.rosrun("bsf_vpr", "sharded", Sharded)

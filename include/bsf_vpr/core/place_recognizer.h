@@ -66,6 +66,9 @@ class PlaceRecognizer {
   // Removes a set. Throws std::invalid_argument if it is not loaded or the current method
   // needs it (nn:<set>, bayes:<set>, with any suffix). Resets the carried state.
   void RemoveReferenceSet(const std::string& name);
+  // Throws what RemoveReferenceSet would, without removing anything (a sharded map checks
+  // before it asks the shard that holds the set).
+  void CheckRemovable(const std::string& name) const;
   const ReferenceMap& map() const { return map_; }
 
   // Recognises the place of one descriptor (D floats). With update_state, the state carried

@@ -3,8 +3,6 @@
 #include <chrono>
 
 #include "bsf_vpr/core/data_directory.h"
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 #include "reconfigure_options.h"
@@ -43,17 +41,7 @@ void FusionNode::Start() {
       params_.recognizer.first_stage.kind = "exact";
     }
   }
-  std::vector<ConfiguredSet> sets = ReadConfiguredSets(params_);
-  ChooseDeclaredDistance(sets, &params_);
-  recognizer_.SetStoragePrecision(params_.storage);
-  recognizer_.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
-  for (ConfiguredSet& c : sets) {
-    CheckSetDistance(c.set, params_.recognizer.metric, c.path);
-    recognizer_.AddReferenceSet(std::move(c.set));
-    const StoredReferenceSet& s = recognizer_.map().sets().back();
-    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name().c_str(),
-             s.size(), s.dimension(), ToString(s.precision()).c_str());
-  }
+  LoadConfiguredSets(&params_, &recognizer_);
   recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
   PrepareFirstStage();
   const Method& method = recognizer_.method();

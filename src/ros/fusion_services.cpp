@@ -3,7 +3,6 @@
 #include <chrono>
 
 #include "bsf_vpr/core/data_directory.h"
-#include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 #include "fusion_node.h"
@@ -129,17 +128,9 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
       throw std::invalid_argument("shard " + QuotedForMessage(req.shard) +
                                   " given, but this node fuses no shards (parameter shards)");
     }
-    if (!data_dir_) {
-      throw std::invalid_argument("no data directory is configured (parameter data_directory)");
-    }
-    ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
-    if (!req.condition.empty()) set.condition = req.condition;
+    ReferenceSet set = ReadRequestedSet(data_dir_.get(), req);
     std::lock_guard<std::mutex> lock(mutex_);
-    if (AdoptDistanceOfFirstSet(set, &params_, &recognizer_)) {
-      ROS_INFO("bsf_vpr: distance %s, as the reference set '%s' declares", set.distance.c_str(),
-               set.name.c_str());
-    }
-    CheckSetDistance(set, params_.recognizer.metric, data_dir_->Relative(req.path));
+    TakeSetDistance(set, data_dir_->Relative(req.path), &params_, &recognizer_);
     recording_->CheckNotRecording(set.name);
     const std::string name = set.name;
     const int places = set.size();

@@ -8,44 +8,7 @@
 
 namespace bsf_vpr {
 
-std::vector<ConfiguredSet> ReadConfiguredSets(const FusionParams& params) {
-  const std::string base = params.data_directory.empty() ? "." : params.data_directory;
-  std::vector<ConfiguredSet> sets;
-  for (const ReferenceSetEntry& e : params.reference_sets) {
-    const std::string path = ResolvePath(base, e.path);
-    ReferenceSet set = LoadReferenceSetFile(path, e.name);
-    if (!e.condition.empty()) set.condition = e.condition;
-    sets.push_back({std::move(set), path});
-  }
-  return sets;
-}
-
-void ChooseDeclaredDistance(const std::vector<ConfiguredSet>& sets, FusionParams* params) {
-  if (params->distance_given()) return;
-  std::string declared;
-  for (const ConfiguredSet& s : sets) {
-    if (s.set.distance.empty()) continue;
-    if (!declared.empty() && s.set.distance != declared) {
-      throw std::invalid_argument("the reference sets are meant for different distances (" +
-                                  declared + " and " + s.set.distance + " for '" + s.set.name +
-                                  "'); set the parameter distance");
-    }
-    declared = s.set.distance;
-  }
-  if (!declared.empty()) params->recognizer.metric = ParseDistanceMetric(declared);
-}
-
-bool AdoptDistanceOfFirstSet(const ReferenceSet& set, FusionParams* params,
-                             PlaceRecognizer* recognizer) {
-  if (params->distance_given() || recognizer->map().num_sets() > 0 || set.distance.empty()) {
-    return false;
-  }
-  RecognizerOptions o = recognizer->options();
-  o.metric = ParseDistanceMetric(set.distance);
-  recognizer->SetOptions(o);
-  params->recognizer.metric = o.metric;
-  return true;
-}
+namespace {
 
 void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std::string& where) {
   const std::string name = ToString(metric);
@@ -53,6 +16,65 @@ void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std:
     throw std::invalid_argument("reference set '" + set.name + "' (" + where + ") is meant for " +
                                 set.distance + " distance, the node uses " + name);
   }
+}
+
+}  // namespace
+
+void LoadConfiguredSets(FusionParams* params, PlaceRecognizer* recognizer) {
+  const std::string base = params->data_directory.empty() ? "." : params->data_directory;
+  std::vector<std::pair<ReferenceSet, std::string>> sets;  // and the file each came from
+  for (const ReferenceSetEntry& e : params->reference_sets) {
+    const std::string path = ResolvePath(base, e.path);
+    ReferenceSet set = LoadReferenceSetFile(path, e.name);
+    if (!e.condition.empty()) set.condition = e.condition;
+    sets.emplace_back(std::move(set), path);
+  }
+  if (!params->distance_given()) {
+    // The distance the sets were made for, if they agree on one.
+    std::string declared;
+    for (const auto& [set, path] : sets) {
+      if (set.distance.empty()) continue;
+      if (!declared.empty() && set.distance != declared) {
+        throw std::invalid_argument("the reference sets are meant for different distances (" +
+                                    declared + " and " + set.distance + " for '" + set.name +
+                                    "'); set the parameter distance");
+      }
+      declared = set.distance;
+    }
+    if (!declared.empty()) params->recognizer.metric = ParseDistanceMetric(declared);
+  }
+  recognizer->SetStoragePrecision(params->storage);
+  recognizer->SetPlacePoseTolerance(params->place_pose_tolerance_m);
+  for (auto& entry : sets) {
+    CheckSetDistance(entry.first, params->recognizer.metric, entry.second);
+    recognizer->AddReferenceSet(std::move(entry.first));
+    const StoredReferenceSet& s = recognizer->map().sets().back();
+    ROS_INFO("bsf_vpr: loaded reference set '%s' (%d places, dimension %d, %s)", s.name().c_str(),
+             s.size(), s.dimension(), ToString(s.precision()).c_str());
+  }
+}
+
+ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadReferenceSet::Request& req) {
+  if (!dir) {
+    throw std::invalid_argument("no data directory is configured (parameter data_directory)");
+  }
+  ReferenceSet set = LoadReferenceSetFile(*dir, req.path, req.name);
+  if (!req.condition.empty()) set.condition = req.condition;
+  return set;
+}
+
+void TakeSetDistance(const ReferenceSet& set, const std::string& where, FusionParams* params,
+                     PlaceRecognizer* recognizer) {
+  if (!params->distance_given() && recognizer->map().num_sets() == 0 && !set.distance.empty()) {
+    // No distance configured and nothing loaded yet: the first set's own distance.
+    RecognizerOptions o = recognizer->options();
+    o.metric = ParseDistanceMetric(set.distance);
+    recognizer->SetOptions(o);
+    params->recognizer.metric = o.metric;
+    ROS_INFO("bsf_vpr: distance %s, as the reference set '%s' declares", set.distance.c_str(),
+             set.name.c_str());
+  }
+  CheckSetDistance(set, params->recognizer.metric, where);
 }
 
 // Below this share of the rows' energy the first stage's basis warns (docs/performance.md).

@@ -6,33 +6,31 @@
 #include <string>
 #include <vector>
 
+#include <bsf_vpr/LoadReferenceSet.h>
+
+#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "fusion_params.h"
 
 namespace bsf_vpr {
 
-struct ConfiguredSet {
-  ReferenceSet set;
-  std::string path;  // the file it was read from
-};
+// Reads params->reference_sets (paths relative to data_directory, or the working directory
+// without one: the operator's own configuration, not confined like service requests),
+// takes the distance they declare when none is configured (params->recognizer.metric), and
+// adds them to `recognizer` at params' storage and pose tolerance, logging each. Throws
+// std::exception naming the file, or the sets' disagreeing distances.
+void LoadConfiguredSets(FusionParams* params, PlaceRecognizer* recognizer);
 
-// Reads params.reference_sets, paths relative to params.data_directory (or the working
-// directory without one): the operator's own configuration, not confined like service
-// requests. Throws std::exception naming the file.
-std::vector<ConfiguredSet> ReadConfiguredSets(const FusionParams& params);
+// load_reference_set's file: `req`'s path read below `dir` (no lock needed), its name and
+// condition overridden by the request's. Throws std::invalid_argument when there is no data
+// directory (null) or the file cannot be a set.
+ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadReferenceSet::Request& req);
 
-// With no distance configured, sets params->recognizer.metric to the one the sets declare.
-// Throws std::invalid_argument when they declare different ones.
-void ChooseDeclaredDistance(const std::vector<ConfiguredSet>& sets, FusionParams* params);
-
-// With no distance configured and nothing loaded yet, adopts the distance `set` declares
-// (params and recognizer); returns whether it did.
-bool AdoptDistanceOfFirstSet(const ReferenceSet& set, FusionParams* params,
-                             PlaceRecognizer* recognizer);
-
-// Throws std::invalid_argument when `set` is meant for another distance than `metric`;
-// `where` names its file in the message.
-void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std::string& where);
+// Before adding `set` (from `where`): with no distance configured and nothing loaded yet,
+// adopts the distance it declares (params and recognizer, logged); else throws
+// std::invalid_argument when it is meant for another distance than the recognizer's.
+void TakeSetDistance(const ReferenceSet& set, const std::string& where, FusionParams* params,
+                     PlaceRecognizer* recognizer);
 
 // Builds the first stage's index for the recogniser's sets now (first_stage pca) and logs
 // it, warning when its basis keeps under 99% of the rows' energy. Never throws: a failed

@@ -4,7 +4,6 @@
 
 #include <chrono>
 
-#include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
@@ -30,20 +29,9 @@ void ShardNode::Start() {
   if (!params_.data_directory.empty()) {
     data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
   }
-  std::vector<ConfiguredSet> sets = ReadConfiguredSets(params_);
-  ChooseDeclaredDistance(sets, &params_);
-  sets_.SetStoragePrecision(params_.storage);
-  sets_.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
+  LoadConfiguredSets(&params_, &sets_);
   sets_.SetOptions(params_.recognizer);
-  for (ConfiguredSet& c : sets) {
-    CheckSetDistance(c.set, params_.recognizer.metric, c.path);
-    sets_.AddReferenceSet(std::move(c.set));
-    const StoredReferenceSet& s = sets_.map().sets().back();
-    fingerprints_.push_back(SetFingerprint(s));
-    ROS_INFO("bsf_vpr: shard %s loaded reference set '%s' (%d places, dimension %d, %s)",
-             pnh_.getNamespace().c_str(), s.name().c_str(), s.size(), s.dimension(),
-             ToString(s.precision()).c_str());
-  }
+  for (const StoredReferenceSet& s : sets_.map().sets()) fingerprints_.push_back(SetFingerprint(s));
   PrepareFirstStage();
 
   distances_pub_ = pnh_.advertise<ShardDistances>(names::kShardDistancesTopic,
@@ -168,17 +156,9 @@ bool ShardNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response&
 
 bool ShardNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
   try {
-    if (!data_dir_) {
-      throw std::invalid_argument("no data directory is configured (parameter data_directory)");
-    }
-    ReferenceSet set = LoadReferenceSetFile(*data_dir_, req.path, req.name);
-    if (!req.condition.empty()) set.condition = req.condition;
+    ReferenceSet set = ReadRequestedSet(data_dir_.get(), req);
     std::lock_guard<std::mutex> lock(mutex_);
-    if (AdoptDistanceOfFirstSet(set, &params_, &sets_)) {
-      ROS_INFO("bsf_vpr: distance %s, as the reference set '%s' declares", set.distance.c_str(),
-               set.name.c_str());
-    }
-    CheckSetDistance(set, params_.recognizer.metric, data_dir_->Relative(req.path));
+    TakeSetDistance(set, data_dir_->Relative(req.path), &params_, &sets_);
     const std::string name = set.name;
     const int places = set.size();
     sets_.AddReferenceSet(std::move(set));

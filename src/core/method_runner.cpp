@@ -89,12 +89,11 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
     predicted = PredictLogPrior(last_log_posterior_, options_.filter, step_places);
     log_prior = &predicted;
   }
-  const bool all = !available || (available->size() == sets.size() &&
-                                  std::find(available->begin(), available->end(), false) ==
-                                      available->end());
+  const bool all =
+      !available || (available->size() == sets.size() &&
+                     std::find(available->begin(), available->end(), false) == available->end());
   PlaceBelief b = all ? RunMethod(method_, sets, num_places, options_, log_prior)
-                      : RunOnAvailable(method_, sets, *available, num_places, options_,
-                                       log_prior);
+                      : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace

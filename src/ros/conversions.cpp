@@ -95,7 +95,6 @@ ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
   return info;
 }
 
-
 ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {
   ShardSet m;
   m.name = set.name();

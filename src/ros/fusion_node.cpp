@@ -35,9 +35,10 @@ void FusionNode::Start() {
           "reference_sets to the shards (docs/sharding.md)");
     }
     if (params_.recognizer.first_stage.kind != "exact") {
-      ROS_WARN("bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
-               "distances",
-               params_.recognizer.first_stage.kind.c_str());
+      ROS_WARN(
+          "bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
+          "distances",
+          params_.recognizer.first_stage.kind.c_str());
       params_.recognizer.first_stage.kind = "exact";
     }
   }
@@ -77,8 +78,7 @@ void FusionNode::Start() {
     callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
     std::lock_guard<std::mutex> lock(mutex_);  // its callbacks take it
     combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
-                                                params_.queue_size, &mutex_,
-                                                std::move(callbacks));
+                                                params_.queue_size, &mutex_, std::move(callbacks));
   }
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
@@ -235,8 +235,8 @@ void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric me
   }
   recognizer_ = std::move(fresh);
   params_.recognizer.metric = metric;
-  ROS_INFO("bsf_vpr: sharded map: %s: %d set(s), %d places; the belief starts afresh",
-           why.c_str(), recognizer_.map().num_sets(), recognizer_.map().num_places());
+  ROS_INFO("bsf_vpr: sharded map: %s: %d set(s), %d places; the belief starts afresh", why.c_str(),
+           recognizer_.map().num_sets(), recognizer_.map().num_places());
 }
 
 void FusionNode::OnShardQuery(ShardCombiner::Query& query) {

@@ -13,10 +13,10 @@
 // reads its files without the lock, so a large load never stops recognition.
 #pragma once
 
-#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/FusionConfig.h>
 #include <bsf_vpr/GetSelectionStatistics.h>
+#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/QueryPlace.h>
@@ -60,8 +60,7 @@ class FusionNode {
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Sharded map (parameter shards): the combiner's callbacks, with mutex_ held.
-  void OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric,
-                     const std::string& why);
+  void OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric, const std::string& why);
   void OnShardQuery(ShardCombiner::Query& query);
   // load_reference_set / unload_reference_set on a combiner: the request goes to the shard
   // (`shard`), and the answer comes once the shard's new shard_info is in the map. Called

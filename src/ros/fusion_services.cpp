@@ -111,9 +111,9 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     }
     if (shard < 0) {
       res.success = false;
-      res.message = req.shard.empty() ? "no shard has published its sets yet"
-                                       : "no shard named " + QuotedForMessage(req.shard) +
-                                             " (parameter shards)";
+      res.message = req.shard.empty()
+                        ? "no shard has published its sets yet"
+                        : "no shard named " + QuotedForMessage(req.shard) + " (parameter shards)";
     } else {
       LoadReferenceSet forward;
       forward.request = req;

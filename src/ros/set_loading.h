@@ -3,10 +3,10 @@
 // share.
 #pragma once
 
+#include <bsf_vpr/LoadReferenceSet.h>
+
 #include <string>
 #include <vector>
-
-#include <bsf_vpr/LoadReferenceSet.h>
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/place_recognizer.h"

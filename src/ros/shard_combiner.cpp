@@ -42,9 +42,9 @@ ShardCombiner::ShardCombiner(ros::NodeHandle nh, const std::vector<std::string>&
     Shard& s = shards_[k];
     s.name = nh_.resolveName(shards[k]);
     const int index = static_cast<int>(k);
-    s.info_sub = nh_.subscribe<ShardInfo>(
-        s.name + "/" + names::kShardInfoTopic, 1,
-        [this, index](const ShardInfo::ConstPtr& m) { OnInfo(index, m); });
+    s.info_sub =
+        nh_.subscribe<ShardInfo>(s.name + "/" + names::kShardInfoTopic, 1,
+                                 [this, index](const ShardInfo::ConstPtr& m) { OnInfo(index, m); });
     s.distances_sub = nh_.subscribe<ShardDistances>(
         s.name + "/" + names::kShardDistancesTopic, static_cast<uint32_t>(queue_size_),
         [this, index](const ShardDistances::ConstPtr& m) { OnDistances(index, m); });
@@ -206,8 +206,10 @@ void ShardCombiner::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
   Shard& shard = shards_[static_cast<size_t>(k)];
   const ros::Time stamp = msg->header.stamp;
   if (stamp.isZero()) {
-    callbacks_.reject("a descriptor without a stamp: a sharded map pairs the shards' answers "
-                      "by header.stamp (shard " + shard.name + ")");
+    callbacks_.reject(
+        "a descriptor without a stamp: a sharded map pairs the shards' answers "
+        "by header.stamp (shard " +
+        shard.name + ")");
     return;
   }
   ++shard.answered;
@@ -323,9 +325,10 @@ void ShardCombiner::Flush(ros::WallTime now) {
         shard.missing = true;
         shard.missing_since = now;
         ++shard.missed;
-        ROS_WARN("bsf_vpr: shard %s did not answer within %.2f s: deciding without its sets "
-                 "until it answers again",
-                 shard.name.c_str(), timeout_.toSec());
+        ROS_WARN(
+            "bsf_vpr: shard %s did not answer within %.2f s: deciding without its sets "
+            "until it answers again",
+            shard.name.c_str(), timeout_.toSec());
       }
     }
     Query query;
@@ -376,10 +379,10 @@ void ShardCombiner::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
     } else if (shard.distances_sub.getNumPublishers() == 0) {
       state += "not publishing (" + SetList(shard.info.get()) + " missing)";
     } else if (shard.missing) {
-      state += "missing for " +
-               std::to_string(static_cast<int>((ros::WallTime::now() - shard.missing_since)
-                                                   .toSec())) +
-               " s (" + SetList(shard.info.get()) + ")";
+      state +=
+          "missing for " +
+          std::to_string(static_cast<int>((ros::WallTime::now() - shard.missing_since).toSec())) +
+          " s (" + SetList(shard.info.get()) + ")";
     } else {
       state += "answering: " + SetList(shard.info.get());
     }

@@ -30,8 +30,8 @@
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -45,7 +45,7 @@ class ShardCombiner {
     std::vector<RowMatrixXf> distances;
     // Shards holding sets without a usable answer, and shards not heard from yet.
     std::vector<std::string> missing_shards;
-    double shard_seconds = 0;                 // the slowest answering shard's own time
+    double shard_seconds = 0;  // the slowest answering shard's own time
   };
   struct Callbacks {
     // The layout changed: `sets` (layout-only, every shard's in the map's order), compared
@@ -54,7 +54,7 @@ class ShardCombiner {
     std::function<void(std::vector<ReferenceSet> sets, DistanceMetric metric,
                        const std::string& why)>
         layout;
-    std::function<void(Query& query)> query;  // a query to decide
+    std::function<void(Query& query)> query;             // a query to decide
     std::function<void(const std::string& why)> reject;  // a query that cannot be decided
   };
 
@@ -99,7 +99,7 @@ class ShardCombiner {
     uint64_t info_count = 0;
     bool missing = false;  // missed a query: not waited for until it answers again
     ros::WallTime missing_since;
-    std::string refused;  // why its last shard_info was refused ("" if taken)
+    std::string refused;               // why its last shard_info was refused ("" if taken)
     ShardInfo::ConstPtr refused_info;  // that shard_info, tried again when the map changes
     uint64_t refusals = 0;
     int64_t answered = 0, missed = 0, late = 0;
@@ -113,8 +113,7 @@ class ShardCombiner {
   void OnInfo(int k, const ShardInfo::ConstPtr& msg);
   // Every shard's sets with shard k's from `info`, in the map's order, and their distance.
   // Throws std::invalid_argument when they cannot share a map.
-  std::vector<ReferenceSet> LayoutWith(int k, const ShardInfo& info,
-                                       DistanceMetric* metric) const;
+  std::vector<ReferenceSet> LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const;
   // Makes `msg` shard k's layout if the owner takes it; else keeps it as refused.
   bool TakeInfo(int k, const ShardInfo::ConstPtr& msg);
   void OnDistances(int k, const ShardDistances::ConstPtr& msg);

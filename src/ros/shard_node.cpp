@@ -21,8 +21,9 @@ ShardNode::~ShardNode() {
 void ShardNode::Start() {
   params_ = LoadFusionParams(pnh_);
   if (!params_.shards.empty()) {
-    throw std::invalid_argument("a fusion shard holds sets; the parameter shards is the "
-                                "combiner's (a fusion node)");
+    throw std::invalid_argument(
+        "a fusion shard holds sets; the parameter shards is the "
+        "combiner's (a fusion node)");
   }
   // The shard computes distances only: its method is never run (the combiner's decides).
   params_.recognizer.method = "bsf";
@@ -62,17 +63,15 @@ void ShardNode::Start() {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID("bsf_vpr");
   diagnostics_->add("shard", this, &ShardNode::Diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
-    diagnostics_->update();
-  });
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1),
+                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
   last_diagnostics_ = ros::WallTime::now();
 
-  descriptor_sub_ = nh_.subscribe(names::kDescriptorTopic,
-                                  static_cast<uint32_t>(params_.queue_size),
-                                  &ShardNode::OnDescriptor, this);
-  ROS_INFO("bsf_vpr: shard %s ready: %d reference set(s), %s distance",
-           pnh_.getNamespace().c_str(), sets_.map().num_sets(),
-           ToString(params_.recognizer.metric).c_str());
+  descriptor_sub_ =
+      nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
+                    &ShardNode::OnDescriptor, this);
+  ROS_INFO("bsf_vpr: shard %s ready: %d reference set(s), %s distance", pnh_.getNamespace().c_str(),
+           sets_.map().num_sets(), ToString(params_.recognizer.metric).c_str());
 }
 
 void ShardNode::PrepareFirstStage() {
@@ -218,8 +217,9 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
   status.add("refused descriptors", rejected_);
   status.add("distance", ToString(params_.recognizer.metric));
-  status.add("first stage", first_stage_error_.empty() ? sets_.distance_stage().Summary()
-                                                       : "exact: pca failed: " + first_stage_error_);
+  status.add("first stage", first_stage_error_.empty()
+                                ? sets_.distance_stage().Summary()
+                                : "exact: pca failed: " + first_stage_error_);
   status.add("loaded reference sets", map.num_sets());
   for (const StoredReferenceSet& s : map.sets()) {
     status.addf("set: " + s.name(), "%d places, %.1f MB", s.size(), s.MemoryBytes() / 1e6);

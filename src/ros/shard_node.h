@@ -15,8 +15,8 @@
 // Every callback takes mutex_; load_reference_set reads its files on a thread of its own.
 #pragma once
 
-#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/ShardDistances.h>
@@ -67,7 +67,7 @@ class ShardNode {
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;
   std::mutex mutex_;
-  PlaceRecognizer sets_;              // the shard's sets and their distances; decides nothing
+  PlaceRecognizer sets_;                // the shard's sets and their distances; decides nothing
   std::vector<uint64_t> fingerprints_;  // SetFingerprint of each set of sets_.map()
   std::unique_ptr<DataDirectory> data_dir_;  // null: load_reference_set is off
   ros::CallbackQueue load_queue_;

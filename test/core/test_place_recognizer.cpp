@@ -285,9 +285,8 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
   opt.condition_strength = 0.5;
   opt.query_noise = 0.3;
   const SyntheticData data = GenerateMultiConditionData(opt);
-  for (const std::string method :
-       {"bsf", "bsf+filter+seq", "bayes_full+filter", "med+seq", "med_selective", "nn:c0",
-        "nn:c2+seq", "bayes:c2+filter"}) {
+  for (const std::string method : {"bsf", "bsf+filter+seq", "bayes_full+filter", "med+seq",
+                                   "med_selective", "nn:c0", "nn:c2+seq", "bayes:c2+filter"}) {
     RecognizerOptions o;
     o.method = method;
     PlaceRecognizer combiner, without_c1;
@@ -299,8 +298,7 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
     without_c1.SetOptions(o);
     for (int q = 0; q < 12; ++q) {
       const RowMatrixXf query = data.queries.row(q);
-      std::vector<RowMatrixXf> d =
-          ComputeDistances(DistanceMetric::kEuclidean, query, data.map);
+      std::vector<RowMatrixXf> d = ComputeDistances(DistanceMetric::kEuclidean, query, data.map);
       d[1].resize(0, 0);  // c1's shard did not answer
       const Recognition a = without_c1.Recognize(query.row(0).transpose(), true);
       const Recognition b = combiner.RecognizeDistances(d, true);

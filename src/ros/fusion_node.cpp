@@ -152,16 +152,11 @@ void FusionNode::RejectMessage(const std::string& why) {
 }
 
 void FusionNode::CheckDescriptorType(const std::string& type) {
-  if (type.empty()) return;
-  for (const StoredReferenceSet& s : recognizer_.map().sets()) {
-    if (!s.descriptor_type().empty() && s.descriptor_type() != type) {
-      type_mismatch_ = "descriptors of type " + QuotedForMessage(type, 60) + " meet set '" +
-                       s.name() + "' of type '" + s.descriptor_type() + "'";
-      ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
-                        type_mismatch_.c_str());
-      return;
-    }
-  }
+  const std::string mismatch = DescriptorTypeMismatch(type, recognizer_.map());
+  if (mismatch.empty()) return;
+  type_mismatch_ = mismatch;
+  ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
+                    type_mismatch_.c_str());
 }
 
 void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {

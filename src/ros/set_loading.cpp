@@ -77,6 +77,17 @@ void TakeSetDistance(const ReferenceSet& set, const std::string& where, FusionPa
   CheckSetDistance(set, params->recognizer.metric, where);
 }
 
+std::string DescriptorTypeMismatch(const std::string& type, const ReferenceMap& map) {
+  if (type.empty()) return "";
+  for (const StoredReferenceSet& s : map.sets()) {
+    if (!s.descriptor_type().empty() && s.descriptor_type() != type) {
+      return "descriptors of type " + QuotedForMessage(type, 60) + " meet set '" + s.name() +
+             "' of type '" + s.descriptor_type() + "'";
+    }
+  }
+  return "";
+}
+
 // Below this share of the rows' energy the first stage's basis warns (docs/performance.md).
 constexpr double kFirstStageEnergyWarning = 0.99;
 

@@ -32,6 +32,10 @@ ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadReferenceSet::
 void TakeSetDistance(const ReferenceSet& set, const std::string& where, FusionParams* params,
                      PlaceRecognizer* recognizer);
 
+// Why descriptors of `type` should not be compared with `map`'s sets ("" when they may):
+// a set declares another descriptor type. An empty type (not declared) is never refused.
+std::string DescriptorTypeMismatch(const std::string& type, const ReferenceMap& map);
+
 // Builds the first stage's index for the recogniser's sets now (first_stage pca) and logs
 // it, warning when its basis keeps under 99% of the rows' energy. Never throws: a failed
 // build (memory) switches recognizer and params to exact search, logged and kept in *error.

@@ -122,6 +122,12 @@ void ShardNode::ComputeFor(const Descriptor& descriptor, ShardDistances* out) {
 
 void ShardNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const std::string mismatch = DescriptorTypeMismatch(msg->descriptor_type, sets_.map());
+  if (!mismatch.empty()) {
+    type_mismatch_ = mismatch;
+    ROS_WARN_THROTTLE(5.0, "bsf_vpr: shard %s: %s: the distances compare unlike descriptors",
+                      pnh_.getNamespace().c_str(), mismatch.c_str());
+  }
   ShardDistances out;
   ComputeFor(*msg, &out);
   if (out.error.empty()) {
@@ -210,6 +216,8 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   } else if (!first_stage_error_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "first stage pca failed, exact search instead: " + first_stage_error_);
+  } else if (!type_mismatch_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "computing distances");
   }
@@ -226,6 +234,7 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   }
   processed_ = rejected_ = 0;
   processing_s_sum_ = 0;
+  type_mismatch_.clear();
   last_diagnostics_ = now;
 }
 

@@ -84,6 +84,7 @@ class ShardNode {
   double processing_s_sum_ = 0;
   std::string last_rejection_;
   std::string first_stage_error_;
+  std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
   ros::WallTime last_diagnostics_;
 };
 

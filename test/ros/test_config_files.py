@@ -66,6 +66,42 @@ class ConfigFiles(unittest.TestCase):
                     verbose=False)
         return config
 
+    def test_the_shard_nodelet_serves_its_sets_distances(self):
+        from bsf_vpr.msg import Descriptor, ShardDistances, ShardInfo
+        from bsf_vpr.srv import GetShardDistances
+        info = rospy.wait_for_message("/cfg_shard/shard/shard_info", ShardInfo, timeout=60)
+        self.assertEqual([s.name for s in info.sets], ["day_left"])
+        self.assertEqual(len(info.sets[0].place_ids), 200)
+        self.assertEqual(info.sets[0].dimension, 4096)
+        self.assertEqual(info.distance, "cosine")
+        rospy.wait_for_service("/cfg_shard/shard/get_distances", timeout=60)
+        get = rospy.ServiceProxy("/cfg_shard/shard/get_distances", GetShardDistances)
+        d = Descriptor()
+        d.data = [1.0] * 4096
+        r = get(descriptor=d).distances
+        self.assertEqual(r.error, "")
+        self.assertEqual((list(r.set_names), list(r.counts), len(r.distances)),
+                         (["day_left"], [200], 200))
+        self.assertEqual(r.fingerprints[0], info.sets[0].fingerprint)
+        d.data = [1.0] * 10
+        self.assertIn("dimension", get(descriptor=d).distances.error)
+        # A descriptor of another type than the set's: computed, and warned about.
+        from diagnostic_msgs.msg import DiagnosticArray
+        warned = []
+        sub = rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: warned.extend(
+            st.message for st in a.status if "meet set 'day_left'" in st.message))
+        answers = []
+        answers_sub = rospy.Subscriber("/cfg_shard/shard/distances", ShardDistances,
+                                       answers.append)
+        pub = rospy.Publisher("/cfg_shard/descriptor", Descriptor, queue_size=1)
+        d = Descriptor(descriptor_type="netvlad_4096", data=[1.0] * 4096)
+        d.header.stamp = rospy.Time(5)
+        wait_for(lambda: (pub.publish(d), bool(warned))[1], 30, "the shard's type warning")
+        wait_for(lambda: bool(answers), 10, "the shard's distances")
+        self.assertEqual(list(answers[0].counts), [200])
+        for s in (sub, answers_sub, pub):
+            s.unregister()
+
     def test_ingest_describes_images_with_hog_and_onnx(self):
         import numpy as np
         from sensor_msgs.msg import Image

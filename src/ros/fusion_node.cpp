@@ -230,8 +230,10 @@ void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric me
   }
   recognizer_ = std::move(fresh);
   params_.recognizer.metric = metric;
-  ROS_INFO("bsf_vpr: sharded map: %s: %d set(s), %d places; the belief starts afresh", why.c_str(),
-           recognizer_.map().num_sets(), recognizer_.map().num_places());
+  ROS_INFO(
+      "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
+      "afresh",
+      why.c_str(), recognizer_.map().num_sets(), recognizer_.map().num_places());
 }
 
 void FusionNode::OnShardQuery(ShardCombiner::Query& query) {

@@ -40,6 +40,7 @@ bool FusionNode::RouteToShard(int shard, const std::string& service, Service* sr
     name = combiner_->shard_name(shard);
     infos = combiner_->info_count(shard);
     refusals = combiner_->refusal_count(shard);
+    combiner_->ExpectChange(shard);
   }
   if (!ros::service::call(name + "/" + service, *srv)) {
     *message = "shard " + name + " did not answer " + service;
@@ -72,6 +73,14 @@ bool FusionNode::RouteToShard(int shard, const std::string& service, Service* sr
         UnloadReferenceSet undo;
         undo.request.name = set;
         ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
+      }
+      // Answer once the shard's sets as they were are back in the map (nothing refused).
+      while (!added.empty() && ros::WallTime::now() < deadline) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (combiner_->info_count(shard) > infos) break;
+        }
+        ros::WallDuration(0.01).sleep();
       }
       *message = "the map refused shard " + name + "'s new sets (" + refusal + ")" +
                  (added.empty() ? "" : "; unloaded again from the shard");

@@ -108,18 +108,29 @@ int ShardCombiner::LeastLoaded() const {
 void ShardCombiner::OnInfo(int k, const ShardInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> guard(*lock_);
   Shard& shard = shards_[static_cast<size_t>(k)];
+  // What the shard holds now supersedes a layout of it refused before (a load that was
+  // refused and unloaded again, a restart).
+  shard.refused.clear();
+  shard.refused_info.reset();
   if (SameSets(shard.info.get(), msg.get())) {
     // Restarted (or republished) with the sets it had: nothing to rebuild.
     shard.info = msg;
     ++shard.info_count;
+    shard.change_expected = false;
     if (shard.missing) ROS_INFO("bsf_vpr: shard %s is back", shard.name.c_str());
     return;
   }
   if (!TakeInfo(k, msg)) return;
-  // A layout refused earlier may fit now (the clash it had may be gone).
+  // Another shard's layout refused earlier may fit now (the clash it had may be gone).
   for (size_t j = 0; j < shards_.size(); ++j) {
-    if (shards_[j].refused_info) TakeInfo(static_cast<int>(j), shards_[j].refused_info);
+    if (static_cast<int>(j) != k && shards_[j].refused_info) {
+      TakeInfo(static_cast<int>(j), shards_[j].refused_info);
+    }
   }
+}
+
+void ShardCombiner::ExpectChange(int k) {
+  shards_.at(static_cast<size_t>(k)).change_expected = true;
 }
 
 std::vector<ReferenceSet> ShardCombiner::LayoutWith(int k, const ShardInfo& info,
@@ -169,6 +180,25 @@ bool ShardCombiner::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
     const std::string why = "shard " + shard.name + " holds " + SetList(msg.get()) +
                             (shard.info ? " (was " + SetList(shard.info.get()) + ")" : "");
     callbacks_.layout(std::move(sets), metric, why);  // logs it; throws to refuse
+    // Sets gone without a load or unload routed here: the shard restarted with its
+    // configured sets only (sets loaded at run time live as long as its process), or
+    // someone called the shard's own services. Said loudly: the map shrank.
+    std::string lost;
+    if (shard.info && !shard.change_expected) {
+      for (const ShardSet& held : shard.info->sets) {
+        bool kept = false;
+        for (const ShardSet& now : msg->sets) kept = kept || now.name == held.name;
+        if (!kept) lost += (lost.empty() ? "" : ", ") + held.name;
+      }
+    }
+    if (!lost.empty()) {
+      ROS_WARN(
+          "bsf_vpr: shard %s no longer holds %s (restarted? sets loaded at run time are "
+          "not reloaded: list them in the shard's reference_sets)",
+          shard.name.c_str(), lost.c_str());
+    }
+    shard.lost = lost;
+    shard.change_expected = false;
     shard.info = msg;
     shard.refused.clear();
     shard.refused_info.reset();
@@ -206,6 +236,10 @@ void ShardCombiner::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
   Shard& shard = shards_[static_cast<size_t>(k)];
   const ros::Time stamp = msg->header.stamp;
   if (stamp.isZero()) {
+    // Every shard answers it: said once, by the first shard that answers queries.
+    for (int j = 0; j < k; ++j) {
+      if (Expected(j)) return;
+    }
     callbacks_.reject(
         "a descriptor without a stamp: a sharded map pairs the shards' answers "
         "by header.stamp (shard " +
@@ -386,6 +420,7 @@ void ShardCombiner::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
     } else {
       state += "answering: " + SetList(shard.info.get());
     }
+    if (!shard.lost.empty()) state += "; lost at its last change: " + shard.lost;
     status.addf("shard " + shard.name, "%s; %ld answers, %ld missed, %ld late", state.c_str(),
                 static_cast<long>(shard.answered), static_cast<long>(shard.missed),
                 static_cast<long>(shard.late));

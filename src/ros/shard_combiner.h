@@ -80,6 +80,9 @@ class ShardCombiner {
   uint64_t refusal_count(int k) const { return shards_.at(static_cast<size_t>(k)).refusals; }
   const std::string& refusal(int k) const { return shards_.at(static_cast<size_t>(k)).refused; }
   std::vector<std::string> RefusedNewSets(int k) const;
+  // A load or unload is being routed to shard k: its next change of sets is expected (not
+  // warned about as sets lost).
+  void ExpectChange(int k);
   // The query of `answers` (one per shard, null where none), as the subscriptions assemble
   // it (for query_place). A shard's refusal, or an answer that does not fit its layout,
   // makes that shard missing; returns false with *error when every shard that answered
@@ -102,6 +105,8 @@ class ShardCombiner {
     std::string refused;               // why its last shard_info was refused ("" if taken)
     ShardInfo::ConstPtr refused_info;  // that shard_info, tried again when the map changes
     uint64_t refusals = 0;
+    bool change_expected = false;  // a load or unload was routed to it
+    std::string lost;              // sets its last change dropped without one
     int64_t answered = 0, missed = 0, late = 0;
   };
   struct Pending {

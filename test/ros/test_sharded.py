@@ -197,13 +197,36 @@ class Sharded(unittest.TestCase):
         self.assertIn("unloaded again", r.message)
         shard_0 = rospy.ServiceProxy("/bsf_vpr/shard_0/list_reference_sets", ListReferenceSets)
         self.assertEqual([s.name for s in shard_0().sets], ["summer"])
+        # The refused layout is not kept: unloading fall from shard_1 leaves the map with
+        # what the shards hold (not a fall on shard_0), and nothing reported as refused.
+        r = unload(name="fall")
+        self.assertTrue(r.success, r.message)
+        self.assertEqual([(s.name, s.shard) for s in self.list().sets],
+                         [("summer", "/bsf_vpr/shard_0"), ("winter256", "/bsf_vpr/shard_2")])
+        start = len(self.diagnostics)
+        wait_for(lambda: len(self.diagnostics) > start + 3, 10, "fresh diagnostics")
+        self.assertFalse([st.message for array in self.diagnostics[start:] for st in array.status
+                          if "refused" in st.message])
+        r = load(path="fall.yaml", shard="shard_1")
+        self.assertTrue(r.success, r.message)
+        self.assertEqual([s.name for s in self.list().sets], SETS)
         self.until_complete()
 
         # query_place through the shards' get_distances equals the single node's, once both
         # hold the same sets at the same precision.
+        # A set loaded at run time lives as long as its shard's process: a respawn loads the
+        # configured sets only, and the combiner says which set was lost.
+        r = load(path="summer.yaml", name="summer_b", shard="shard_2")
+        self.assertTrue(r.success, r.message)
+        self.assertEqual([s.name for s in self.list().sets], SETS + ["summer_b"])
         rospy.set_param("/bsf_vpr/shard_2/storage", "float32")
         self.restart_shard_2()
+        self.assertEqual([s.name for s in self.list().sets], SETS)
         self.assertEqual([s.storage for s in self.list().sets], ["float32"] * 3)
+        start = len(self.diagnostics)
+        wait_for(lambda: any("lost at its last change: summer_b" in kv.value
+                             for array in self.diagnostics[start:] for st in array.status
+                             for kv in st.values), 10, "diagnostics naming the lost set")
         d = Descriptor()
         d.data = self.queries[42].tolist()
         a = rospy.ServiceProxy("/single/query_place", QueryPlace)(descriptor=d)
@@ -245,18 +268,21 @@ class Sharded(unittest.TestCase):
         self.until_complete()
 
     def fusion_diagnostic(self, key):
-        """The combiner's latest diagnostics value of `key`, as an int."""
-        wait_for(lambda: any(st.name.endswith("fusion: fusion") for array in self.diagnostics
-                             for st in array.status), 10, "the combiner's diagnostics")
+        """The value of `key`, as an int, in the first diagnostics of the combiner published
+        after this call (so after whatever the caller did before)."""
         start = len(self.diagnostics)
-        wait_for(lambda: len(self.diagnostics) > start + 2, 10, "fresh diagnostics")
-        for array in reversed(self.diagnostics):
-            for st in array.status:
-                if st.name.startswith("bsf_vpr/fusion"):
-                    for kv in st.values:
-                        if kv.key == key:
-                            return int(kv.value)
-        self.fail("no diagnostics key %r" % key)
+
+        def value():
+            for array in self.diagnostics[start:]:
+                for st in array.status:
+                    if st.name.startswith("bsf_vpr/fusion"):
+                        for kv in st.values:
+                            if kv.key == key:
+                                return int(kv.value)
+            return None
+
+        wait_for(lambda: value() is not None, 10, "the combiner's diagnostics %r" % key)
+        return value()
 
 if __name__ == "__main__":
     rostest.rosrun("bsf_vpr", "sharded", Sharded)

@@ -6,6 +6,7 @@
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 #include "reconfigure_options.h"
+#include "service_queue.h"
 #include "set_loading.h"
 
 namespace bsf_vpr {
@@ -84,34 +85,20 @@ void FusionNode::Start() {
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {
     // Its own queue and thread: reading a large set must not hold up the descriptors.
-    ros::AdvertiseServiceOptions load = ros::AdvertiseServiceOptions::create<LoadReferenceSet>(
-        names::kLoadReferenceSetService,
-        [this](LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
-          return OnLoad(req, res);
-        },
-        ros::VoidConstPtr(), &load_queue_);
-    services_.push_back(nh_.advertiseService(load));
+    services_.push_back(AdvertiseOnQueue<LoadReferenceSet>(
+        nh_, names::kLoadReferenceSetService, &FusionNode::OnLoad, this, &load_queue_));
     // On the same thread: with a sharded map both wait for the shard's new shard_info,
     // which arrives on the node's own queue.
-    ros::AdvertiseServiceOptions unload = ros::AdvertiseServiceOptions::create<UnloadReferenceSet>(
-        names::kUnloadReferenceSetService,
-        [this](UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
-          return OnUnload(req, res);
-        },
-        ros::VoidConstPtr(), &load_queue_);
-    services_.push_back(nh_.advertiseService(unload));
+    services_.push_back(AdvertiseOnQueue<UnloadReferenceSet>(
+        nh_, names::kUnloadReferenceSetService, &FusionNode::OnUnload, this, &load_queue_));
     load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
     load_spinner_->start();
   }
-  {
-    // A combiner's query_place calls every shard: on the load queue's thread, so that a
-    // shard that does not answer holds up no descriptor (a single node's answers at once).
-    ros::AdvertiseServiceOptions query = ros::AdvertiseServiceOptions::create<QueryPlace>(
-        names::kQueryPlaceService,
-        [this](QueryPlace::Request& req, QueryPlace::Response& res) { return OnQuery(req, res); },
-        ros::VoidConstPtr(), combiner_ ? &load_queue_ : nullptr);
-    services_.push_back(nh_.advertiseService(query));
-  }
+  // A combiner's query_place calls every shard: on the load queue's thread, so that a shard
+  // that does not answer holds up no descriptor (a single node's answers at once).
+  services_.push_back(AdvertiseOnQueue<QueryPlace>(nh_, names::kQueryPlaceService,
+                                                   &FusionNode::OnQuery, this,
+                                                   combiner_ ? &load_queue_ : nullptr));
   services_.push_back(
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
   services_.push_back(

@@ -7,6 +7,7 @@
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
+#include "service_queue.h"
 #include "set_loading.h"
 
 namespace bsf_vpr {
@@ -48,17 +49,11 @@ void ShardNode::Start() {
       pnh_.advertiseService(names::kUnloadReferenceSetService, &ShardNode::OnUnload, this));
   services_.push_back(
       pnh_.advertiseService(names::kShardDistancesService, &ShardNode::OnCompute, this));
-  {
-    ros::AdvertiseServiceOptions load = ros::AdvertiseServiceOptions::create<LoadReferenceSet>(
-        names::kLoadReferenceSetService,
-        [this](LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
-          return OnLoad(req, res);
-        },
-        ros::VoidConstPtr(), &load_queue_);
-    services_.push_back(pnh_.advertiseService(load));
-    load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
-    load_spinner_->start();
-  }
+  // Its own queue and thread: reading a large set must not hold up the descriptors.
+  services_.push_back(AdvertiseOnQueue<LoadReferenceSet>(pnh_, names::kLoadReferenceSetService,
+                                                         &ShardNode::OnLoad, this, &load_queue_));
+  load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
+  load_spinner_->start();
 
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID("bsf_vpr");

@@ -134,9 +134,6 @@ Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& 
                                   "' hold a negative, NaN or infinite value");
     }
   }
-  if (std::find(available.begin(), available.end(), false) == available.end()) {
-    return Decide(distances, update_state, step_places, nullptr);
-  }
   return Decide(distances, update_state, step_places, &available);
 }
 

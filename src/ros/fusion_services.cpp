@@ -50,46 +50,48 @@ bool FusionNode::RouteToShard(int shard, const std::string& service, Service* sr
     *message = "shard " + name + ": " + srv->response.message;
     return false;
   }
+  // Polls `ready` under the lock until it holds or the deadline passes (the shard_info
+  // arrives on the node's own queue).
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(kShardInfoWaitS);
+  const auto wait_for = [&](const auto& ready) {
+    for (;;) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (ready()) return true;
+      }
+      if (ros::WallTime::now() >= deadline) return false;
+      ros::WallDuration(0.01).sleep();
+    }
+  };
+  const auto taken = [&] { return combiner_->info_count(shard) > infos; };
   // The shard published its new sets before answering: wait for the map to take them, or
   // to refuse them (a set that cannot share the map with the other shards' sets).
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(kShardInfoWaitS);
-  while (ros::WallTime::now() < deadline) {
-    std::vector<std::string> added;
-    std::string refusal;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (combiner_->info_count(shard) > infos) {
-        *message = srv->response.message;
-        return true;
-      }
-      if (combiner_->refusal_count(shard) > refusals) {
-        added = combiner_->RefusedNewSets(shard);
-        refusal = combiner_->refusal(shard);
-      }
-    }
-    if (!refusal.empty()) {
-      // Take the shard back to the sets the map holds (without the lock: a call).
-      for (const std::string& set : added) {
-        UnloadReferenceSet undo;
-        undo.request.name = set;
-        ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
-      }
-      // Answer once the shard's sets as they were are back in the map (nothing refused).
-      while (!added.empty() && ros::WallTime::now() < deadline) {
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (combiner_->info_count(shard) > infos) break;
-        }
-        ros::WallDuration(0.01).sleep();
-      }
-      *message = "the map refused shard " + name + "'s new sets (" + refusal + ")" +
-                 (added.empty() ? "" : "; unloaded again from the shard");
-      return false;
-    }
-    ros::WallDuration(0.01).sleep();
+  if (!wait_for([&] { return taken() || combiner_->refusal_count(shard) > refusals; })) {
+    *message = srv->response.message + ", but its new shard_info has not reached this node in " +
+               std::to_string(static_cast<int>(kShardInfoWaitS)) + " s (see diagnostics)";
+    return false;
   }
-  *message = srv->response.message + ", but its new shard_info has not reached this node in " +
-             std::to_string(static_cast<int>(kShardInfoWaitS)) + " s (see diagnostics)";
+  std::vector<std::string> added;
+  std::string refusal;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (taken()) {
+      *message = srv->response.message;
+      return true;
+    }
+    added = combiner_->RefusedNewSets(shard);
+    refusal = combiner_->refusal(shard);
+  }
+  // Take the shard back to the sets the map holds (without the lock: a call), and answer
+  // once they are back in the map (nothing refused).
+  for (const std::string& set : added) {
+    UnloadReferenceSet undo;
+    undo.request.name = set;
+    ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
+  }
+  if (!added.empty()) wait_for(taken);
+  *message = "the map refused shard " + name + "'s new sets (" + refusal + ")" +
+             (added.empty() ? "" : "; unloaded again from the shard");
   return false;
 }
 

@@ -1,7 +1,6 @@
 #include "shard_combiner.h"
 
 #include <algorithm>
-#include <numeric>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/ros/names.h"

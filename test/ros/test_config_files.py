@@ -149,6 +149,15 @@ class ConfigFiles(unittest.TestCase):
                         self.assertEqual(node.type, "shard_node")
                 self.assertEqual(config.params["/bsf_vpr/shard_1/reference_sets"].value,
                                  [{"name": "c1", "path": "c1.npy"}])
+                # The combiner's match image: the camera, not the descriptors, whatever the
+                # input (a descriptor topic read as images is a type clash).
+                for given, image in (({}, "/camera/image_raw"),
+                                     ({"input": "descriptor", "input_topic": "/d"},
+                                      "/camera/image_raw"),
+                                     ({"input_topic": "/cam"}, "/cam")):
+                    parsed = self.load_launch(path, dict(args, **given))
+                    fusion = [n for n in parsed.nodes if n.name == "fusion"][0]
+                    self.assertIn(["image", image], [list(r) for r in fusion.remap_args], given)
             if "data_directory" not in args:  # not in the package's source folder
                 self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
                                  os.path.expanduser("~/.ros/bsf_vpr"), path)

@@ -70,6 +70,17 @@ void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out) {
   if (!pose) out->pose.orientation.w = 1;
 }
 
+void ToPoseWithCovarianceMsg(const PoseEstimate& e, geometry_msgs::PoseWithCovariance* out) {
+  out->pose = ToPoseMsg(e.mean);
+  out->covariance.fill(0.0);
+  // Row-major 6 x 6 over (x, y, z, rotation about x, y, z); the estimate is over (x, y, yaw).
+  constexpr int kIndex[3] = {0, 1, 5};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) out->covariance[6 * kIndex[i] + kIndex[j]] = e.covariance(i, j);
+  }
+  for (int k : {2, 3, 4}) out->covariance[6 * k + k] = kUnknownVariance;
+}
+
 geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ros::Time& stamp,
                                                     const std::string& place_frame) {
   geometry_msgs::TransformStamped t;

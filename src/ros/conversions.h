@@ -8,12 +8,14 @@
 #include <bsf_vpr/ReferenceSetInfo.h>
 #include <bsf_vpr/ShardSet.h>
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/PoseWithCovariance.h>
 #include <geometry_msgs/TransformStamped.h>
 
 #include <Eigen/Core>
 #include <string>
 
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/pose_estimate.h"
 
 namespace bsf_vpr {
 
@@ -32,6 +34,11 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
 void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out);
 
 geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
+
+// The pose and its covariance, as a localiser takes them: x, y and yaw from the estimate,
+// z, roll and pitch stated as unknown (variance kUnknownVariance).
+constexpr double kUnknownVariance = 1e6;
+void ToPoseWithCovarianceMsg(const PoseEstimate& estimate, geometry_msgs::PoseWithCovariance* out);
 
 // The transform from the match's frame (its header's frame_id) to `place_frame` at the
 // matched place's pose, stamped `stamp`. Meaningful only for a match with has_pose.

@@ -134,6 +134,19 @@ void DescriptorIngest::Start() {
     describe_time_pub_ = pnh_.advertise<std_msgs::Float64>(
         names::kDescribeTimeTopic, static_cast<uint32_t>(params_.queue_size));
   }
+  // What this ingest will send, latched: the fusion node checks its sets against it now.
+  format_pub_ = nh_.advertise<DescriptorFormat>(names::kDescriptorFormatTopic, 1, /*latch=*/true);
+  DescriptorFormat format;
+  format.descriptor_type = params_.descriptor_type;
+  if (params_.input == IngestInput::kImage) {
+    format.dimension = describer_->dimension();
+    format.source = "images on " + nh_.resolveName(names::kImageTopic) + " described with " +
+                    describer_->descriptor_type();
+  } else {
+    format.dimension = params_.expected_dimension;
+    format.source = "descriptors on " + nh_.resolveName(names::kExternalDescriptorTopic);
+  }
+  format_pub_.publish(format);
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID("bsf_vpr");
   diagnostics_->add("descriptor_ingest", this, &DescriptorIngest::Diagnose);
@@ -200,8 +213,14 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   ValidateAndPublish(out);
 }
 
-void DescriptorIngest::OnAnyDescriptor(const topic_tools::ShapeShifter::ConstPtr& msg) {
+void DescriptorIngest::OnAnyDescriptor(
+    const ros::MessageEvent<const topic_tools::ShapeShifter>& event) {
+  const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
   const std::string type = msg->getDataType();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    heard_[event.getPublisherName()] = type;
+  }
   try {
     if (type == ros::message_traits::DataType<Descriptor>::value()) {
       return OnDescriptor(msg->instantiate<Descriptor>());
@@ -288,8 +307,11 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
       }
     }
   }
+  const std::string unheard = UnheardPublishers();
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!image_type_problem.empty() || !wrong_type_.empty()) {
+  if (!unheard.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, unheard);
+  } else if (!image_type_problem.empty() || !wrong_type_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
                    !image_type_problem.empty()
                        ? image_type_problem
@@ -302,11 +324,61 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
   }
   status.add("input", params_.input == IngestInput::kImage ? "image" : "descriptor");
+  for (const auto& [publisher, type] : heard_) status.add("heard: " + publisher, type);
   status.add("published", published_);
   status.add("dropped", rejected_);
   status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));
   rejected_ = 0;
   wrong_type_.clear();
+}
+
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+
+std::string DescriptorIngest::UnheardPublishers() {
+  // roscpp takes a subscription of any type (ShapeShifter) as the type of the first publisher
+  // that connects and refuses publishers of another type from then on: their messages never
+  // arrive. The master lists every publisher; those this node has no connection to after a
+  // grace period are named.
+  if (params_.input != IngestInput::kDescriptor) return "";
+  ros::Subscriber sub;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sub = descriptor_sub_;
+  }
+  if (!sub) return "";
+  const std::string topic = sub.getTopic();
+  XmlRpc::XmlRpcValue request, response, payload;
+  request[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", request, response, payload, false)) return "";
+  std::vector<std::string> publishers;
+  if (payload.getType() == XmlRpc::XmlRpcValue::TypeArray && payload.size() > 0) {
+    XmlRpc::XmlRpcValue& pubs = payload[0];
+    for (int i = 0; i < pubs.size(); ++i) {
+      if (pubs[i].size() < 2 || static_cast<std::string>(pubs[i][0]) != topic) continue;
+      for (int j = 0; j < pubs[i][1].size(); ++j) publishers.push_back(pubs[i][1][j]);
+    }
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const std::string& p : publishers) first_listed_.emplace(p, now);  // keeps the first time
+  if (static_cast<int>(sub.getNumPublishers()) >= static_cast<int>(publishers.size())) return "";
+  std::string names, heard_type;
+  for (const std::string& p : publishers) {
+    if (heard_.count(p)) {
+      heard_type = heard_[p];
+      continue;
+    }
+    if ((now - first_listed_[p]).toSec() < kUnheardGraceS) continue;  // still connecting
+    names += (names.empty() ? "" : ", ") + p;
+  }
+  if (names.empty()) return "";
+  return "publisher(s) " + names + " on " + topic + " are not heard: this input took " +
+         (heard_type.empty() ? std::string("another publisher's message type")
+                             : heard_type + " from the first publisher") +
+         ", and a topic carries one type; publish bsf_vpr/Descriptor or "
+         "std_msgs/Float32MultiArray, not both, on one topic";
 }
 
 }  // namespace bsf_vpr

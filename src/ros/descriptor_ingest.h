@@ -11,6 +11,7 @@
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/DescriptorFormat.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
@@ -19,6 +20,7 @@
 #include <std_msgs/Float64.h>
 #include <topic_tools/shape_shifter.h>
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -68,7 +70,9 @@ class DescriptorIngest {
  private:
   void UpdateSubscription();
   void OnImage(const sensor_msgs::ImageConstPtr& msg);
-  void OnAnyDescriptor(const topic_tools::ShapeShifter::ConstPtr& msg);
+  void OnAnyDescriptor(const ros::MessageEvent<const topic_tools::ShapeShifter>& event);
+  // Why publishers on the descriptor input are never heard ("" if all are): see the .cpp.
+  std::string UnheardPublishers();
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
   void ValidateAndPublish(const Descriptor::Ptr& out);
@@ -87,11 +91,17 @@ class DescriptorIngest {
   ros::Subscriber descriptor_sub_;
   ros::Publisher pub_;
   ros::Publisher describe_time_pub_;  // images only
+  ros::Publisher format_pub_;         // DescriptorFormat, latched
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
   long published_ = 0, rejected_ = 0;
   std::string last_rejection_;
   std::string wrong_type_;  // the input topic's type, when a publisher offers another one
+  // Descriptor input: the type each publisher was heard with, and when the master first
+  // listed each publisher (one not connected after kUnheardGraceS is reported).
+  std::map<std::string, std::string> heard_;
+  std::map<std::string, ros::WallTime> first_listed_;
+  static constexpr double kUnheardGraceS = 3.0;
 };
 
 }  // namespace bsf_vpr

@@ -1,6 +1,7 @@
 #include "fusion_node.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/ros/names.h"
@@ -59,14 +60,20 @@ void FusionNode::Start() {
   publishing.map_frame = params_.map_frame;
   publishing.place_frame = params_.place_frame;
   publishing.publish_tf = params_.publish_tf;
+  publishing.publish_pose = params_.publish_pose;
+  publishing.pose_min_std_m = params_.pose_min_std_m;
   publishing.belief_top_k = params_.belief_top_k;
   publishing.view = params_.view;
   publishing.ground_truth_topic = params_.ground_truth_topic;
   publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
   odometry_ = std::make_unique<OdometryTracker>(
       nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
-  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, params_.pose_source, params_.pose_topic,
-                                                  params_.map_frame, params_.base_frame);
+  RobotPoseOptions pose_options;
+  pose_options.source = params_.pose_source;
+  pose_options.topic = params_.pose_topic;
+  pose_options.map_frame = params_.map_frame;
+  pose_options.base_frame = params_.base_frame;
+  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, pose_options);
   // Sharded map: the combiner exists before any service can ask for it (and decides
   // queries from now on: what it calls exists).
   if (!params_.shards.empty()) {
@@ -123,6 +130,7 @@ void FusionNode::Start() {
              params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
     return;
   }
+  format_sub_ = nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -138,6 +146,39 @@ void FusionNode::RejectMessage(const std::string& why) {
   ROS_ERROR_THROTTLE(1.0, "bsf_vpr: dropped a descriptor: %s", why.c_str());
 }
 
+void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  format_ = msg;
+  CheckDescriptorFormat();
+}
+
+void FusionNode::CheckDescriptorFormat() {
+  const ReferenceMap& map = recognizer_.map();
+  std::string problem;
+  if (format_ && format_->dimension > 0 && map.num_sets() > 0 &&
+      map.dimension() != format_->dimension) {
+    std::string types;
+    for (const StoredReferenceSet& s : map.sets()) {
+      if (!s.descriptor_type().empty() && types.find(s.descriptor_type()) == std::string::npos) {
+        types += (types.empty() ? "" : ", ") + s.descriptor_type();
+      }
+    }
+    problem = "descriptor_ingest sends " + std::to_string(format_->dimension) + "-d " +
+              (format_->descriptor_type.empty() ? std::string("descriptors")
+                                                : "'" + format_->descriptor_type + "' descriptors") +
+              " (" + format_->source + "); the reference sets hold " +
+              std::to_string(map.dimension()) + "-d ones" + (types.empty() ? "" : " (" + types + ")") +
+              ": no descriptor can be recognised. Load sets made with the ingest's describer "
+              "(bsf_make_reference --images <folder> --image-descriptor <the ingest's "
+              "image_descriptor>), or give the ingest the sets' describer or input:=descriptor";
+  }
+  if (problem != format_mismatch_ && !problem.empty()) ROS_ERROR("bsf_vpr: %s", problem.c_str());
+  if (problem.empty() && !format_mismatch_.empty()) {
+    ROS_INFO("bsf_vpr: the reference sets now match the ingest's descriptors");
+  }
+  format_mismatch_ = problem;
+}
+
 void FusionNode::CheckDescriptorType(const std::string& type) {
   const std::string mismatch = DescriptorTypeMismatch(type, recognizer_.map());
   if (mismatch.empty()) return;
@@ -147,25 +188,44 @@ void FusionNode::CheckDescriptorType(const std::string& type) {
 }
 
 void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
+  // A recording by pose waits for the robot's pose at the descriptor's stamp (up to
+  // pose_wait_s: a camera image is usually newer than the last pose), without the lock.
+  // Other recordings take a pose only if there is one already.
+  RecordingPlaces places = RecordingPlaces::kSequential;
+  bool recording = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    recording = recording_->accepting();
+    places = recording_->places();
+  }
+  PoseLookup pose;
+  if (recording && places != RecordingPlaces::kLocalized) {
+    pose = robot_pose_->PoseAt(msg->header.stamp,
+                               places == RecordingPlaces::kPose ? params_.pose_wait_s : 0.0);
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
   // Recording by localisation waits for the match; the other modes record every descriptor.
-  const bool localized =
-      recording_->recording() && recording_->places() == RecordingPlaces::kLocalized;
-  if (recording_->recording() && !localized) {
-    try {
-      const std::optional<PlacePose> pose = robot_pose_->PoseAt(msg->header.stamp);
-      if (!pose && recording_->places() == RecordingPlaces::kPose) {
-        throw std::invalid_argument(
-            "by pose: no pose of the robot at the descriptor's stamp "
-            "from " +
-            robot_pose_->Describe() + "; not recorded");
+  const bool localized = recording_->accepting() && recording_->places() == RecordingPlaces::kLocalized;
+  if (recording && recording_->accepting() && !localized) {
+    if (!pose.pose && recording_->places() == RecordingPlaces::kPose) {
+      // Reported and counted by cause; recognition goes on.
+      const std::string cause = ToString(pose.loss);
+      recording_->NoteLost("no pose: " + cause);
+      ++pose_losses_[cause];
+      ROS_WARN_THROTTLE(1.0,
+                        "bsf_vpr: recording by pose: no pose of the robot at the descriptor's "
+                        "stamp from %s (%s: %s); not recorded",
+                        robot_pose_->Describe().c_str(), cause.c_str(), pose.detail.c_str());
+    } else {
+      try {
+        recording_->Add(d, msg->descriptor_type, pose.pose);
+      } catch (const std::exception& e) {
+        // Reported; recognition goes on (a recording must not stop localisation).
+        RejectMessage(std::string("recording: ") + e.what());
       }
-      recording_->Add(d, msg->descriptor_type, pose);
-    } catch (const std::exception& e) {
-      // Reported; recognition goes on (a recording must not stop localisation).
-      RejectMessage(std::string("recording: ") + e.what());
     }
   }
   if (recognizer_.map().num_sets() == 0) {
@@ -268,13 +328,30 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   MapOptionSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
   RecognizerOptions o = recognizer_.options();
   try {
-    table.Apply(source, &o, /*live_only=*/true);
+    table.Apply(source, &o, /*live_only=*/true);  // refuses values out of the table's bounds
+    // threshold_kind switched alone: the same threshold in the other kind's units.
+    Threshold& h = o.method_options.threshold;
+    const Threshold& before = recognizer_.options().method_options.threshold;
+    if (h.kind != before.kind && h.value == before.value) {
+      h.value = h.kind == Threshold::Kind::kLogOdds ? before.LogOdds()
+                                                      : 1.0 / (1.0 + std::exp(-before.value));
+      if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
+        throw std::invalid_argument(
+            "threshold_kind probability: log-odds " + std::to_string(before.value) +
+            " is a probability that rounds to 1; send threshold_kind probability with a "
+            "threshold below 1 (e.g. 0.999999), or keep log_odds");
+      }
+      ROS_INFO("bsf_vpr: threshold %g (%s) is %g as %s", before.value,
+               ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
+    }
     recognizer_.SetOptions(o);
+    last_reconfigure_refusal_.clear();
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
              o.method.c_str(), o.method_options.selection.gamma_fraction,
              ToString(o.method_options.selection.rule).c_str(),
              ToString(o.method_options.likelihood.variant).c_str());
   } catch (const std::exception& e) {
+    last_reconfigure_refusal_ = e.what();
     ROS_ERROR("bsf_vpr: reconfiguration refused, keeping the previous settings: %s", e.what());
   }
   // Report what is in force (the previous values where the request was refused).
@@ -287,9 +364,18 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const ros::WallTime now = ros::WallTime::now();
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
   const ReferenceMap& map = recognizer_.map();
-  if (rejected_ > 0) {
+  if (!format_mismatch_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
+  } else if (rejected_ > 0 && processed_ == 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR,
+                    "every descriptor dropped (%d): %s", rejected_, last_rejection_.c_str());
+  } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
                     rejected_, last_rejection_.c_str());
+  } else if (!recording_->pending_reason().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "recording '" + recording_->name() + "' is pending after a failed stop: " +
+                       recording_->pending_reason());
   } else if (combiner_ && !combiner_->MissingSummary().empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "deciding without shard(s) " + combiner_->MissingSummary());
@@ -303,11 +389,18 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "recognising places");
   }
-  status.add("input rate (Hz)", processed_ / elapsed);
+  // What arrived, what was recognised and what was dropped, each a rate of its own: a
+  // stream that arrives but is dropped whole shows as such.
+  status.add("received rate (Hz)", received_ / elapsed);
+  status.add("recognised rate (Hz)", processed_ / elapsed);
+  status.add("dropped rate (Hz)", rejected_ / elapsed);
   status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
   status.add("max processing time (ms)", 1e3 * processing_s_max_);
   status.add("dropped descriptors", rejected_);
   status.add("method", recognizer_.options().method);
+  if (!last_reconfigure_refusal_.empty()) {
+    status.add("last reconfiguration refused", last_reconfigure_refusal_);
+  }
   status.add("distance", ToString(recognizer_.options().metric));
   status.add("first stage", first_stage_error_.empty()
                                 ? recognizer_.distance_stage().Summary()
@@ -322,7 +415,10 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   }
   recording_->Diagnose(status);
   if (combiner_) combiner_->Diagnose(status);
-  processed_ = rejected_ = 0;
+  for (const auto& [cause, n] : pose_losses_) {
+    status.add("descriptors recorded without a pose: " + cause, n);
+  }
+  processed_ = rejected_ = received_ = 0;
   type_mismatch_.clear();
   processing_s_sum_ = processing_s_max_ = 0;
   last_diagnostics_ = now;

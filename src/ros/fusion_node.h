@@ -14,6 +14,7 @@
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/DescriptorFormat.h>
 #include <bsf_vpr/FusionConfig.h>
 #include <bsf_vpr/GetSelectionStatistics.h>
 #include <bsf_vpr/GetShardDistances.h>
@@ -93,6 +94,12 @@ class FusionNode {
 
   // Warns (log and diagnostics) when a descriptor's type differs from the loaded sets'.
   void CheckDescriptorType(const std::string& type);
+  // The ingest's announced format (DescriptorFormat, latched) against the loaded sets: a
+  // dimension they do not have is an ERROR in the log and diagnostics at once, before any
+  // descriptor. Called when the format arrives and whenever the sets change; caller holds
+  // mutex_.
+  void OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg);
+  void CheckDescriptorFormat();
 
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;
@@ -105,6 +112,8 @@ class FusionNode {
   std::unique_ptr<ros::AsyncSpinner> load_spinner_;
 
   ros::Subscriber descriptor_sub_;
+  ros::Subscriber format_sub_;
+  DescriptorFormat::ConstPtr format_;  // the ingest's, once heard
   std::unique_ptr<RecognitionPublisher> publisher_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<OdometryTracker> odometry_;
@@ -115,10 +124,14 @@ class FusionNode {
   ros::Timer diagnostics_timer_;
 
   // Statistics since the last diagnostics update (guarded by mutex_).
-  int processed_ = 0, rejected_ = 0;
+  int processed_ = 0, rejected_ = 0, received_ = 0;
+  std::map<std::string, long> pose_losses_;  // recording by pose: descriptors without a pose, by cause (since start)
+  // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
+  std::string format_mismatch_;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
   std::string last_rejection_;
+  std::string last_reconfigure_refusal_;  // "" since the last reconfiguration taken
   std::string type_mismatch_;   // the last descriptor_type that differs from the sets'
   SelectionCounters counters_;  // since start or the last statistics reset
   ros::WallTime last_diagnostics_;

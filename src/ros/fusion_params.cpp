@@ -132,13 +132,19 @@ const OptionTable<FusionParams>& FusionParamsTable() {
           .AddChoice(
               "pose_source", [](auto& p) -> auto& { return p.pose_source; },
               "where the robot's pose in map_frame comes from when recording by pose: "
-              "tf (map_frame -> base_frame), topic (nav_msgs/Odometry on pose_topic, "
-              "its pose taken as in map_frame) or none",
-              {"tf", "topic", "none"}, [](const std::string& v) { return v; })
+              "tf (map_frame -> base_frame), topic (pose_topic) or none",
+              {"tf", "topic", "none"}, ParsePoseSource)
           .Add(
               "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
-              "nav_msgs/Odometry topic of the robot's pose in map_frame when pose_source is "
-              "topic")
+              "the robot's pose in map_frame when pose_source is topic: nav_msgs/Odometry, "
+              "geometry_msgs/PoseStamped or geometry_msgs/PoseWithCovarianceStamped (the "
+              "type is taken from the publisher)")
+          .Add(
+              "pose_wait_s", [](auto& p) -> auto& { return p.pose_wait_s; },
+              "how long a descriptor waits for the robot's pose at its stamp (tf, or the "
+              "pose_topic message after it, interpolated): a camera image is usually newer "
+              "than the last pose; enough for a 10 Hz pose source by default",
+              "s", Between(0, 10))
           .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
                    {"place_spacing_m"})
           .Add(
@@ -155,6 +161,17 @@ const OptionTable<FusionParams>& FusionParamsTable() {
           .Add(
               "publish_tf", [](auto& p) -> auto& { return p.publish_tf; },
               "broadcast map_frame -> place_frame on accepted matches")
+          .Add(
+              "publish_pose", [](auto& p) -> auto& { return p.publish_pose; },
+              "publish the robot's pose on pose (geometry_msgs/PoseWithCovarianceStamped in "
+              "map_frame, stamped as the query) for accepted matches whose places have poses: "
+              "the posterior-weighted mean and covariance of the place poses, for "
+              "robot_localization (pose0) or amcl (initialpose)")
+          .Add(
+              "pose_min_std_m", [](auto& p) -> auto& { return p.pose_min_std_m; },
+              "floor of that pose's standard deviation in x and y (a place stands for a "
+              "stretch of route); 0: half the median place spacing",
+              "m", AtLeast(0))
           .Add(
               "queue_size", [](auto& p) -> auto& { return p.queue_size; },
               "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))

@@ -13,6 +13,7 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "odometry_tracker.h"
 #include "param_util.h"
+#include "robot_pose.h"
 
 namespace bsf_vpr {
 
@@ -33,6 +34,8 @@ struct FusionParams {
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
   bool publish_tf = true;
+  bool publish_pose = true;     // the robot's pose from accepted matches (pose_estimate.h)
+  double pose_min_std_m = 0;    // its x/y standard deviation's floor; 0: half the spacing
   int belief_top_k = 0;           // 0: the belief message carries every place
   int queue_size = 100;           // descriptors buffered before the oldest are dropped
   // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.
@@ -48,11 +51,12 @@ struct FusionParams {
   std::string base_frame = "base_link";
   double place_spacing_m = 0;
   // Recording by pose (start_recording places: pose): where the robot's pose in map_frame
-  // comes from, "tf" (map_frame -> base_frame), "topic" (nav_msgs/Odometry on pose_topic,
-  // its pose taken as in map_frame) or "none"; and how it is associated with the places
+  // comes from (robot_pose.h: tf map_frame -> base_frame, or a pose topic), how long a
+  // descriptor waits for it, and how it is associated with the places
   // (places.place_spacing_m is set from place_spacing_m).
-  std::string pose_source = "tf";
+  PoseSource pose_source = PoseSource::kTf;
   std::string pose_topic = "odometry/map";
+  double pose_wait_s = 0.2;
   PlaceIndexOptions places;
   double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
   double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)

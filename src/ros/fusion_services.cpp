@@ -147,6 +147,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     const int places = set.size();
     recognizer_.AddReferenceSet(std::move(set));
     PrepareFirstStage();
+    CheckDescriptorFormat();
     res.success = true;
     res.message = "loaded '" + name + "' (" + std::to_string(places) + " places)";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -192,6 +193,7 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
     recognizer_.RemoveReferenceSet(req.name);
     counters_.Forget(req.name);
     PrepareFirstStage();
+    CheckDescriptorFormat();
     res.success = true;
     res.message = "unloaded '" + req.name + "'";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -279,7 +281,7 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
     }
     const RecordingPlaces places =
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
-    if (places == RecordingPlaces::kPose && params_.pose_source == "none") {
+    if (places == RecordingPlaces::kPose && params_.pose_source == PoseSource::kNone) {
       throw std::invalid_argument(
           "recording by pose needs the robot's pose: set pose_source to tf or topic");
     }
@@ -296,36 +298,46 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
 
 bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // Also in a refusal: what arrived and what is kept.
+  const auto count = [&] {
+    res.num_descriptors = recording_->count();
+    res.num_received = recording_->counts().received;
+  };
   try {
-    res.num_descriptors = recording_->count();  // also in a refusal: what is kept
+    count();
     if (req.discard) {
+      const std::string summary = recording_->recording() ? recording_->Summary() : "";
       recording_->Discard();
       res.success = true;
-      res.message = "discarded " + std::to_string(res.num_descriptors) + " descriptors";
+      res.message = "discarded the recording: " + summary;
       return true;
     }
     PlaceIndexOptions places = params_.places;
     places.place_spacing_m = PlaceSpacing();
+    const std::string summary = recording_->Summary();
     Recording::Saved saved =
         recording_->Save(recognizer_.options().metric, &recognizer_.map(), places);
     res.path = saved.path;
+    res.num_places = saved.set.size();
+    const std::string what = "saved " + std::to_string(res.num_places) + " place(s) to " +
+                             res.path + " (" + summary + ")";
     try {
       recognizer_.AddReferenceSet(std::move(saved.set));
       PrepareFirstStage();
+      CheckDescriptorFormat();
     } catch (const std::exception& e) {
       res.success = true;
-      res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +
-                    " but did not load them: " + e.what();
+      res.message = what + " but did not load them: " + e.what();
       ROS_WARN("bsf_vpr: %s", res.message.c_str());
       return true;
     }
     res.success = true;
-    res.message = "saved " + std::to_string(res.num_descriptors) + " descriptors to " + res.path +
-                  " and loaded them";
+    res.message = what + " and loaded them";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
+    count();
     ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;

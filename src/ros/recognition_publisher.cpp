@@ -2,6 +2,10 @@
 
 #include <utility>
 
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+
+#include "bsf_vpr/core/pose_estimate.h"
+
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 
@@ -14,6 +18,9 @@ RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle&
       view_(nh, pnh, options_.view, options_.ground_truth_topic, data_dir) {
   belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, 10);
   match_pub_ = nh.advertise<Match>(names::kMatchTopic, 10);
+  if (options_.publish_pose) {
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(names::kPoseTopic, 10);
+  }
   if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 }
 
@@ -34,8 +41,29 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
       const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
       tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
     }
+    if (options_.publish_pose) PublishPose(header, r, recognizer);
   }
   view_.Show(*belief, r, recognizer);
+}
+
+void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Recognition& r,
+                                       const PlaceRecognizer& recognizer) {
+  PoseEstimateOptions o;
+  const double spacing = recognizer.map().MedianPlaceSpacing().value_or(0.0);
+  o.min_std_m = options_.pose_min_std_m > 0 ? options_.pose_min_std_m : 0.5 * spacing;
+  if (!(o.min_std_m > 0)) o.min_std_m = 1.0;
+  const Method& method = recognizer.method();
+  // A +seq match is the sequence's end, and a distance method has no posterior: the pose is
+  // the match's, with the posterior's spread about it.
+  const bool centred = method.sequence || !method.IsBayesian();
+  const std::optional<PoseEstimate> e =
+      EstimatePose(r.belief, recognizer.map().place_poses(), centred, o);
+  if (!e) return;  // no pose at the match, or nothing finite
+  auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+  msg->header = header;
+  msg->header.frame_id = options_.map_frame;
+  ToPoseWithCovarianceMsg(*e, &msg->pose);
+  pose_pub_.publish(msg);
 }
 
 }  // namespace bsf_vpr

@@ -1,6 +1,7 @@
 // What the fusion node publishes for each recognised descriptor: the belief (always); the
 // match when accepted, with the tf frame map_frame -> place_frame at the matched place when
-// the place has a pose; and what rviz shows of it (belief_view.h: markers, view frame, match
+// the place has a pose, and the robot's pose with its covariance (pose_estimate.h) for a
+// localiser to fuse; and what rviz shows of it (belief_view.h: markers, view frame, match
 // image) while someone listens. Topics are names.h's, advertised in the namespace of the node
 // handle given (the match image in the private one).
 //
@@ -30,6 +31,9 @@ struct RecognitionPublisherOptions {
   int belief_top_k = 0;  // 0: the belief lists every place
   BeliefViewOptions view;  // its map_frame is map_frame
   std::string ground_truth_topic;  // "": none
+  bool publish_pose = true;  // the robot's pose from accepted matches, on names::kPoseTopic
+  // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
+  double pose_min_std_m = 0;
 };
 
 class RecognitionPublisher {
@@ -45,8 +49,11 @@ class RecognitionPublisher {
                const PlaceRecognizer& recognizer, double seconds);
 
  private:
+  void PublishPose(const std_msgs::Header& header, const Recognition& r,
+                   const PlaceRecognizer& recognizer);
+
   RecognitionPublisherOptions options_;
-  ros::Publisher belief_pub_, match_pub_;
+  ros::Publisher belief_pub_, match_pub_, pose_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
   BeliefView view_;
 };

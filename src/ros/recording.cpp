@@ -36,6 +36,16 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
   if (!data_dir_) {
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
+  if (recorder_.recording()) {
+    if (!pending_reason_.empty()) {
+      throw std::invalid_argument(
+          "the recording '" + recorder_.name() + "' is pending: its stop failed (" +
+          pending_reason_ + "); call stop_recording to save it again, or stop_recording "
+          "{discard: true} to drop it, before starting another");
+    }
+    throw std::invalid_argument("the recording '" + recorder_.name() + "' is running (" +
+                                Summary() + "); stop it first (stop_recording)");
+  }
   const std::string path = RecordingPath(*data_dir_, name);
   if (loaded.IndexOf(name) >= 0) {
     throw std::invalid_argument("a reference set named '" + name + "' is already loaded");
@@ -52,34 +62,89 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
   recorder_.Start(name, condition, loaded.dimension(), places);  // refuses a second one
   overwrite_ = overwrite;
   descriptor_type_.clear();
+  counts_ = Counts();
+  pending_reason_.clear();
 }
 
 void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                     const std::string& descriptor_type, const std::optional<PlacePose>& pose,
                     const std::optional<LocalizedPlace>& localized) {
-  recorder_.Add(descriptor, pose, localized);
+  if (!pending_reason_.empty()) {
+    throw std::invalid_argument("the recording '" + recorder_.name() +
+                                "' is pending after a failed stop and takes no descriptor");
+  }
+  try {
+    recorder_.Add(descriptor, pose, localized);
+  } catch (const std::invalid_argument& e) {
+    if (recorder_.recording()) NoteLost(e.what());
+    throw;
+  }
+  ++counts_.received;
+  counts_.with_pose += pose.has_value();
+  counts_.kept = recorder_.count();
   if (!descriptor_type.empty()) descriptor_type_ = descriptor_type;
+}
+
+void Recording::NoteLost(const std::string& cause) {
+  if (!accepting()) return;
+  ++counts_.received;
+  ++counts_.lost[cause];
+}
+
+std::string Recording::Summary() const {
+  std::string s = "received " + std::to_string(counts_.received) + " descriptor(s)";
+  if (recorder_.places() == RecordingPlaces::kPose) {
+    s += ", " + std::to_string(counts_.with_pose) + " with a pose of the robot";
+  }
+  s += ", " + std::to_string(recorder_.count()) + " kept";
+  if (!counts_.lost.empty()) {
+    s += " (lost:";
+    bool first = true;
+    for (const auto& [cause, n] : counts_.lost) {
+      s += (first ? " " : "; ") + std::to_string(n) + " " + cause;
+      first = false;
+    }
+    s += ")";
+  }
+  return s;
 }
 
 Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* loaded,
                                  const PlaceIndexOptions& options) {
   CheckRecording(recorder_);
+  if (recorder_.count() == 0) {
+    // Nothing to keep: the recording ends, and the answer says what arrived.
+    const std::string what = "nothing saved: recording '" + recorder_.name() + "' " + Summary();
+    recorder_.Discard();
+    pending_reason_.clear();
+    throw std::runtime_error(what + "; the recording is ended: fix the cause and start again");
+  }
   const std::string path = RecordingPath(*data_dir_, recorder_.name());
   ReferenceRecorder::Map map;
   map.options = options;
   if (loaded) map.place_poses = loaded->place_poses();
-  // Built, saved, and only then forgotten: a save that fails keeps the recording.
-  Saved saved{recorder_.Build(descriptor_type_, map), ""};  // throws if empty
-  saved.set.distance = ToString(distance);
-  if (loaded) loaded->CheckPlacePoses(saved.set);
+  // Built, saved, and only then forgotten: a save that fails keeps the recording, closed.
+  const auto keep = [&](const std::string& why) {
+    pending_reason_ = why;
+    return std::runtime_error(
+        why + "; " + Summary() + "; the recording is kept and takes no more descriptors: call "
+        "stop_recording again to retry, or stop_recording {discard: true} to drop it");
+  };
+  Saved saved;
+  try {
+    saved.set = recorder_.Build(descriptor_type_, map);
+    saved.set.distance = ToString(distance);
+    if (loaded) loaded->CheckPlacePoses(saved.set);
+  } catch (const std::exception& e) {
+    throw keep(std::string("the recording cannot be saved: ") + e.what());
+  }
   try {
     SaveReferenceSet(*data_dir_, saved.set, path, overwrite_);
   } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("saving failed, the recording of ") +
-                             std::to_string(count()) +
-                             " descriptors is kept (call again to retry, or discard): " + e.what());
+    throw keep(std::string("saving failed: ") + e.what());
   }
   recorder_.Discard();
+  pending_reason_.clear();
   saved.path = data_dir_->path() + "/" + path;
   return saved;
 }
@@ -87,6 +152,7 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
 void Recording::Discard() {
   CheckRecording(recorder_);
   recorder_.Discard();
+  pending_reason_.clear();
 }
 
 void Recording::CheckNotRecording(const std::string& set_name) const {
@@ -97,8 +163,9 @@ void Recording::CheckNotRecording(const std::string& set_name) const {
 
 void Recording::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   if (recorder_.recording()) {
-    status.addf("recording", "%s (%d descriptors, places by %s)", recorder_.name().c_str(),
-                recorder_.count(), ToString(recorder_.places()).c_str());
+    status.addf("recording", "%s (places by %s): %s", recorder_.name().c_str(),
+                ToString(recorder_.places()).c_str(), Summary().c_str());
+    if (!pending_reason_.empty()) status.add("recording pending after a failed stop", pending_reason_);
   }
 }
 

@@ -4,8 +4,10 @@
 // NAME.yaml with its descriptors beside it (reference_set_io.h), then handed back for the
 // node to load.
 //
-// Nothing is lost: a save that fails keeps the recording, so the caller can free space or
-// fix the folder and save again, or discard it.
+// Nothing is lost and nothing is swallowed: a save that fails keeps what was recorded,
+// closed to new descriptors (the drive it recorded has ended), so the caller can free space
+// or fix the folder and save again, or discard it; until then Start refuses with a message
+// saying so. A stop that finds nothing to keep ends the recording and says what arrived.
 //
 // Not thread-safe: the fusion node holds its lock.
 #pragma once
@@ -13,6 +15,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 
 #include <Eigen/Core>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -34,7 +37,8 @@ class Recording {
   // std::invalid_argument naming the problem, and changes nothing, if there is no data
   // directory, the name is not a plain relative path (empty, '.' or '..' parts, control
   // characters, invalid UTF-8), a set of that name is loaded, its YAML exists and
-  // `overwrite` is false, or a recording runs already.
+  // `overwrite` is false, or a recording runs already or is pending after a failed save (the
+  // message says how to save or discard it).
   // `places` says how descriptors become places (reference_recorder.h); localized needs a
   // loaded set to localise against.
   void Start(const std::string& name, const std::string& condition, bool overwrite,
@@ -50,15 +54,30 @@ class Recording {
   void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor, const std::string& descriptor_type,
            const std::optional<PlacePose>& pose = std::nullopt,
            const std::optional<LocalizedPlace>& localized = std::nullopt);
+  // A descriptor that reached the recording but was not kept, and why (e.g. "no pose
+  // received yet"): counted per cause for the stop's answer and diagnostics.
+  void NoteLost(const std::string& cause);
+  // Whether descriptors are taken: a recording runs and no failed save closed it.
+  bool accepting() const { return recorder_.recording() && pending_reason_.empty(); }
 
   struct Saved {
     ReferenceSet set;  // as written, for the caller to load
     std::string path;  // absolute path of the YAML
   };
+  // What reached the recording: descriptors received, those with the robot's pose (recording
+  // by pose), those kept, and the losses by cause.
+  struct Counts {
+    int received = 0, with_pose = 0, kept = 0;
+    std::map<std::string, int> lost;  // cause -> descriptors
+  };
+  const Counts& counts() const { return counts_; }
+  // "received 30 descriptors, 0 with a pose, 0 kept (lost: 30 no pose received yet)".
+  std::string Summary() const;
   // Saves the recording, meant for `distance`, and ends it. Replaces an existing YAML only
-  // if Start was asked to overwrite. Throws std::invalid_argument if no recording runs or it
-  // holds no descriptor, and std::runtime_error if writing fails; the recording is kept in
-  // either case.
+  // if Start was asked to overwrite. Throws std::invalid_argument if no recording runs, and
+  // std::runtime_error (a message with Summary() and what to do) if it holds no descriptor
+  // (the recording is ended: nothing to keep) or the set cannot be built or written (the
+  // recording is kept, closed to new descriptors, until a later Save succeeds or Discard).
   // With `loaded`, places by pose are associated with its places (`options`), and a set
   // whose poses contradict them (ReferenceMap::CheckPlacePoses) is refused before saving.
   Saved Save(DistanceMetric distance, const ReferenceMap* loaded = nullptr,
@@ -75,8 +94,11 @@ class Recording {
   bool recording() const { return recorder_.recording(); }
   const std::string& name() const { return recorder_.name(); }
   int count() const { return recorder_.count(); }  // descriptors recorded so far
+  // Why the recording is closed ("" while it takes descriptors): its last save failed.
+  const std::string& pending_reason() const { return pending_reason_; }
 
-  // Adds a line on the running recording (name and count) to `status`; nothing otherwise.
+  // Adds lines on the running or pending recording (name, counts, why it is pending) to
+  // `status`; nothing otherwise.
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;
 
  private:
@@ -84,6 +106,8 @@ class Recording {
   ReferenceRecorder recorder_;
   bool overwrite_ = false;  // the recording may replace a set on disk
   std::string descriptor_type_;
+  Counts counts_;
+  std::string pending_reason_;  // the failed save's message while the recording is closed
 };
 
 }  // namespace bsf_vpr

@@ -1,44 +1,98 @@
-// The robot's pose in the map frame, for recording a traversal by pose: from tf
-// (map_frame -> base_frame at the descriptor's stamp) or from a nav_msgs/Odometry topic
-// whose pose is in the map frame (e.g. a global robot_localization EKF fusing GPS).
+// The robot's pose in the map frame at a descriptor's stamp, for recording by pose, as a
+// robot's drivers give it: tf (map_frame -> base_frame) or a topic of
+// nav_msgs/Odometry, geometry_msgs/PoseStamped or geometry_msgs/PoseWithCovarianceStamped
+// (what bsf_import's bags, robot_localization and most localisers publish; the type is
+// taken from the publisher). A camera image is usually newer than the last pose sample:
+// PoseAt waits up to a given time for tf to reach the stamp, or for the topic's first message
+// after it, and interpolates between the samples around the stamp. Nothing is
+// extrapolated.
+//
+// Thread-safe. PoseAt blocks up to its wait: call it without holding a lock the pose's own
+// callbacks need (they run on a queue and thread of their own).
 #pragma once
 
-#include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+#include <topic_tools/shape_shifter.h>
 
+#include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <string>
 
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
 
+enum class PoseSource { kNone, kTf, kTopic };
+PoseSource ParsePoseSource(const std::string& text);  // none | tf | topic
+std::string ToString(PoseSource source);
+
+struct RobotPoseOptions {
+  PoseSource source = PoseSource::kTf;
+  std::string topic;  // kTopic: Odometry, PoseStamped or PoseWithCovarianceStamped
+  std::string map_frame = "map", base_frame = "base_link";
+  // Two samples farther apart than this are not interpolated between (a gap in the poses).
+  double max_gap_s = 1.0;
+};
+
+// Why there is no pose at a stamp: each is counted in the fusion node's diagnostics.
+enum class PoseLoss {
+  kNone,      // a pose was found
+  kNoSource,  // pose_source none
+  kNotYet,    // no pose at all has arrived yet
+  kWaited,    // none at or after the stamp within wait_s (the poses lag the camera by more)
+  kTooOld,    // the stamp is older than the poses kept
+  kGap,       // the samples around the stamp are farther apart than max_gap_s
+  kFrame,     // a message in another frame than map_frame
+  kNotFinite  // a pose with NaN or infinity
+};
+std::string ToString(PoseLoss loss);
+
+struct PoseLookup {
+  std::optional<PlacePose> pose;
+  PoseLoss loss = PoseLoss::kNone;
+  std::string detail;  // for a loss: what was seen, for the log
+};
+
 class RobotPoseSource {
  public:
-  // `source` is "tf", "topic" or "none" (FusionParams::pose_source).
-  RobotPoseSource(ros::NodeHandle nh, const std::string& source, const std::string& topic,
-                  std::string map_frame, std::string base_frame);
+  RobotPoseSource(ros::NodeHandle nh, RobotPoseOptions options);
+  ~RobotPoseSource();
 
-  // The pose at `stamp`: tf's transform at that time, or the latest odometry message if it
-  // is at most 1 s older or newer. nullopt when there is none (never waits).
-  std::optional<PlacePose> PoseAt(const ros::Time& stamp);
-  const std::string& source() const { return source_; }
-  // Where poses come from, for messages: "tf map -> base_link", "topic odometry/map".
+  // The pose at `stamp`, waiting up to `wait_s` seconds for the sample after it (0: only
+  // what has arrived).
+  PoseLookup PoseAt(const ros::Time& stamp, double wait_s);
+  PoseSource source() const { return options_.source; }
+  // Where poses come from, for messages: "tf map -> base_link", "topic /odometry/map".
   std::string Describe() const;
 
  private:
-  void OnOdometry(const nav_msgs::Odometry::ConstPtr& msg);
+  struct Sample {
+    ros::Time stamp;
+    PlacePose pose;
+  };
+  void OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg);
+  PoseLookup FromTf(const ros::Time& stamp, double wait_s);
+  PoseLookup FromTopic(const ros::Time& stamp, double wait_s);
 
-  std::string source_, topic_, map_frame_, base_frame_;
-  ros::Subscriber sub_;
+  RobotPoseOptions options_;
+  // tf: the listener spins on a thread of its own.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  // topic: a queue and thread of its own, so that PoseAt can wait for the next message.
+  ros::CallbackQueue queue_;
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
+  ros::Subscriber sub_;
   std::mutex mutex_;
-  nav_msgs::Odometry::ConstPtr latest_;
+  std::condition_variable arrived_;
+  std::deque<Sample> samples_;  // ascending stamps, the last history_s seconds
+  std::string bad_message_;     // the last message refused (frame, type, not finite)
+  PoseLoss bad_loss_ = PoseLoss::kNone;
 };
 
 // Planar pose (x, y, z, yaw about z) of a position and orientation quaternion.

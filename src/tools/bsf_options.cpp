@@ -96,11 +96,6 @@ std::string PythonString(const std::string& text) {
   return out + "\"";
 }
 
-std::string PythonNumber(const OptionInfo& o, double v) {
-  return o.type == OptionType::kInt ? std::to_string(static_cast<long long>(v))
-                                    : FormatOptionValue(v);
-}
-
 std::string Cfg(const std::vector<OptionInfo>& options) {
   std::string out =
       "#!/usr/bin/python3\n"
@@ -137,11 +132,9 @@ std::string Cfg(const std::vector<OptionInfo>& options) {
     } else {
       value = PythonString(std::get<std::string>(o.default_value));
     }
-    std::string bounds;
-    if (o.type == OptionType::kInt || o.type == OptionType::kDouble) {
-      if (std::isfinite(o.bounds.min)) bounds += ", min=" + PythonNumber(o, o.bounds.min);
-      if (std::isfinite(o.bounds.max)) bounds += ", max=" + PythonNumber(o, o.bounds.max);
-    }
+    // No min or max: dynamic_reconfigure's server would clamp a value out of them before the
+    // node sees it (gamma_fraction -0.5 taken as 0). The node checks the table's bounds and
+    // refuses such a value, answering with the configuration in force; the doc states them.
     std::string doc = o.doc;
     const std::string facts = o.unit.empty() ? DescribeRange(o) : o.unit;
     if (!o.unit.empty() && !DescribeRange(o).empty() && o.type != OptionType::kChoice) {
@@ -150,7 +143,7 @@ std::string Cfg(const std::vector<OptionInfo>& options) {
       doc += " (" + facts + ")";
     }
     out += "gen.add(" + PythonString(o.name) + ", " + type + ", 0,\n        " + PythonString(doc) +
-           ",\n        " + value + bounds + edit_method + ")\n";
+           ",\n        " + value + edit_method + ")\n";
   }
   out += "\nexit(gen.generate(\"bsf_vpr\", \"fusion\", \"Fusion\"))\n";
   return out;

@@ -460,5 +460,30 @@ TEST_F(Import, GenericImagesAndDescriptorsWithPoseFiles) {
   }
 }
 
+TEST_F(Import, TheSummarySaysTheSpacingThePlacesHave) {
+  // Frames 2 m apart with the default --place-spacing-m 1: each place is a frame, 2 m apart,
+  // and the summary says so (it used to say "every 1 m").
+  const std::vector<std::string> images = testing::NordlandImages("winter", 20);
+  fs::create_directories(dir_ + "/s");
+  std::ofstream csv(dir_ + "/s.csv");
+  csv << "timestamp,x,y,z,yaw\n";
+  for (size_t k = 0; k < images.size(); ++k) {
+    fs::copy_file(images[k], dir_ + "/s/" + fs::path(images[k]).filename().string());
+    csv << 1000 + k << "," << 2.0 * k << ",0,0,0\n";
+  }
+  csv.close();
+  const Result r = Run("--layout generic --reference s=" + dir_ + "/s," + dir_ + "/s.csv --out " +
+                       dir_ + "/sout");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(LoadReferenceSetYaml(dir_ + "/sout/s.yaml").size(), 20);
+  EXPECT_NE(r.output.find("20 places one every 2 m (median)"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("every 1 m"), std::string::npos) << r.output;
+  // Frames denser than the spacing: the spacing asked for.
+  const Result dense = Run("--layout generic --reference s=" + dir_ + "/s," + dir_ +
+                           "/s.csv --place-spacing-m 4 --out " + dir_ + "/dense");
+  ASSERT_EQ(dense.exit_code, 0) << dense.output;
+  EXPECT_NE(dense.output.find("places every 4 m"), std::string::npos) << dense.output;
+}
+
 }  // namespace
 }  // namespace bsf_vpr

@@ -9,12 +9,16 @@ namespace names {
 constexpr char kImageTopic[] = "image";                       // sensor_msgs/Image in
 constexpr char kExternalDescriptorTopic[] = "descriptor_in";  // bsf_vpr/Descriptor in
 constexpr char kDescriptorTopic[] = "descriptor";             // bsf_vpr/Descriptor out
+// bsf_vpr/DescriptorFormat, latched: what the ingest sends on kDescriptorTopic.
+constexpr char kDescriptorFormatTopic[] = "descriptor_format";
 // std_msgs/Float64 out, private namespace: seconds each image took to describe.
 constexpr char kDescribeTimeTopic[] = "describe_time";
 
 // fusion
 constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out
 constexpr char kMatchTopic[] = "match";                   // bsf_vpr/Match out
+// geometry_msgs/PoseWithCovarianceStamped out: the robot's pose from an accepted match.
+constexpr char kPoseTopic[] = "pose";
 constexpr char kBeliefMarkersTopic[] = "belief_markers";  // visualization_msgs/MarkerArray
 constexpr char kMatchImageTopic[] = "match_image";  // sensor_msgs/Image, private namespace
 // The fusion node also subscribes to kImageTopic (the query images) for the match image.

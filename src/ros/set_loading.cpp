@@ -1,6 +1,7 @@
 #include "set_loading.h"
 
 #include <ros/console.h>
+#include <ros/package.h>
 #include <ros/wall_timer.h>
 
 #include "bsf_vpr/core/file_util.h"
@@ -20,11 +21,26 @@ void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std:
 
 }  // namespace
 
+std::string ResolveConfiguredPath(const std::string& base, const std::string& path) {
+  constexpr char kScheme[] = "package://";
+  if (path.rfind(kScheme, 0) != 0) return ResolvePath(base, path);
+  const std::string rest = path.substr(sizeof(kScheme) - 1);
+  const size_t slash = rest.find('/');
+  const std::string package = rest.substr(0, slash);
+  const std::string folder = package.empty() ? "" : ros::package::getPath(package);
+  if (folder.empty()) {
+    throw std::invalid_argument("reference set path " + QuotedForMessage(path) +
+                                " names package " + QuotedForMessage(package) +
+                                ", which ROS does not find (ROS_PACKAGE_PATH)");
+  }
+  return slash == std::string::npos ? folder : folder + rest.substr(slash);
+}
+
 void LoadConfiguredSets(FusionParams* params, PlaceRecognizer* recognizer) {
   const std::string base = params->data_directory.empty() ? "." : params->data_directory;
   std::vector<std::pair<ReferenceSet, std::string>> sets;  // and the file each came from
   for (const ReferenceSetEntry& e : params->reference_sets) {
-    const std::string path = ResolvePath(base, e.path);
+    const std::string path = ResolveConfiguredPath(base, e.path);
     ReferenceSet set = LoadReferenceSetFile(path, e.name);
     if (!e.condition.empty()) set.condition = e.condition;
     sets.emplace_back(std::move(set), path);

@@ -15,11 +15,16 @@
 namespace bsf_vpr {
 
 // Reads params->reference_sets (paths relative to data_directory, or the working directory
-// without one: the operator's own configuration, not confined like service requests),
+// without one, absolute, or package://PACKAGE/PATH inside a ROS package: the operator's own
+// configuration, not confined like service requests),
 // takes the distance they declare when none is configured (params->recognizer.metric), and
 // adds them to `recognizer` at params' storage and pose tolerance, logging each. Throws
 // std::exception naming the file, or the sets' disagreeing distances.
 void LoadConfiguredSets(FusionParams* params, PlaceRecognizer* recognizer);
+// A configured set's path as a file name: package://PACKAGE/PATH (as camera_info_url and
+// rviz resources name files) in the package's folder, a relative path below `base`.
+// Throws std::invalid_argument for a package ROS does not find.
+std::string ResolveConfiguredPath(const std::string& base, const std::string& path);
 
 // load_reference_set's file: `req`'s path read below `dir` (no lock needed), its name and
 // condition overridden by the request's. Throws std::invalid_argument when there is no data

@@ -1,0 +1,342 @@
+#!/usr/bin/python3
+"""rostest: the pipeline on a live robot, not a bag in lockstep.
+
+A simulated robot drives the Nordland-100 route (real frames, 256x144 JPEGs; SYNTHETIC
+positions: a straight line along x with frame k of every season at x = 10 k m). Its drivers
+publish as a robot's do, each at its own rate and stamped now: camera images at 10 Hz, and
+its pose at 50 Hz as tf map -> base_link or as nav_msgs/Odometry. Nothing waits for a
+belief before sending the next image.
+
+1. The README's robot command (its "Running it on a robot" block, extracted and run by bash
+   as written) gives a belief per camera image, and /bsf_vpr/pose near the robot.
+2. A map whose sets cannot match the camera path (config/gardens_point.yaml: 4096-d
+   HDC-DELF against patchnorm's 2048-d) is an ERROR in diagnostics at start-up, before any
+   image.
+3. Recording by pose, with tf and with Odometry: no descriptor lost to the timing of the
+   poses, at least 90 of the 100 places kept, each holding the frame the offline import
+   (bsf_import) gives it. Recording by localisation keeps only accepted places, each right.
+4. Localising the winter drive with the recorded set: /bsf_vpr/pose within 25 m (median) of
+   the true position, with a covariance that covers the error.
+"""
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+import tf2_ros
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import Image
+
+from bsf_vpr.msg import Belief
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rostest_util import attach_fusion_services, run_tool, wait_for  # noqa: E402
+from test_launch_files import Roslaunch  # noqa: E402
+
+SPACING_M = 10.0
+CAMERA_HZ = 10.0
+POSE_HZ = 50.0
+SPEED_MPS = 40.0  # 4 m between images: every place has an image within 5 m of it
+
+
+def readme_block(readme, heading):
+    """The first ```bash block after `heading` in the README, as written."""
+    with open(readme) as f:
+        text = f.read()
+    start = text.index(heading)
+    m = re.search(r"```bash\n(.*?)```", text[start:], re.S)
+    return m.group(1)
+
+
+class Robot:
+    """The simulated robot: its pose (tf or Odometry at 50 Hz) and camera (10 Hz), each on a
+    thread of its own, stamped now. x(t) runs along `schedule`: (seconds, x) breakpoints."""
+
+    def __init__(self, frames, pose_as):
+        self.frames = frames  # image k shows place k
+        self.pose_as = pose_as  # "tf" or "odometry"
+        self.tf = tf2_ros.TransformBroadcaster()
+        self.odom = rospy.Publisher("/robot/odometry", Odometry, queue_size=50)
+        self.camera = rospy.Publisher("/camera/image_raw", Image, queue_size=10)
+        self.sent = []  # (stamp, x) of every image
+
+    def x_at(self, t):
+        s = self.schedule
+        if t <= s[0][0]:
+            return s[0][1]
+        for (t0, x0), (t1, x1) in zip(s, s[1:]):
+            if t <= t1:
+                return x0 + (x1 - x0) * (t - t0) / (t1 - t0)
+        return s[-1][1]
+
+    def _pose_loop(self, start, end):
+        period = 1.0 / POSE_HZ
+        next_t = time.monotonic()
+        while not self.done and not rospy.is_shutdown():
+            now = rospy.Time.now()
+            x = self.x_at((now - start).to_sec())
+            if self.pose_as == "tf":
+                t = TransformStamped()
+                t.header.stamp = now
+                t.header.frame_id, t.child_frame_id = "map", "base_link"
+                t.transform.translation.x = x
+                t.transform.rotation.w = 1.0
+                self.tf.sendTransform(t)
+            else:
+                o = Odometry()
+                o.header.stamp = now
+                o.header.frame_id, o.child_frame_id = "map", "base_link"
+                o.pose.pose.position.x = x
+                o.pose.pose.orientation.w = 1.0
+                self.odom.publish(o)
+            next_t += period
+            time.sleep(max(0.0, next_t - time.monotonic()))
+
+    def drive(self, schedule):
+        """Drives `schedule`; returns [(stamp, x)] of the images sent."""
+        self.schedule = schedule
+        self.sent = []
+        self.done = False
+        start = rospy.Time.now()
+        pose_thread = threading.Thread(target=self._pose_loop, args=(start, None))
+        pose_thread.start()
+        time.sleep(0.5)  # the robot's pose is up before its camera, as on a robot
+        period = 1.0 / CAMERA_HZ
+        next_t = time.monotonic()
+        while True:
+            now = rospy.Time.now()
+            t = (now - start).to_sec()
+            if t > schedule[-1][0]:
+                break
+            x = self.x_at(t)
+            image = self.frames[min(int(round(x / SPACING_M)), len(self.frames) - 1)]
+            image.header.stamp = now
+            self.camera.publish(image)
+            self.sent.append((now, x))
+            next_t += period
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        time.sleep(0.5)
+        self.done = True
+        pose_thread.join()
+        return list(self.sent)
+
+
+def route_schedule():
+    """0 to 990 m at SPEED_MPS, with a 1 s stop at 250 m."""
+    stop_at = 250.0
+    t_stop = stop_at / SPEED_MPS
+    return [(0.0, 0.0), (t_stop, stop_at), (t_stop + 1.0, stop_at),
+            (t_stop + 1.0 + (990.0 - stop_at) / SPEED_MPS, 990.0)]
+
+
+def bag_frames(path):
+    """The camera images of a query bag bsf_import wrote, in order."""
+    import rosbag
+    with rosbag.Bag(path) as bag:
+        return [m for _, m, _ in bag.read_messages(topics=["/camera/image_raw"])]
+
+
+class LiveRobot(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_live_robot")
+        cls.pkg = rospy.get_param("~package_dir")
+        cls.repo = os.path.dirname(os.path.realpath(os.path.join(cls.pkg, "README.md")))
+        cls.tmp = tempfile.mkdtemp(prefix="bsf_live_")
+        images = os.path.join(cls.pkg, "data", "nordland_subset100", "256x144")
+        # The answer for the recordings: fall imported offline on the shipped map's places;
+        # the same import writes the robot's camera frames (bags of the JPEGs as images).
+        csv = os.path.join(cls.pkg, "data", "nordland_subset100", "synthetic_route.csv")
+        cls.offline = os.path.join(cls.tmp, "offline")
+        run_tool("bsf_import", "--layout", "generic", "--distance", "cosine",
+                 "--place-spacing-m", SPACING_M,
+                 "--reference", "summer=%s/64x32/summer,%s" % (
+                     os.path.join(cls.pkg, "data", "nordland_subset100"), csv),
+                 "--reference", "fall=%s/fall,%s" % (images, csv),
+                 "--query", "fall=%s/fall,%s" % (images, csv),
+                 "--query", "winter=%s/winter,%s" % (images, csv), "--out", cls.offline)
+        cls.frames = {s: bag_frames(os.path.join(cls.offline, s + ".bag"))
+                      for s in ("fall", "winter")}
+        with open(os.path.join(cls.offline, "fall.yaml")) as f:
+            y = yaml.safe_load(f)
+        cls.fall = dict(zip(y["place_ids"], np.load(os.path.join(cls.offline, y["descriptors"]))))
+        cls.beliefs, cls.poses, cls.diagnostics = {}, {}, []
+        rospy.Subscriber("/bsf_vpr/belief", Belief,
+                         lambda m: cls.beliefs.__setitem__(m.header.stamp, m), queue_size=1000)
+        rospy.Subscriber("/bsf_vpr/pose", PoseWithCovarianceStamped,
+                         lambda m: cls.poses.__setitem__(m.header.stamp, m), queue_size=1000)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append, queue_size=100)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def fusion_status(self, since):
+        """The fusion node's diagnostics statuses published after `since` (wall time)."""
+        out = []
+        for array in list(self.diagnostics):
+            if array.header.stamp.to_sec() < since:
+                continue
+            out += [s for s in array.status if s.name.endswith("fusion")]
+        return out
+
+    def assert_pose_follows(self, sent, what, min_poses):
+        """/bsf_vpr/pose of the images `sent` (at least `min_poses` accepted): median error
+        <= 25 m, and the covariance covering the error (3 sigma) for 90% of them."""
+        errors, covered = [], 0
+        for stamp, x in sent:
+            p = self.poses.get(stamp)
+            if p is None:
+                continue
+            self.assertEqual(p.header.frame_id, "map")
+            c = p.pose.covariance
+            self.assertTrue(all(math.isfinite(v) for v in c), what)
+            error = math.hypot(p.pose.pose.position.x - x, p.pose.pose.position.y)
+            errors.append(error)
+            covered += error <= 3.0 * math.sqrt(c[0] + c[7])  # 3 sigma in the plane
+        self.assertGreaterEqual(len(errors), min_poses, "%s: too few poses" % what)
+        median = float(np.median(errors))
+        self.assertLessEqual(median, 25.0, what)
+        self.assertGreaterEqual(covered, 0.9 * len(errors), "%s: covariance too small" % what)
+        print("%s: %d poses of %d images, median error %.1f m, %d within 3 sigma" % (
+            what, len(errors), len(sent), median, covered))
+
+    def test_1_the_readme_robot_command_gives_a_belief_per_camera_image(self):
+        block = readme_block(os.path.join(self.repo, "README.md"), "## Running it on a robot")
+        home = os.path.join(self.tmp, "home")
+        os.makedirs(home)
+        data_before = sorted(os.listdir(os.path.join(self.repo, "data")))
+        env = dict(os.environ, HOME=home)
+        log = open(os.path.join(self.tmp, "readme.log"), "w")
+        proc = subprocess.Popen(["bash", "-c", "set -e\n" + block], cwd=self.repo, env=env,
+                                stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            robot = Robot(self.frames["fall"], "tf")
+            wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the README's pipeline")
+            time.sleep(1.0)
+            sent = robot.drive(route_schedule())
+            wait_for(lambda: all(s in self.beliefs for s, _ in sent[-5:]), 30, "the last beliefs")
+            got = sum(s in self.beliefs for s, _ in sent)
+            self.assertEqual(got, len(sent), "a belief per camera image")
+            # measured: 174 poses of 253 images, median error 2.2 m, all within 3 sigma
+            self.assert_pose_follows(sent, "README robot command, fall against summer",
+                                     len(sent) // 2)
+            errors = [s for s in self.fusion_status(time.time() - 3) if s.level >= 2]
+            self.assertEqual(errors, [])
+            self.assertTrue(os.path.isdir(os.path.join(home, ".ros", "bsf_vpr")))
+        finally:
+            os.killpg(proc.pid, signal.SIGINT)
+            proc.wait(timeout=60)
+            log.close()
+        self.assertEqual(sorted(os.listdir(os.path.join(self.repo, "data"))), data_before)
+
+    def test_2_sets_that_cannot_match_the_camera_are_an_error_at_start_up(self):
+        launch = Roslaunch("bsf_vpr.launch", {
+            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond",
+            "extra_config": os.path.join(self.pkg, "config", "gardens_point.yaml"),
+            "data_directory": os.path.join(self.tmp, "gp")})
+        try:
+            since = time.time()
+            launch.wait_until(lambda: any(s.level == 2 and "4096" in s.message and "2048" in s.message
+                                          for s in self.fusion_status(since)), 60,
+                              "the fusion node's start-up error")
+        finally:
+            launch.stop()
+        self.assertIn("no descriptor can be recognised", launch.output())
+
+    def record(self, places, pose_as):
+        data = os.path.join(self.tmp, "rec_" + pose_as)
+        config = os.path.join(self.tmp, "pose_%s.yaml" % pose_as)
+        with open(config, "w") as f:
+            if pose_as == "odometry":
+                f.write("pose_source: topic\npose_topic: /robot/odometry\n")
+            else:
+                f.write("pose_source: tf\n")
+        launch = Roslaunch("bsf_vpr.launch", {
+            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond", "config": config,
+            "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
+            "data_directory": data})
+        return launch, data
+
+    def check_pose_recording(self, pose_as):
+        launch, data = self.record("pose", pose_as)
+        try:
+            launch.wait_until(lambda: self.service_up(), 60, "the fusion node")
+            attach_fusion_services(self)
+            r = self.start(name="fall_live", condition="fall", overwrite=False, places="pose")
+            self.assertTrue(r.success, r.message)
+            robot = Robot(self.frames["fall"], pose_as)
+            wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the ingest")
+            sent = robot.drive(route_schedule())
+            wait_for(lambda: all(s in self.beliefs for s, _ in sent[-3:]), 30, "the last beliefs")
+            r = self.stop(discard=False)
+            self.assertTrue(r.success, r.message)
+            self.assertEqual(r.num_received, len(sent), r.message)
+            self.assertEqual(r.num_descriptors, len(sent), "lost to pose timing: " + r.message)
+            self.assertGreaterEqual(r.num_places, 90, r.message)
+            with open(os.path.join(data, "fall_live.yaml")) as f:
+                y = yaml.safe_load(f)
+            rows = np.load(os.path.join(data, y["descriptors"]))
+            for place, row in zip(y["place_ids"], rows):
+                np.testing.assert_allclose(row, self.fall[place], atol=1e-5,
+                                           err_msg="place %d holds another frame" % place)
+            print("by pose (%s): %s" % (pose_as, r.message))
+            if pose_as == "tf":
+                # By localisation: only accepted places, each with the right frame.
+                r = self.start(name="fall_localized", condition="fall", overwrite=False,
+                               places="localized")
+                self.assertTrue(r.success, r.message)
+                robot.drive(route_schedule())
+                time.sleep(1.0)
+                r = self.stop(discard=False)
+                self.assertTrue(r.success, r.message)
+                with open(os.path.join(data, "fall_localized.yaml")) as f:
+                    y = yaml.safe_load(f)
+                rows = np.load(os.path.join(data, y["descriptors"]))
+                self.assertGreater(len(rows), 30, r.message)
+                right = sum(np.allclose(row, self.fall[p], atol=1e-5)
+                            for p, row in zip(y["place_ids"], rows))
+                self.assertGreaterEqual(right, 0.9 * len(rows), r.message)
+                print("by localisation: %s, %d of %d places hold their own frame" % (
+                    r.message, right, len(rows)))
+                self.assertTrue(self.unload(name="fall_localized").success)
+                # Localising with the new set: winter against summer + the live fall set.
+                winter = Robot(self.frames["winter"], "tf")
+                sent = winter.drive(route_schedule())
+                wait_for(lambda: all(s in self.beliefs for s, _ in sent[-3:]), 30, "beliefs")
+                used = self.beliefs[sent[-1][0]].set_names
+                self.assertEqual(sorted(used), ["fall_live", "summer"])
+                # Winter is the hard season (single images, h = 0.9): few are accepted.
+                self.assert_pose_follows(sent, "winter against summer + fall recorded live", 10)
+        finally:
+            launch.stop()
+
+    def service_up(self):
+        try:
+            rospy.wait_for_service("/bsf_vpr/start_recording", timeout=0.5)
+            return True
+        except rospy.ROSException:
+            return False
+
+    def test_3_recording_by_pose_from_tf_keeps_every_descriptor(self):
+        self.check_pose_recording("tf")
+
+    def test_4_recording_by_pose_from_odometry_keeps_every_descriptor(self):
+        self.check_pose_recording("odometry")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bsf_vpr", "test_live_robot", LiveRobot)

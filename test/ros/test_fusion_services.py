@@ -12,6 +12,7 @@ import rospy
 import rostest
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from dynamic_reconfigure.client import Client
 
 from bsf_vpr.msg import Belief, Descriptor, Match
@@ -267,14 +268,21 @@ class FusionServices(unittest.TestCase):
         self.assertFalse(self.start(name="../escape", condition="").success)
         r = self.start(name="tonight", condition="night")
         self.assertTrue(r.success, r.message)
-        r = self.stop(discard=False)  # nothing arrived yet
+        r = self.stop(discard=False)  # nothing arrived yet: the stop says so and ends it
         self.assertFalse(r.success)
-        self.assertIn("no descriptor", r.message)
+        self.assertIn("received 0 descriptor(s)", r.message)
+        self.assertIn("ended", r.message)
+        self.assertEqual(r.num_received, 0)
+        r = self.start(name="tonight", condition="night")
+        self.assertTrue(r.success, r.message)
         stamps = [self.send(self.night[i]) for i in range(30)]
         self.belief_for(stamps[-1])  # processed in order: all 30 were recorded
         r = self.stop(discard=False)
         self.assertTrue(r.success, r.message)
         self.assertEqual(r.num_descriptors, 30)
+        self.assertEqual(r.num_received, 30)
+        self.assertEqual(r.num_places, 30)
+        self.assertIn("saved 30 place(s)", r.message)
         self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.yaml")))
         with open(os.path.join(self.data_dir, "tonight.yaml")) as f:
             npy = [l.split(":", 1)[1].strip() for l in f if l.startswith("descriptors:")][0]
@@ -285,6 +293,100 @@ class FusionServices(unittest.TestCase):
         self.assertEqual(info.condition, "night")
         self.assertEqual(info.num_places, 30)
         self.assertTrue(self.unload(name="tonight").success)
+
+
+    def test_a_failed_stop_leaves_a_pending_recording_that_takes_no_drive(self):
+        self.ensure_day_loaded()
+        with open(os.path.join(self.data_dir, "blocked2"), "w") as f:
+            f.write("a file where a folder should be\n")
+        self.assertTrue(self.start(name="blocked2/tonight", condition="").success)
+        stamps = [self.send(self.night[i]) for i in range(8)]
+        self.belief_for(stamps[-1])
+        r = self.stop(discard=False)
+        self.assertFalse(r.success)
+        self.assertIn("received 8 descriptor(s), 8 kept", r.message)
+        self.assertIn("discard", r.message)  # what to do
+        self.assertEqual((r.num_received, r.num_descriptors), (8, 8))
+        # The next drive is not added to it, and a new start says it is pending.
+        stamps = [self.send(self.night[i]) for i in range(8, 14)]
+        self.belief_for(stamps[-1])
+        r = self.start(name="other", condition="")
+        self.assertFalse(r.success)
+        self.assertIn("pending", r.message)
+        self.assertIn("discard: true", r.message)
+        r = self.stop(discard=True)
+        self.assertTrue(r.success, r.message)
+        self.assertEqual(r.num_descriptors, 8)
+        os.remove(os.path.join(self.data_dir, "blocked2"))
+
+    def test_reconfiguration_refuses_instead_of_clamping_and_answers_what_is_in_force(self):
+        self.ensure_day_loaded()
+        client = Client(NS + "fusion", timeout=30)
+        try:
+            for change in ({"gamma_fraction": -0.5}, {"sequence_length": 5000},
+                           {"threshold": float("nan")}, {"method": "foo"}):
+                config = client.update_configuration(change)
+                self.assertEqual(config["gamma_fraction"], 0.04, change)  # not clamped to 0
+                self.assertEqual(config["sequence_length"], 5, change)
+                self.assertEqual(config["threshold"], 0.9, change)
+                self.assertEqual(config["method"], "bsf", change)
+            # threshold_kind alone: the threshold converted into the new kind's units.
+            config = client.update_configuration({"threshold_kind": "log_odds"})
+            self.assertEqual(config["threshold_kind"], "log_odds")
+            self.assertAlmostEqual(config["threshold"], np.log(0.9 / 0.1), places=9)
+            config = client.update_configuration({"threshold_kind": "probability"})
+            self.assertAlmostEqual(config["threshold"], 0.9, places=9)
+            config = client.update_configuration({"threshold": 8.0, "threshold_kind": "log_odds"})
+            self.assertEqual((config["threshold"], config["threshold_kind"]), (8.0, "log_odds"))
+        finally:
+            client.update_configuration({"threshold": 0.9, "threshold_kind": "probability"})
+
+    def test_the_pose_of_an_accepted_match_for_a_localiser(self):
+        self.ensure_day_loaded()
+        poses = []
+        sub = rospy.Subscriber(NS + "pose", PoseWithCovarianceStamped, poses.append)
+        n = len(self.matches)
+        stamps = [self.send(self.night[i]) for i in range(100, 140)]
+        self.belief_for(stamps[-1])
+        wait_for(lambda: len(self.matches) > n and len(poses) > 0, 20, "a pose")
+        sub.unregister()
+        for p in poses:
+            self.assertEqual(p.header.frame_id, "map")
+            self.assertIn(p.header.stamp, stamps)
+            belief = self.belief_for(p.header.stamp)
+            self.assertTrue(belief.accepted)
+            # The day set's places lie 1 m apart along x: the pose is near the match.
+            self.assertLess(abs(p.pose.pose.position.x - belief.match), 10.0)
+            c = p.pose.covariance
+            self.assertTrue(all(np.isfinite(c)))
+            self.assertGreaterEqual(c[0], 0.25)  # the floor: half the place spacing
+            self.assertEqual(c[14], 1e6)  # z unknown
+
+
+    def test_a_publisher_of_the_other_descriptor_type_is_named_not_silently_unheard(self):
+        # The ingest took bsf_vpr/Descriptor from the first publisher (self.external); roscpp
+        # then refuses a Float32MultiArray publisher on the same topic: it is reported.
+        # Another node, as on a robot (the master lists publishers per node).
+        import subprocess
+        since = rospy.Time.now()
+        other = subprocess.Popen(["rostopic", "pub", "-r", "1", "__name:=array_publisher",
+                                  "/vpr/descriptor", "std_msgs/Float32MultiArray",
+                                  "{data: [1.0, 2.0]}"], stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL)
+        try:
+            def named():
+                for array in list(self.diagnostics):
+                    if array.header.stamp < since:
+                        continue
+                    for st in array.status:
+                        if (st.name.endswith("descriptor_ingest") and st.level == 2 and
+                                "not heard" in st.message and "/array_publisher" in st.message):
+                            return True
+                return False
+            wait_for(named, 30, "descriptor_ingest to name the unheard publisher")
+        finally:
+            other.terminate()
+            other.wait()
 
 
 if __name__ == "__main__":

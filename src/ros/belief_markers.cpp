@@ -277,10 +277,24 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
       text += (text.empty() ? "" : "\n") + line;
     }
     const double lines = static_cast<double>(std::count(text.begin(), text.end(), '\n') + 1);
+    Eigen::Vector3d anchor = at(belief.match);
+    if (layout.fits_view) {
+      // The text is centred on its anchor: at an end of the route half of it would lie
+      // outside the view (the place number cut off). The anchor moves inwards until the
+      // longest line fits (a character is about 0.6 of the text's height wide).
+      size_t longest = 0;
+      for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
+        longest = std::max(longest, line.size());
+      }
+      const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
+      const double room = std::max(0.0, options.view_size_m / 2 - half_text);
+      for (int k : {0, 1}) {
+        anchor[k] = std::clamp(anchor[k], layout.centre[k] - room, layout.centre[k] + room);
+      }
+    }
     out.markers.push_back(
         Text(belief, options, "label", 0, text,
-             at(belief.match) +
-                 Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
+             anchor + Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
              size.label_height_m));
   }
 

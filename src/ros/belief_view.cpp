@@ -128,7 +128,8 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
   }
   if (set.image_files().empty()) {
     *note = "set '" + set.name() +
-            "' has no images (images: in its YAML; by service only below the data directory)";
+            "' has no images: recorded without images, or its YAML names none (images:; "
+            "by service only below the data directory)";
     return cv::Mat();
   }
   try {

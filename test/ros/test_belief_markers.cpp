@@ -168,6 +168,29 @@ TEST(BeliefMarkers, DrawTheBeliefTheMatchTheTruthAndTheLabel) {
   EXPECT_EQ(Find(rejected, "true_places"), nullptr);
 }
 
+TEST(BeliefMarkers, TheLabelStaysInsideTheViewAtTheEndsOfTheRoute) {
+  BeliefViewOptions options;
+  const RouteLayout layout = MakeRouteLayout(LineMap(100, 0.9, true), options);  // 89 m: fits
+  ASSERT_TRUE(layout.fits_view);
+  const MarkerSizes size = SizesFor(layout, 1);
+  for (int match : {0, 99}) {
+    const Belief belief = Peaked(100, match, true);
+    const auto markers = MakeBeliefMarkers(layout, belief, {}, true, options);
+    const Marker* label = Find(markers, "label");
+    ASSERT_NE(label, nullptr);
+    size_t longest = 0;
+    for (const std::string& line : BeliefLabelLines(belief, true)) longest = std::max(longest, line.size());
+    const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
+    // Its whole width within the view around the route's centre; it was centred on the end.
+    EXPECT_LE(label->pose.position.x + half_text, layout.centre.x() + options.view_size_m / 2 + 1e-9);
+    EXPECT_GE(label->pose.position.x - half_text, layout.centre.x() - options.view_size_m / 2 - 1e-9);
+    EXPECT_NE(label->pose.position.x, layout.points[static_cast<size_t>(match)].x()) << match;
+  }
+  // A match in the middle keeps its label above it.
+  const auto middle = MakeBeliefMarkers(layout, Peaked(100, 50, true), {}, true, options);
+  EXPECT_NEAR(Find(middle, "label")->pose.position.x, layout.points[50].x(), 1e-9);
+}
+
 TEST(BeliefMarkers, TheLogScaleShowsWhatTheLinearScaleHides) {
   BeliefViewOptions options;
   const RouteLayout layout = MakeRouteLayout(LineMap(100, 0, false), options);

@@ -117,7 +117,7 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
     const std::string what = "nothing saved: recording '" + recorder_.name() + "' " + Summary();
     recorder_.Discard();
     pending_reason_.clear();
-    throw std::runtime_error(what + "; the recording is ended: fix the cause and start again");
+    throw std::invalid_argument(what + "; the recording is ended: fix the cause and start again");
   }
   const std::string path = RecordingPath(*data_dir_, recorder_.name());
   ReferenceRecorder::Map map;
@@ -126,9 +126,8 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
   // Built, saved, and only then forgotten: a save that fails keeps the recording, closed.
   const auto keep = [&](const std::string& why) {
     pending_reason_ = why;
-    return std::runtime_error(
-        why + "; " + Summary() + "; the recording is kept and takes no more descriptors: call "
-        "stop_recording again to retry, or stop_recording {discard: true} to drop it");
+    return why + "; " + Summary() + "; the recording is kept and takes no more descriptors: "
+           "call stop_recording again to retry, or stop_recording {discard: true} to drop it";
   };
   Saved saved;
   try {
@@ -136,12 +135,12 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
     saved.set.distance = ToString(distance);
     if (loaded) loaded->CheckPlacePoses(saved.set);
   } catch (const std::exception& e) {
-    throw keep(std::string("the recording cannot be saved: ") + e.what());
+    throw std::invalid_argument(keep(std::string("the recording cannot be saved: ") + e.what()));
   }
   try {
     SaveReferenceSet(*data_dir_, saved.set, path, overwrite_);
   } catch (const std::exception& e) {
-    throw keep(std::string("saving failed: ") + e.what());
+    throw std::runtime_error(keep(std::string("saving failed: ") + e.what()));
   }
   recorder_.Discard();
   pending_reason_.clear();

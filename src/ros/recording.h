@@ -74,10 +74,11 @@ class Recording {
   // "received 30 descriptors, 0 with a pose, 0 kept (lost: 30 no pose received yet)".
   std::string Summary() const;
   // Saves the recording, meant for `distance`, and ends it. Replaces an existing YAML only
-  // if Start was asked to overwrite. Throws std::invalid_argument if no recording runs, and
-  // std::runtime_error (a message with Summary() and what to do) if it holds no descriptor
-  // (the recording is ended: nothing to keep) or the set cannot be built or written (the
-  // recording is kept, closed to new descriptors, until a later Save succeeds or Discard).
+  // if Start was asked to overwrite. Each refusal says what arrived (Summary()) and what to
+  // do. Throws std::invalid_argument if no recording runs, if it holds no descriptor (the
+  // recording is ended: nothing to keep) or if the set cannot be built (poses that
+  // contradict the map), and std::runtime_error if writing fails; in those two cases the
+  // recording is kept, closed to new descriptors, until a later Save succeeds or Discard.
   // With `loaded`, places by pose are associated with its places (`options`), and a set
   // whose poses contradict them (ReferenceMap::CheckPlacePoses) is refused before saving.
   Saved Save(DistanceMetric distance, const ReferenceMap* loaded = nullptr,

@@ -210,7 +210,7 @@ TEST_F(RecordingTest, StartingTwiceIsRefusedAndKeepsTheFirst) {
   Recording rec(dir_.get());
   rec.Start("first", "", false, map_);
   rec.Add(Row(1), "");
-  EXPECT_NE(Refusal([&] { rec.Start("second", "", false, map_); }).find("already recording"),
+  EXPECT_NE(Refusal([&] { rec.Start("second", "", false, map_); }).find("'first' is running"),
             std::string::npos);
   EXPECT_EQ(rec.name(), "first");
   EXPECT_EQ(rec.count(), 1);
@@ -225,12 +225,18 @@ TEST_F(RecordingTest, StoppingWithoutARecordingIsRefused) {
   EXPECT_EQ(rec.count(), 0);
 }
 
-TEST_F(RecordingTest, AnEmptyRecordingIsNotSavedAndKeepsRunning) {
+TEST_F(RecordingTest, AnEmptyRecordingIsNotSavedAndEndsSayingWhatArrived) {
   Recording rec(dir_.get());
-  rec.Start("tonight", "", false, map_);
-  EXPECT_NE(Refusal([&] { rec.Save(DistanceMetric::kEuclidean); }).find("no descriptor"),
-            std::string::npos);
-  EXPECT_TRUE(rec.recording());
+  rec.Start("tonight", "", false, map_, RecordingPlaces::kPose);
+  rec.NoteLost("no pose: no pose received yet");
+  rec.NoteLost("no pose: no pose received yet");
+  const std::string why = Refusal([&] { rec.Save(DistanceMetric::kEuclidean); });
+  EXPECT_NE(why.find("received 2 descriptor(s), 0 with a pose of the robot, 0 kept (lost: 2 no "
+                     "pose: no pose received yet)"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("ended"), std::string::npos) << why;
+  EXPECT_FALSE(rec.recording());  // nothing to keep: a later start is not refused
   EXPECT_FALSE(dir_->Exists("tonight.yaml"));
 }
 
@@ -284,11 +290,17 @@ TEST_F(RecordingTest, AFailedSaveKeepsTheRecordingForAnotherTry) {
     rec.Save(DistanceMetric::kEuclidean);
     ADD_FAILURE() << "replaced a set on disk without overwrite";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("recording of 2 descriptors is kept"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("received 2 descriptor(s), 2 kept; the recording is kept"),
+              std::string::npos)
         << e.what();
   }
   EXPECT_TRUE(rec.recording());
   EXPECT_EQ(rec.count(), 2);
+  // Closed: the next drive is not added, and a new start says the recording is pending.
+  EXPECT_THROW(rec.Add(Row(3), ""), std::invalid_argument);
+  EXPECT_EQ(rec.count(), 2);
+  EXPECT_NE(Refusal([&] { rec.Start("next", "", false, map_); }).find("pending"),
+            std::string::npos);
   EXPECT_EQ(LoadReferenceSetFile(*dir_, "tonight.yaml", "").name, "other");
   dir_->Remove("tonight.yaml");
   EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.size(), 2);
@@ -328,7 +340,7 @@ TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics
   rec.Diagnose(status);
   ASSERT_EQ(status.values.size(), 1u);
   EXPECT_EQ(status.values[0].key, "recording");
-  EXPECT_EQ(status.values[0].value, "tonight (1 descriptors, places by sequential)");
+  EXPECT_EQ(status.values[0].value, "tonight (places by sequential): received 1 descriptor(s), 1 kept");
 }
 
 TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {

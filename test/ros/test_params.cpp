@@ -122,7 +122,8 @@ TEST(IngestParams, ReadsTheDescriberTable) {
   EXPECT_THROW(LoadIngestParams(list_source), std::invalid_argument);
 }
 
-// cfg/Fusion.cfg is written from the table: its defaults, bounds and names are the table's,
+// cfg/Fusion.cfg is written from the table: its defaults and names are the table's (its
+// bounds are left to the node's check),
 // and a reconfiguration goes through the table both ways.
 TEST(Reconfigure, TheCfgIsTheTable) {
   const OptionTable<RecognizerOptions>& table = RecognizerOptionsTable();
@@ -137,19 +138,15 @@ TEST(Reconfigure, TheCfgIsTheTable) {
     EXPECT_TRUE(spec->info.live) << name;
     EXPECT_EQ(value, spec->info.default_value) << name;
   }
-  for (const auto& [name, value] : ValuesFromConfig(mins)) {
-    const OptionInfo& info = table.Find(name)->info;
-    if (const double* d = std::get_if<double>(&value)) {
-      if (std::isfinite(info.bounds.min)) {
-        EXPECT_EQ(*d, info.bounds.min) << name;
-      }
-    }
-  }
-  for (const auto& [name, value] : ValuesFromConfig(maxs)) {
-    const OptionInfo& info = table.Find(name)->info;
-    if (const double* d = std::get_if<double>(&value)) {
-      if (std::isfinite(info.bounds.max)) {
-        EXPECT_EQ(*d, info.bounds.max) << name;
+  // No bounds in the cfg: dynamic_reconfigure's server clamps to them before the node sees
+  // a value (gamma_fraction -0.5 would be taken as 0); the node refuses what the table's
+  // bounds refuse instead.
+  for (const auto& config : {mins, maxs}) {
+    for (const auto& [name, value] : ValuesFromConfig(config)) {
+      if (const double* d = std::get_if<double>(&value)) {
+        EXPECT_FALSE(std::isfinite(*d)) << name;
+      } else if (const long long* i = std::get_if<long long>(&value)) {
+        EXPECT_TRUE(*i <= -2147483647 || *i >= 2147483647) << name << " " << *i;
       }
     }
   }

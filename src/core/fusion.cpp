@@ -38,6 +38,14 @@ double Threshold::LogOdds() const {
   return std::log(value) - std::log1p(-value);
 }
 
+Threshold Threshold::As(Kind to) const {
+  if (to == kind) return *this;
+  Threshold t;
+  t.kind = to;
+  t.value = to == Kind::kLogOdds ? LogOdds() : 1.0 / (1.0 + std::exp(-value));
+  return t;
+}
+
 void Threshold::Validate() const {
   if (kind == Kind::kProbability && !(value > 0 && value < 1)) {
     throw std::invalid_argument(

@@ -11,14 +11,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-bool Finite(const PlacePose& p) {
-  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.z_m) &&
-         std::isfinite(p.yaw_rad);
-}
-
 void CheckPoses(const std::vector<PlacePose>& poses, const char* what) {
   for (size_t i = 0; i < poses.size(); ++i) {
-    if (!Finite(poses[i])) {
+    if (!IsFinite(poses[i])) {
       throw std::invalid_argument(std::string(what) + " " + std::to_string(i) +
                                   " has a pose that is not finite");
     }

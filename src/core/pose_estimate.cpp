@@ -10,11 +10,6 @@ namespace {
 
 double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
-bool IsFinitePose(const PlacePose& p) {
-  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.z_m) &&
-         std::isfinite(p.yaw_rad);
-}
-
 }  // namespace
 
 std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
@@ -42,7 +37,7 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
       for (int k = 0; k < keep; ++k) {
         const int i = order[k];
         const double w = std::exp(log_p[i] - top);  // relative to the best: no underflow of all
-        if (!(w > 0) || !place_poses[i] || !IsFinitePose(*place_poses[i])) continue;
+        if (!(w > 0) || !place_poses[i] || !IsFinite(*place_poses[i])) continue;
         weighted.emplace_back(i, w);
         total += std::exp(log_p[i]);
         if (total >= options.mass) break;
@@ -50,9 +45,9 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     }
   }
   const std::optional<PlacePose>& match_pose = place_poses[belief.match];
-  if (centred_on_match && (!match_pose || !IsFinitePose(*match_pose))) return std::nullopt;
+  if (centred_on_match && (!match_pose || !IsFinite(*match_pose))) return std::nullopt;
   if (weighted.empty()) {
-    if (!match_pose || !IsFinitePose(*match_pose)) return std::nullopt;
+    if (!match_pose || !IsFinite(*match_pose)) return std::nullopt;
     weighted.emplace_back(belief.match, 1.0);
   }
   double w_sum = 0;
@@ -90,7 +85,7 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
   m(1, 1) += options.min_std_m * options.min_std_m;
   m(2, 2) += options.min_std_yaw_rad * options.min_std_yaw_rad;
   e.covariance = m;
-  if (!IsFinitePose(e.mean) || !m.allFinite()) return std::nullopt;
+  if (!IsFinite(e.mean) || !m.allFinite()) return std::nullopt;
   return e;
 }
 

@@ -332,10 +332,6 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   wrong_type_.clear();
 }
 
-}  // namespace bsf_vpr
-
-namespace bsf_vpr {
-
 std::string DescriptorIngest::UnheardPublishers() {
   // roscpp takes a subscription of any type (ShapeShifter) as the type of the first publisher
   // that connects and refuses publishers of another type from then on: their messages never

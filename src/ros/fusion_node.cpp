@@ -1,7 +1,6 @@
 #include "fusion_node.h"
 
 #include <chrono>
-#include <cmath>
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/ros/names.h"
@@ -333,8 +332,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
     Threshold& h = o.method_options.threshold;
     const Threshold& before = recognizer_.options().method_options.threshold;
     if (h.kind != before.kind && h.value == before.value) {
-      h.value = h.kind == Threshold::Kind::kLogOdds ? before.LogOdds()
-                                                      : 1.0 / (1.0 + std::exp(-before.value));
+      h = before.As(h.kind);
       if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
         throw std::invalid_argument(
             "threshold_kind probability: log-odds " + std::to_string(before.value) +

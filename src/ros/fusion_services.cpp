@@ -299,12 +299,9 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
 bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   // Also in a refusal: what arrived and what is kept.
-  const auto count = [&] {
-    res.num_descriptors = recording_->count();
-    res.num_received = recording_->counts().received;
-  };
+  res.num_descriptors = recording_->count();
+  res.num_received = recording_->counts().received;
   try {
-    count();
     if (req.discard) {
       const std::string summary = recording_->recording() ? recording_->Summary() : "";
       recording_->Discard();
@@ -337,7 +334,6 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
-    count();
     ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;

@@ -81,7 +81,6 @@ void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
   }
   ++counts_.received;
   counts_.with_pose += pose.has_value();
-  counts_.kept = recorder_.count();
   if (!descriptor_type.empty()) descriptor_type_ = descriptor_type;
 }
 

@@ -65,9 +65,9 @@ class Recording {
     std::string path;  // absolute path of the YAML
   };
   // What reached the recording: descriptors received, those with the robot's pose (recording
-  // by pose), those kept, and the losses by cause.
+  // by pose), and the losses by cause (those kept: count()).
   struct Counts {
-    int received = 0, with_pose = 0, kept = 0;
+    int received = 0, with_pose = 0;
     std::map<std::string, int> lost;  // cause -> descriptors
   };
   const Counts& counts() const { return counts_; }
@@ -95,7 +95,8 @@ class Recording {
   bool recording() const { return recorder_.recording(); }
   const std::string& name() const { return recorder_.name(); }
   int count() const { return recorder_.count(); }  // descriptors recorded so far
-  // Why the recording is closed ("" while it takes descriptors): its last save failed.
+  // Why the recording is closed ("" while it takes descriptors): its last save failed or
+  // its poses contradict the map.
   const std::string& pending_reason() const { return pending_reason_; }
 
   // Adds lines on the running or pending recording (name, counts, why it is pending) to

@@ -15,11 +15,6 @@ namespace {
 constexpr double kHistoryS = 30.0;       // how far back topic poses are kept
 constexpr size_t kMaxSamples = 20000;    // and at most this many (a 500 Hz source)
 
-bool Finite(const PlacePose& p) {
-  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.z_m) &&
-         std::isfinite(p.yaw_rad);
-}
-
 PlacePose FromPose(const geometry_msgs::Pose& p) {
   return ToPlacePose(p.position.x, p.position.y, p.position.z, p.orientation.x, p.orientation.y,
                      p.orientation.z, p.orientation.w);
@@ -62,6 +57,8 @@ std::string ToString(PoseLoss loss) {
       return "gap in the poses around the stamp";
     case PoseLoss::kFrame:
       return "pose message in another frame";
+    case PoseLoss::kType:
+      return "pose message of another type";
     case PoseLoss::kNotFinite:
       return "pose not finite";
   }
@@ -127,7 +124,7 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
       pose = FromPose(m->pose.pose);
     } else {
       std::lock_guard<std::mutex> lock(mutex_);
-      bad_loss_ = PoseLoss::kFrame;
+      bad_loss_ = PoseLoss::kType;
       bad_message_ = sub_.getTopic() + " carries " + type +
                      "; pose_topic takes nav_msgs/Odometry, geometry_msgs/PoseStamped or "
                      "geometry_msgs/PoseWithCovarianceStamped";
@@ -135,7 +132,7 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
     }
   } catch (const std::exception& e) {
     std::lock_guard<std::mutex> lock(mutex_);
-    bad_loss_ = PoseLoss::kFrame;
+    bad_loss_ = PoseLoss::kType;
     bad_message_ = std::string("unreadable pose message: ") + e.what();
     return;
   }
@@ -149,7 +146,7 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
                    options_.map_frame + "'";
     return;
   }
-  if (!Finite(pose)) {
+  if (!IsFinite(pose)) {
     bad_loss_ = PoseLoss::kNotFinite;
     bad_message_ = sub_.getTopic() + " sent a pose with NaN or infinity";
     return;
@@ -197,7 +194,7 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
     const auto& v = t.transform.translation;
     const auto& q = t.transform.rotation;
     const PlacePose p = ToPlacePose(v.x, v.y, v.z, q.x, q.y, q.z, q.w);
-    if (!Finite(p)) return {std::nullopt, PoseLoss::kNotFinite, "tf gave NaN or infinity"};
+    if (!IsFinite(p)) return {std::nullopt, PoseLoss::kNotFinite, "tf gave NaN or infinity"};
     out.pose = p;
   } catch (const tf2::TransformException& e) {
     out.loss = PoseLoss::kWaited;

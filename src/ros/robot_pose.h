@@ -49,6 +49,7 @@ enum class PoseLoss {
   kTooOld,    // the stamp is older than the poses kept
   kGap,       // the samples around the stamp are farther apart than max_gap_s
   kFrame,     // a message in another frame than map_frame
+  kType,      // pose_topic carries another message type
   kNotFinite  // a pose with NaN or infinity
 };
 std::string ToString(PoseLoss loss);
@@ -90,7 +91,7 @@ class RobotPoseSource {
   ros::Subscriber sub_;
   std::mutex mutex_;
   std::condition_variable arrived_;
-  std::deque<Sample> samples_;  // ascending stamps, the last history_s seconds
+  std::deque<Sample> samples_;  // ascending stamps, the last kHistoryS seconds (.cpp)
   std::string bad_message_;     // the last message refused (frame, type, not finite)
   PoseLoss bad_loss_ = PoseLoss::kNone;
 };

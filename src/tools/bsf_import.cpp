@@ -5,7 +5,6 @@
 // Everything is read and checked first, the reference sets are described in memory, the
 // bags are written under temporary names; only then are the sets saved and the bags renamed
 // into place, so that bad input leaves nothing behind.
-#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -120,17 +119,6 @@ void ReportSkipped(const Traversal& t, std::ostream& report) {
     report << "; " << t.not_downloaded << " timestamps without an image (chunk not downloaded)";
 }
 
-// The median planar distance between consecutive places (0 for fewer than two).
-double MedianSpacing(const std::vector<std::optional<PlacePose>>& poses) {
-  std::vector<double> steps;
-  for (size_t i = 1; i < poses.size(); ++i) {
-    if (poses[i - 1] && poses[i]) steps.push_back(PlanarDistance(*poses[i - 1], *poses[i]));
-  }
-  if (steps.empty()) return 0;
-  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-  return steps[steps.size() / 2];
-}
-
 // The reference sets (the first a.references.size() traversals), described in memory: on
 // the place index `index` when the traversals have poses, else frame k = place k
 // (*aligned_places: the longest reference).
@@ -157,7 +145,7 @@ std::vector<ReferenceSet> MakeReferenceSets(const ImportArgs& a, const std::vect
         // The spacing the places have: the one asked for, unless the frames lie farther
         // apart (a place is then a frame, and the report says so).
         const double asked = a.options.place_index.place_spacing_m;
-        const double median = MedianSpacing(index->place_poses());
+        const double median = ReferenceMap::MedianSpacing(index->place_poses()).value_or(0.0);
         report << ", " << index->num_places() << " places";
         if (index->num_places() > 1 && median > 1.5 * asked) {
           report << " one every " << median << " m (median): the frames lie farther apart than "

@@ -156,6 +156,15 @@ TEST(Fusion, ThresholdAcceptsAboveH) {
   EXPECT_EQ(ParseThresholdKind("log_odds"), Threshold::Kind::kLogOdds);
   EXPECT_EQ(ToString(Threshold::Kind::kProbability), "probability");
   EXPECT_THROW(ParseThresholdKind("logodds"), std::invalid_argument);
+  // The same threshold in the other kind's units, both ways.
+  const Threshold p{Threshold::Kind::kProbability, 0.9};
+  const Threshold l = p.As(Threshold::Kind::kLogOdds);
+  EXPECT_EQ(l.kind, Threshold::Kind::kLogOdds);
+  EXPECT_NEAR(l.value, std::log(9.0), 1e-12);
+  EXPECT_NEAR(l.As(Threshold::Kind::kProbability).value, 0.9, 1e-12);
+  EXPECT_EQ(p.As(Threshold::Kind::kProbability).value, 0.9);
+  EXPECT_THROW((Threshold{Threshold::Kind::kLogOdds, 40}.As(Threshold::Kind::kProbability).Validate()),
+               std::invalid_argument);  // rounds to 1
 }
 
 TEST(Fusion, RefusesABadPrior) {

@@ -23,6 +23,9 @@ struct Threshold {
   double value = 0.9;
 
   double LogOdds() const;
+  // The same threshold given as `to` says (log-odds 2.197 is probability 0.9). A large
+  // log-odds becomes a probability that rounds to 1, which Validate() refuses.
+  Threshold As(Kind to) const;
   // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
   void Validate() const;
 };

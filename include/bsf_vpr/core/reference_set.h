@@ -108,11 +108,12 @@ class ReferenceMap {
   // Median distance (metres) between consecutive places that both have poses; nullopt if
   // no two consecutive places do. O(1): kept up to date by Add and Remove.
   std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }
+  // The same of any per-place poses (nullopt where a place has none).
+  static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses);
 
  private:
   static void IndexPoses(const StoredReferenceSet& set,
                          std::vector<std::optional<PlacePose>>* poses);
-  static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses);
 
   std::vector<StoredReferenceSet> sets_;
   std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 
 namespace bsf_vpr {
 
@@ -13,5 +14,11 @@ using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::
 struct PlacePose {
   double x_m = 0, y_m = 0, z_m = 0, yaw_rad = 0;
 };
+
+// No NaN or infinity in any field.
+inline bool IsFinite(const PlacePose& p) {
+  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.z_m) &&
+         std::isfinite(p.yaw_rad);
+}
 
 }  // namespace bsf_vpr

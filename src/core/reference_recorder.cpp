@@ -71,7 +71,8 @@ ReferenceSet ReferenceRecorder::Finish(const std::string& descriptor_type, const
   return set;
 }
 
-ReferenceSet ReferenceRecorder::Build(const std::string& descriptor_type, const Map& map) const {
+ReferenceSet ReferenceRecorder::Build(const std::string& descriptor_type, const Map& map,
+                                      std::vector<int>* source_rows) const {
   if (!recording_) throw std::invalid_argument("no recording is running");
   if (rows_.empty()) {
     throw std::invalid_argument("recording '" + name_ + "' received no descriptor");
@@ -79,12 +80,15 @@ ReferenceSet ReferenceRecorder::Build(const std::string& descriptor_type, const 
   RowMatrixXf m(static_cast<Eigen::Index>(rows_.size()), dimension_);
   for (size_t k = 0; k < rows_.size(); ++k) m.row(static_cast<Eigen::Index>(k)) = rows_[k];
   ReferenceSet set;
+  std::vector<int> source;
   if (places_ == RecordingPlaces::kPose) {
-    set = BuildByPose(std::move(m), map);
+    set = BuildByPose(std::move(m), map, &source);
   } else if (places_ == RecordingPlaces::kLocalized) {
-    set = BuildLocalized(std::move(m), map);
+    set = BuildLocalized(std::move(m), map, &source);
   } else {
     set = MakeReferenceSet(name_, std::move(m), condition_);
+    source.resize(rows_.size());
+    std::iota(source.begin(), source.end(), 0);
     if (std::all_of(poses_.begin(), poses_.end(), [](const auto& p) { return p.has_value(); })) {
       for (const auto& p : poses_) set.poses.push_back(*p);
     }
@@ -92,6 +96,7 @@ ReferenceSet ReferenceRecorder::Build(const std::string& descriptor_type, const 
   set.name = name_;
   set.condition = condition_;
   set.descriptor_type = descriptor_type;
+  if (source_rows) *source_rows = std::move(source);
   return set;
 }
 
@@ -108,7 +113,8 @@ RowMatrixXf Rows(const RowMatrixXf& all, const std::vector<int>& rows) {
 
 }  // namespace
 
-ReferenceSet ReferenceRecorder::BuildByPose(RowMatrixXf rows, const Map& map) const {
+ReferenceSet ReferenceRecorder::BuildByPose(RowMatrixXf rows, const Map& map,
+                                            std::vector<int>* source) const {
   std::vector<PlacePose> frames;
   for (const auto& p : poses_) frames.push_back(*p);  // Add required every pose
   const bool map_has_poses = std::any_of(map.place_poses.begin(), map.place_poses.end(),
@@ -129,10 +135,12 @@ ReferenceSet ReferenceRecorder::BuildByPose(RowMatrixXf rows, const Map& map) co
   set.descriptors = Rows(rows, a.frames);
   set.place_ids = a.place_ids;
   set.poses = a.place_poses;
+  *source = a.frames;
   return set;
 }
 
-ReferenceSet ReferenceRecorder::BuildLocalized(RowMatrixXf rows, const Map& map) const {
+ReferenceSet ReferenceRecorder::BuildLocalized(RowMatrixXf rows, const Map& map,
+                                               std::vector<int>* source) const {
   // The most confident descriptor of each place, places ascending.
   std::vector<int> best;  // row indices
   std::vector<int> order(localized_.size());
@@ -150,6 +158,7 @@ ReferenceSet ReferenceRecorder::BuildLocalized(RowMatrixXf rows, const Map& map)
     best.push_back(row);
   }
   set.descriptors = Rows(rows, best);
+  *source = best;
   bool all_posed = true;
   for (int place : set.place_ids) {
     const size_t p = static_cast<size_t>(place);

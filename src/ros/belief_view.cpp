@@ -11,6 +11,7 @@
 
 #include "bsf_vpr/core/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
+#include "image_problem.h"
 #include "match_image.h"
 
 namespace bsf_vpr {
@@ -55,6 +56,11 @@ void BeliefView::OnImage(const sensor_msgs::ImageConstPtr& image) {
 }
 
 cv::Mat BeliefView::ToBgr(const sensor_msgs::ImageConstPtr& image, std::string* note) {
+  const std::string problem = ImageProblem(*image);
+  if (!problem.empty()) {
+    *note = "query image not shown: " + problem;
+    return cv::Mat();
+  }
   try {
     *note = "query";
     return cv_bridge::toCvShare(image, "bgr8")->image.clone();

@@ -26,6 +26,7 @@
 #include <string>
 
 #include "bsf_vpr/core/image_describer.h"
+#include "image_problem.h"
 #include "param_util.h"
 
 namespace bsf_vpr {
@@ -52,11 +53,6 @@ const OptionTable<IngestParams>& IngestParamsTable();
 // Reads and validates the parameters; throws std::invalid_argument naming a bad or unknown one.
 IngestParams LoadIngestParams(RosParamSource& source);
 IngestParams LoadIngestParams(const ros::NodeHandle& pnh);
-
-// Why an image message cannot be converted safely ("" if it can): zero or huge sizes, an
-// unknown encoding, a step shorter than a row, or less data than step x height. Computed in
-// 64 bits, before any conversion reads the data.
-std::string ImageProblem(const sensor_msgs::Image& image);
 
 // The descriptor in a std_msgs/Float32MultiArray: its data after data_offset, which must be
 // a 1-D array (at most one dimension of size > 1). Throws std::invalid_argument otherwise.

@@ -1,10 +1,14 @@
 #include "fusion_node.h"
 
+#include <cv_bridge/cv_bridge.h>
+
 #include <chrono>
+#include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
+#include "image_problem.h"
 #include "reconfigure_options.h"
 #include "service_queue.h"
 #include "set_loading.h"
@@ -178,6 +182,31 @@ void FusionNode::CheckDescriptorFormat() {
   format_mismatch_ = problem;
 }
 
+void FusionNode::FollowRecordingImages() {
+  const bool wanted = recording_->accepting() && recording_->saves_images();
+  if (wanted && !recording_image_sub_) {
+    recording_image_sub_ =
+        nh_.subscribe(names::kImageTopic, 10, &FusionNode::OnRecordingImage, this);
+  } else if (!wanted && recording_image_sub_) {
+    recording_image_sub_.shutdown();
+  }
+}
+
+void FusionNode::OnRecordingImage(const sensor_msgs::ImageConstPtr& msg) {
+  // Encoded without the lock: recognition goes on meanwhile.
+  std::vector<uchar> jpeg;
+  try {
+    if (!ImageProblem(*msg).empty()) return;  // the ingest reports bad images
+    const cv_bridge::CvImageConstPtr cv = cv_bridge::toCvShare(msg, "bgr8");
+    cv::imencode(".jpg", cv->image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "bsf_vpr: recording: cannot keep a camera image: %s", e.what());
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  recording_->AddImage(msg->header.stamp.toSec(), std::string(jpeg.begin(), jpeg.end()));
+}
+
 void FusionNode::CheckDescriptorType(const std::string& type) {
   const std::string mismatch = DescriptorTypeMismatch(type, recognizer_.map());
   if (mismatch.empty()) return;
@@ -220,7 +249,8 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
                         robot_pose_->Describe().c_str(), cause.c_str(), pose.detail.c_str());
     } else {
       try {
-        recording_->Add(d, msg->descriptor_type, pose.pose);
+        recording_->Add(d, msg->descriptor_type, pose.pose, std::nullopt,
+                        msg->header.stamp.toSec());
       } catch (const std::exception& e) {
         // Reported; recognition goes on (a recording must not stop localisation).
         RejectMessage(std::string("recording: ") + e.what());
@@ -247,7 +277,8 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   if (localized && r.belief.accepted) {
     try {
       recording_->Add(d, msg->descriptor_type, std::nullopt,
-                      LocalizedPlace{r.belief.match, r.belief.confidence});
+                      LocalizedPlace{r.belief.match, r.belief.confidence},
+                      msg->header.stamp.toSec());
     } catch (const std::exception& e) {
       RejectMessage(std::string("recording: ") + e.what());
     }

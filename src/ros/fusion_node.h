@@ -29,6 +29,7 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <ros/spinner.h>
+#include <sensor_msgs/Image.h>
 
 #include <Eigen/Core>
 #include <map>
@@ -100,6 +101,11 @@ class FusionNode {
   // mutex_.
   void OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg);
   void CheckDescriptorFormat();
+  // Recording with save_images: the camera images, encoded and handed to the recording.
+  void OnRecordingImage(const sensor_msgs::ImageConstPtr& msg);
+  // Subscribes to the images while a recording takes them, and not otherwise. Caller holds
+  // mutex_.
+  void FollowRecordingImages();
 
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;
@@ -113,6 +119,7 @@ class FusionNode {
 
   ros::Subscriber descriptor_sub_;
   ros::Subscriber format_sub_;
+  ros::Subscriber recording_image_sub_;  // while a recording with save_images runs
   DescriptorFormat::ConstPtr format_;  // the ingest's, once heard
   std::unique_ptr<RecognitionPublisher> publisher_;
   std::vector<ros::ServiceServer> services_;

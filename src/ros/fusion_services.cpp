@@ -285,7 +285,9 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
       throw std::invalid_argument(
           "recording by pose needs the robot's pose: set pose_source to tf or topic");
     }
-    recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map(), places);
+    recording_->Start(req.name, req.condition, req.overwrite, recognizer_.map(), places,
+                      req.save_images);
+    FollowRecordingImages();
     res.success = true;
     res.message = "recording '" + req.name + "', places by " + ToString(places);
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
@@ -305,6 +307,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     if (req.discard) {
       const std::string summary = recording_->recording() ? recording_->Summary() : "";
       recording_->Discard();
+      FollowRecordingImages();
       res.success = true;
       res.message = "discarded the recording: " + summary;
       return true;
@@ -314,10 +317,12 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     const std::string summary = recording_->Summary();
     Recording::Saved saved =
         recording_->Save(recognizer_.options().metric, &recognizer_.map(), places);
+    FollowRecordingImages();
     res.path = saved.path;
     res.num_places = saved.set.size();
     const std::string what = "saved " + std::to_string(res.num_places) + " place(s) to " +
-                             res.path + " (" + summary + ")";
+                             res.path + " (" + summary + ")" +
+                             (saved.note.empty() ? "" : "; " + saved.note);
     try {
       recognizer_.AddReferenceSet(std::move(saved.set));
       PrepareFirstStage();
@@ -334,6 +339,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
+    FollowRecordingImages();  // a stop that ended the recording, or closed it
     ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;

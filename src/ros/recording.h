@@ -15,6 +15,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 
 #include <Eigen/Core>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -40,20 +41,28 @@ class Recording {
   // `overwrite` is false, or a recording runs already or is pending after a failed save (the
   // message says how to save or discard it).
   // `places` says how descriptors become places (reference_recorder.h); localized needs a
-  // loaded set to localise against.
+  // loaded set to localise against. With `save_images`, each descriptor's camera image
+  // (AddImage) is saved beside the set (folder NAME_images), so that the match image shows it.
   void Start(const std::string& name, const std::string& condition, bool overwrite,
-             const ReferenceMap& loaded, RecordingPlaces places = RecordingPlaces::kSequential);
+             const ReferenceMap& loaded, RecordingPlaces places = RecordingPlaces::kSequential,
+             bool save_images = false);
   RecordingPlaces places() const { return recorder_.places(); }
+  bool saves_images() const { return save_images_; }
 
   // Adds one descriptor as the next place. `descriptor_type` "" says nothing; otherwise it
   // is the recorded set's type (the last one given wins). Throws std::invalid_argument if no
   // recording runs or the descriptor is refused (another dimension, not finite); nothing is
   // added then, and the type is not taken.
   // `pose` (the robot's, in the map frame) is required when recording by pose, `localized`
-  // (the accepted match) when recording by localisation.
+  // (the accepted match) when recording by localisation. `stamp_s` pairs the descriptor
+  // with its image (AddImage).
   void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor, const std::string& descriptor_type,
            const std::optional<PlacePose>& pose = std::nullopt,
-           const std::optional<LocalizedPlace>& localized = std::nullopt);
+           const std::optional<LocalizedPlace>& localized = std::nullopt, double stamp_s = 0);
+  // The encoded image (JPEG, PNG) the descriptor stamped `stamp_s` was described from, when
+  // recording with save_images: kept with that descriptor whether it arrives before or
+  // after it (an image no descriptor claims is forgotten after kEarlyImages others).
+  void AddImage(double stamp_s, std::string encoded);
   // A descriptor that reached the recording but was not kept, and why (e.g. "no pose
   // received yet"): counted per cause for the stop's answer and diagnostics.
   void NoteLost(const std::string& cause);
@@ -63,6 +72,7 @@ class Recording {
   struct Saved {
     ReferenceSet set;  // as written, for the caller to load
     std::string path;  // absolute path of the YAML
+    std::string note;  // what the caller should know ("saved without images: ..."), or ""
   };
   // What reached the recording: descriptors received, those with the robot's pose (recording
   // by pose), and the losses by cause (those kept: count()).
@@ -110,6 +120,18 @@ class Recording {
   std::string descriptor_type_;
   Counts counts_;
   std::string pending_reason_;  // the failed save's message while the recording is closed
+  // save_images: per recorded row its stamp and encoded image ("" until it arrives), and
+  // images that came before their descriptor.
+  static constexpr size_t kEarlyImages = 32;
+  bool save_images_ = false;
+  std::vector<double> stamps_;
+  std::vector<std::string> images_;
+  std::deque<std::pair<double, std::string>> early_images_;
+  // Writes the images of the set's rows (`source`: the recorded row of each) below the data
+  // directory and names them in `set`; returns "" or why it saved none (a row without one).
+  std::string SaveImages(const std::vector<int>& source, ReferenceSet* set) const;
+  // Ends the recording and forgets its rows and images (its counts stay, for the answer).
+  void End();
 };
 
 }  // namespace bsf_vpr

@@ -70,6 +70,13 @@ TEST(ReferenceRecorder, ByPoseAssociatesWithTheMapsPlaces) {
   }
   EXPECT_EQ(s.name, "tonight");
   EXPECT_EQ(s.descriptor_type, "t");
+  // Which recorded descriptor each row holds (the k-th Add holds Numbered(k)).
+  std::vector<int> source;
+  const ReferenceSet again = rec.Build("t", StraightMap(), &source);
+  ASSERT_EQ(source.size(), again.place_ids.size());
+  for (size_t k = 0; k < source.size(); ++k) {
+    EXPECT_EQ(source[k], static_cast<int>(again.descriptors(static_cast<Eigen::Index>(k), 0)));
+  }
   // Off the route (30 m north): nothing to associate; the recording stays.
   ReferenceRecorder off;
   off.Start("lost", "", 4, RecordingPlaces::kPose);
@@ -106,6 +113,9 @@ TEST(ReferenceRecorder, LocalizedKeepsTheMostConfidentDescriptorOfEachPlace) {
   ASSERT_EQ(s.poses.size(), 2u);  // the map's poses of the places
   EXPECT_EQ(s.poses[1].x_m, 7.0);
   EXPECT_TRUE(rec.Build("", {}).poses.empty());  // a map without poses: none
+  std::vector<int> source;
+  rec.Build("", {}, &source);
+  EXPECT_EQ(source, (std::vector<int>{2, 0}));  // the third and the first descriptor added
   EXPECT_EQ(ParseRecordingPlaces("localized"), RecordingPlaces::kLocalized);
   EXPECT_EQ(ToString(RecordingPlaces::kPose), "pose");
   EXPECT_THROW(ParseRecordingPlaces("gps"), std::invalid_argument);

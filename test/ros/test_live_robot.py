@@ -14,9 +14,14 @@ belief before sending the next image.
    image.
 3. Recording by pose, with tf and with Odometry: no descriptor lost to the timing of the
    poses, at least 90 of the 100 places kept, each holding the frame the offline import
-   (bsf_import) gives it. Recording by localisation keeps only accepted places, each right.
+   (bsf_import) gives it, and with save_images its camera image. Recording by localisation
+   keeps only accepted places, each right.
 4. Localising the winter drive with the recorded set: /bsf_vpr/pose within 25 m (median) of
    the true position, with a covariance that covers the error.
+5. The README's map section (import, replay and score; record on the robot; the pose-source
+   variant; the replay with the new set), each block run by bash as written.
+6. Without waiting for the pose (pose_wait_s 0, the former lookup) the live recording loses
+   most descriptors: the wait is what keeps them.
 """
 import math
 import os
@@ -52,13 +57,54 @@ POSE_HZ = 50.0
 SPEED_MPS = 40.0  # 4 m between images: every place has an image within 5 m of it
 
 
-def readme_block(readme, heading):
-    """The first ```bash block after `heading` in the README, as written."""
+def readme_blocks(readme, heading):
+    """The ```bash blocks of the README section under `heading` (to the next "## "), as
+    written."""
     with open(readme) as f:
         text = f.read()
     start = text.index(heading)
-    m = re.search(r"```bash\n(.*?)```", text[start:], re.S)
-    return m.group(1)
+    end = text.find("\n## ", start + len(heading))
+    return re.findall(r"```bash\n(.*?)```", text[start:end if end >= 0 else None], re.S)
+
+
+def readme_block(readme, heading):
+    """The first ```bash block under `heading`."""
+    return readme_blocks(readme, heading)[0]
+
+
+class Shell:
+    """A README block run by bash from the repository root after sourcing the workspace, as
+    the README says, in a process group of its own (so that Ctrl-C reaches all of it)."""
+
+    def __init__(self, repo, block, log, env=None):
+        self.log = open(log, "w")
+        script = "set -e\nsource build/ws/devel/setup.bash\n" + block
+        self.proc = subprocess.Popen(["bash", "-c", script], cwd=repo, env=env, stdout=self.log,
+                                     stderr=subprocess.STDOUT, start_new_session=True)
+        self.path = log
+
+    def output(self):
+        with open(self.path, errors="replace") as f:
+            return f.read()
+
+    def wait(self, timeout_s):
+        try:
+            rc = self.proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.interrupt()
+            raise AssertionError("README block did not end in %d s: %s" % (timeout_s, self.output()))
+        self.log.close()
+        return rc
+
+    def interrupt(self):
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGINT)
+            try:
+                self.proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
+        self.log.close()
 
 
 class Robot:
@@ -219,10 +265,8 @@ class LiveRobot(unittest.TestCase):
         home = os.path.join(self.tmp, "home")
         os.makedirs(home)
         data_before = sorted(os.listdir(os.path.join(self.repo, "data")))
-        env = dict(os.environ, HOME=home)
-        log = open(os.path.join(self.tmp, "readme.log"), "w")
-        proc = subprocess.Popen(["bash", "-c", "set -e\n" + block], cwd=self.repo, env=env,
-                                stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        shell = Shell(self.repo, block, os.path.join(self.tmp, "readme.log"),
+                      env=dict(os.environ, HOME=home))
         try:
             robot = Robot(self.frames["fall"], "tf")
             wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the README's pipeline")
@@ -238,9 +282,7 @@ class LiveRobot(unittest.TestCase):
             self.assertEqual(errors, [])
             self.assertTrue(os.path.isdir(os.path.join(home, ".ros", "bsf_vpr")))
         finally:
-            os.killpg(proc.pid, signal.SIGINT)
-            proc.wait(timeout=60)
-            log.close()
+            shell.interrupt()
         self.assertEqual(sorted(os.listdir(os.path.join(self.repo, "data"))), data_before)
 
     def test_2_sets_that_cannot_match_the_camera_are_an_error_at_start_up(self):
@@ -276,7 +318,8 @@ class LiveRobot(unittest.TestCase):
         try:
             launch.wait_until(lambda: self.service_up(), 60, "the fusion node")
             attach_fusion_services(self)
-            r = self.start(name="fall_live", condition="fall", overwrite=False, places="pose")
+            r = self.start(name="fall_live", condition="fall", overwrite=False, places="pose",
+                           save_images=(pose_as == "tf"))
             self.assertTrue(r.success, r.message)
             robot = Robot(self.frames["fall"], pose_as)
             wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the ingest")
@@ -294,6 +337,15 @@ class LiveRobot(unittest.TestCase):
                 np.testing.assert_allclose(row, self.fall[place], atol=1e-5,
                                            err_msg="place %d holds another frame" % place)
             print("by pose (%s): %s" % (pose_as, r.message))
+            if pose_as == "tf":
+                # save_images: each place keeps the camera image of its descriptor.
+                self.assertEqual(y["images"], "fall_live_images")
+                self.assertEqual(len(y["image_files"]), r.num_places)
+                for name in y["image_files"]:
+                    with open(os.path.join(data, y["images"], name), "rb") as f:
+                        self.assertEqual(f.read(3), b"\xff\xd8\xff", name)  # a JPEG
+            else:
+                self.assertNotIn("images", y)
             if pose_as == "tf":
                 # By localisation: only accepted places, each with the right frame.
                 r = self.start(name="fall_localized", condition="fall", overwrite=False,
@@ -336,6 +388,62 @@ class LiveRobot(unittest.TestCase):
 
     def test_4_recording_by_pose_from_odometry_keeps_every_descriptor(self):
         self.check_pose_recording("odometry")
+
+    def test_6_without_waiting_for_the_pose_live_descriptors_are_lost(self):
+        # What the wait is for: with pose_wait_s 0 (the former behaviour, a lookup at the
+        # image's stamp without waiting) images newer than the last tf sample lose their pose.
+        config = os.path.join(self.tmp, "nowait.yaml")
+        with open(config, "w") as f:
+            f.write("pose_source: tf\npose_wait_s: 0\n")
+        launch = Roslaunch("bsf_vpr.launch", {
+            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond", "config": config,
+            "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
+            "data_directory": os.path.join(self.tmp, "nowait")})
+        try:
+            launch.wait_until(self.service_up, 60, "the fusion node")
+            attach_fusion_services(self)
+            self.assertTrue(self.start(name="nowait", condition="", overwrite=False,
+                                       places="pose").success)
+            robot = Robot(self.frames["fall"], "tf")
+            wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the ingest")
+            sent = robot.drive([(0.0, 0.0), (10.0, 400.0)])
+            wait_for(lambda: all(s in self.beliefs for s, _ in sent[-3:]), 30, "the last beliefs")
+            r = self.stop(discard=False)
+            print("without waiting: %s" % r.message)
+            self.assertEqual(r.num_received, len(sent))
+            self.assertLess(r.num_descriptors, 0.5 * r.num_received, r.message)  # measured 4 of 95
+            self.assertIn("no pose", r.message)
+        finally:
+            launch.stop()
+
+    def test_5_the_readme_map_commands_run_as_written(self):
+        # "The robot's map, end to end": import, replay and score; record on the robot (first
+        # terminal: the pipeline; second: start, the drive, stop); the pose-source variant
+        # starts; the replay with the new set scores better than without it.
+        blocks = readme_blocks(os.path.join(self.repo, "README.md"), "## The robot's map, end to end")
+        self.assertEqual(len(blocks), 5, "the README's map section changed: update this test")
+        shutil.rmtree("/tmp/route", ignore_errors=True)
+        logs = os.path.join(self.tmp, "map_%d.log")
+        first = Shell(self.repo, blocks[0], logs % 0)
+        self.assertEqual(first.wait(300), 0, first.output())
+        self.assertIn("AUC", first.output())
+        pipeline = Shell(self.repo, blocks[1], logs % 1)
+        try:
+            wait_for(self.service_up, 60, "the README's pipeline")
+            second = Shell(self.repo, blocks[2], logs % 2)
+            self.assertEqual(second.wait(300), 0, second.output())
+            self.assertIn("success: True", second.output())
+        finally:
+            pipeline.interrupt()
+        self.assertTrue(os.path.exists("/tmp/route/fall_tonight.yaml"))
+        variant = Shell(self.repo, blocks[3], logs % 3)
+        try:
+            wait_for(self.service_up, 60, "the pose-source variant of the pipeline")
+        finally:
+            variant.interrupt()
+        last = Shell(self.repo, blocks[4], logs % 4)
+        self.assertEqual(last.wait(300), 0, last.output())
+        print("README map commands:", last.output().strip().splitlines()[-3:])
 
 
 if __name__ == "__main__":

@@ -1,6 +1,9 @@
 // The fusion node's parts that need no master: selection counters, enumerations parsed
 // from parameters, message conversions, and the recording of a new reference set.
 #include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <unistd.h>
 
 #include <cmath>
@@ -181,6 +184,46 @@ class RecordingTest : public ::testing::Test {
   std::unique_ptr<DataDirectory> dir_;
   ReferenceMap map_;
 };
+
+TEST_F(RecordingTest, WithSaveImagesEachPlaceKeepsTheImageOfItsDescriptor) {
+  // Real encoded images, each a grey level of its own: the image of the descriptor stamped
+  // k has grey 10 k, whether it arrives before or after its descriptor.
+  const auto jpeg = [](int grey) {
+    std::vector<uchar> bytes;
+    cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC3, cv::Scalar::all(grey)), bytes);
+    return std::string(bytes.begin(), bytes.end());
+  };
+  Recording rec(dir_.get());
+  rec.Start("tonight", "", false, map_, RecordingPlaces::kSequential, /*save_images=*/true);
+  EXPECT_TRUE(rec.saves_images());
+  rec.AddImage(1.0, jpeg(10));  // before its descriptor
+  rec.Add(Row(1), "", std::nullopt, std::nullopt, 1.0);
+  rec.Add(Row(2), "", std::nullopt, std::nullopt, 2.0);
+  rec.AddImage(2.0, jpeg(20));  // after it
+  rec.AddImage(9.0, jpeg(90));  // no descriptor claims it
+  EXPECT_NE(rec.Summary().find("2 kept, 2 with an image"), std::string::npos) << rec.Summary();
+  const Recording::Saved saved = rec.Save(DistanceMetric::kCosine);
+  EXPECT_EQ(saved.note, "");
+  const ReferenceSet back = LoadReferenceSetFile(*dir_, "tonight.yaml", "");
+  ASSERT_EQ(back.image_files.size(), 2u);
+  EXPECT_EQ(back.images, dir_->path() + "/tonight_images");
+  for (int k = 0; k < 2; ++k) {
+    const cv::Mat image =
+        cv::imread(back.images + "/" + back.image_files[static_cast<size_t>(k)]);
+    ASSERT_FALSE(image.empty()) << k;
+    EXPECT_NEAR(image.at<cv::Vec3b>(4, 4)[0], 10 * (k + 1), 2) << k;
+  }
+  // A place without its image: the set is saved without images, and the answer says so.
+  rec.Start("partial", "", false, map_, RecordingPlaces::kSequential, true);
+  rec.Add(Row(1), "", std::nullopt, std::nullopt, 5.0);
+  rec.AddImage(5.0, jpeg(50));
+  rec.Add(Row(2), "", std::nullopt, std::nullopt, 6.0);
+  const Recording::Saved partial = rec.Save(DistanceMetric::kCosine);
+  EXPECT_NE(partial.note.find("saved without images: 1 of its 2 places"), std::string::npos)
+      << partial.note;
+  EXPECT_TRUE(LoadReferenceSetFile(*dir_, "partial.yaml", "").image_files.empty());
+  EXPECT_FALSE(dir_->Exists("partial_images"));
+}
 
 TEST_F(RecordingTest, SavesTheDescriptorsAsASetBelowTheDataDirectoryAndEnds) {
   Recording rec(dir_.get());

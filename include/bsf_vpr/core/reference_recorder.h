@@ -66,13 +66,17 @@ class ReferenceRecorder {
   // place (if the map has one for all of them). Throws std::invalid_argument if nothing was
   // recorded, or if kPose finds no place of the map along the traversal (the recording
   // stays open).
-  ReferenceSet Build(const std::string& descriptor_type = "", const Map& map = {}) const;
+  // `source_rows`, if given, receives for each row of the set the index (in the order of
+  // Add) of the descriptor it holds, e.g. to keep that descriptor's image beside it.
+  ReferenceSet Build(const std::string& descriptor_type = "", const Map& map = {},
+                     std::vector<int>* source_rows = nullptr) const;
   // Ends the recording and drops what was recorded.
   void Discard();
 
  private:
-  ReferenceSet BuildByPose(RowMatrixXf rows, const Map& map) const;
-  ReferenceSet BuildLocalized(RowMatrixXf rows, const Map& map) const;
+  // Each fills `source` with the recorded row of each of the set's rows.
+  ReferenceSet BuildByPose(RowMatrixXf rows, const Map& map, std::vector<int>* source) const;
+  ReferenceSet BuildLocalized(RowMatrixXf rows, const Map& map, std::vector<int>* source) const;
 
   bool recording_ = false;
   RecordingPlaces places_ = RecordingPlaces::kSequential;

@@ -14,7 +14,8 @@ double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
 std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
                                          const std::vector<std::optional<PlacePose>>& place_poses,
-                                         bool centred_on_match, const PoseEstimateOptions& options) {
+                                         bool centred_on_match,
+                                         const PoseEstimateOptions& options) {
   const int n = static_cast<int>(place_poses.size());
   if (belief.match < 0 || belief.match >= n) return std::nullopt;
   // The places holding the posterior's mass, most probable first, with their weights.
@@ -28,9 +29,8 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     const auto key = [&](int i) {
       return std::isnan(log_p[i]) ? -std::numeric_limits<double>::infinity() : log_p[i];
     };
-    std::partial_sort(order.begin(), order.begin() + keep, order.end(), [&](int a, int b) {
-      return key(a) > key(b) || (key(a) == key(b) && a < b);
-    });
+    std::partial_sort(order.begin(), order.begin() + keep, order.end(),
+                      [&](int a, int b) { return key(a) > key(b) || (key(a) == key(b) && a < b); });
     const double top = key(order[0]);
     if (std::isfinite(top)) {
       double total = 0;
@@ -70,7 +70,8 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     e.mean.x_m = x / w_sum;
     e.mean.y_m = y / w_sum;
     e.mean.z_m = z / w_sum;
-    e.mean.yaw_rad = (c == 0 && s == 0) ? place_poses[weighted[0].first]->yaw_rad : std::atan2(s, c);
+    e.mean.yaw_rad =
+        (c == 0 && s == 0) ? place_poses[weighted[0].first]->yaw_rad : std::atan2(s, c);
   }
   // Second moments about the mean (the published pose), so that the covariance covers the
   // belief's spread around it.

@@ -133,7 +133,8 @@ void FusionNode::Start() {
              params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
     return;
   }
-  format_sub_ = nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
+  format_sub_ =
+      nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -166,14 +167,15 @@ void FusionNode::CheckDescriptorFormat() {
         types += (types.empty() ? "" : ", ") + s.descriptor_type();
       }
     }
-    problem = "descriptor_ingest sends " + std::to_string(format_->dimension) + "-d " +
-              (format_->descriptor_type.empty() ? std::string("descriptors")
-                                                : "'" + format_->descriptor_type + "' descriptors") +
-              " (" + format_->source + "); the reference sets hold " +
-              std::to_string(map.dimension()) + "-d ones" + (types.empty() ? "" : " (" + types + ")") +
-              ": no descriptor can be recognised. Load sets made with the ingest's describer "
-              "(bsf_make_reference --images <folder> --image-descriptor <the ingest's "
-              "image_descriptor>), or give the ingest the sets' describer or input:=descriptor";
+    problem =
+        "descriptor_ingest sends " + std::to_string(format_->dimension) + "-d " +
+        (format_->descriptor_type.empty() ? std::string("descriptors")
+                                          : "'" + format_->descriptor_type + "' descriptors") +
+        " (" + format_->source + "); the reference sets hold " + std::to_string(map.dimension()) +
+        "-d ones" + (types.empty() ? "" : " (" + types + ")") +
+        ": no descriptor can be recognised. Load sets made with the ingest's describer "
+        "(bsf_make_reference --images <folder> --image-descriptor <the ingest's "
+        "image_descriptor>), or give the ingest the sets' describer or input:=descriptor";
   }
   if (problem != format_mismatch_ && !problem.empty()) ROS_ERROR("bsf_vpr: %s", problem.c_str());
   if (problem.empty() && !format_mismatch_.empty()) {
@@ -236,7 +238,8 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
   // Recording by localisation waits for the match; the other modes record every descriptor.
-  const bool localized = recording_->accepting() && recording_->places() == RecordingPlaces::kLocalized;
+  const bool localized =
+      recording_->accepting() && recording_->places() == RecordingPlaces::kLocalized;
   if (recording && recording_->accepting() && !localized) {
     if (!pose.pose && recording_->places() == RecordingPlaces::kPose) {
       // Reported and counted by cause; recognition goes on.
@@ -396,15 +399,15 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
   } else if (rejected_ > 0 && processed_ == 0) {
-    status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR,
-                    "every descriptor dropped (%d): %s", rejected_, last_rejection_.c_str());
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "every descriptor dropped (%d): %s",
+                    rejected_, last_rejection_.c_str());
   } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
                     rejected_, last_rejection_.c_str());
   } else if (!recording_->pending_reason().empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "recording '" + recording_->name() + "' is pending after a failed stop: " +
-                       recording_->pending_reason());
+                   "recording '" + recording_->name() +
+                       "' is pending after a failed stop: " + recording_->pending_reason());
   } else if (combiner_ && !combiner_->MissingSummary().empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "deciding without shard(s) " + combiner_->MissingSummary());

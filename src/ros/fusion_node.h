@@ -120,7 +120,7 @@ class FusionNode {
   ros::Subscriber descriptor_sub_;
   ros::Subscriber format_sub_;
   ros::Subscriber recording_image_sub_;  // while a recording with save_images runs
-  DescriptorFormat::ConstPtr format_;  // the ingest's, once heard
+  DescriptorFormat::ConstPtr format_;    // the ingest's, once heard
   std::unique_ptr<RecognitionPublisher> publisher_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<OdometryTracker> odometry_;
@@ -132,7 +132,8 @@ class FusionNode {
 
   // Statistics since the last diagnostics update (guarded by mutex_).
   int processed_ = 0, rejected_ = 0, received_ = 0;
-  std::map<std::string, long> pose_losses_;  // recording by pose: descriptors without a pose, by cause (since start)
+  std::map<std::string, long>
+      pose_losses_;  // recording by pose: descriptors without a pose, by cause (since start)
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
   std::string format_mismatch_;
   double processing_s_sum_ = 0, processing_s_max_ = 0;

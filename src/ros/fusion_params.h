@@ -34,8 +34,8 @@ struct FusionParams {
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
   bool publish_tf = true;
-  bool publish_pose = true;     // the robot's pose from accepted matches (pose_estimate.h)
-  double pose_min_std_m = 0;    // its x/y standard deviation's floor; 0: half the spacing
+  bool publish_pose = true;       // the robot's pose from accepted matches (pose_estimate.h)
+  double pose_min_std_m = 0;      // its x/y standard deviation's floor; 0: half the spacing
   int belief_top_k = 0;           // 0: the belief message carries every place
   int queue_size = 100;           // descriptors buffered before the oldest are dropped
   // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.

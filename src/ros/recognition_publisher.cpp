@@ -1,11 +1,10 @@
 #include "recognition_publisher.h"
 
-#include <utility>
-
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 
-#include "bsf_vpr/core/pose_estimate.h"
+#include <utility>
 
+#include "bsf_vpr/core/pose_estimate.h"
 #include "bsf_vpr/ros/names.h"
 #include "conversions.h"
 

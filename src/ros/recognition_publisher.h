@@ -31,7 +31,7 @@ struct RecognitionPublisherOptions {
   int belief_top_k = 0;  // 0: the belief lists every place
   BeliefViewOptions view;  // its map_frame is map_frame
   std::string ground_truth_topic;  // "": none
-  bool publish_pose = true;  // the robot's pose from accepted matches, on names::kPoseTopic
+  bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
   // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
   double pose_min_std_m = 0;
 };

@@ -40,10 +40,10 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
   }
   if (recorder_.recording()) {
     if (!pending_reason_.empty()) {
-      throw std::invalid_argument(
-          "the recording '" + recorder_.name() + "' is pending: its stop failed (" +
-          pending_reason_ + "); call stop_recording to save it again, or stop_recording "
-          "{discard: true} to drop it, before starting another");
+      throw std::invalid_argument("the recording '" + recorder_.name() +
+                                  "' is pending: its stop failed (" + pending_reason_ +
+                                  "); call stop_recording to save it again, or stop_recording "
+                                  "{discard: true} to drop it, before starting another");
     }
     throw std::invalid_argument("the recording '" + recorder_.name() + "' is running (" +
                                 Summary() + "); stop it first (stop_recording)");
@@ -182,7 +182,8 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
   // Built, saved, and only then forgotten: a save that fails keeps the recording, closed.
   const auto keep = [&](const std::string& why) {
     pending_reason_ = why;
-    return why + "; " + Summary() + "; the recording is kept and takes no more descriptors: "
+    return why + "; " + Summary() +
+           "; the recording is kept and takes no more descriptors: "
            "call stop_recording again to retry, or stop_recording {discard: true} to drop it";
   };
   Saved saved;
@@ -228,7 +229,8 @@ void Recording::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) co
   if (recorder_.recording()) {
     status.addf("recording", "%s (places by %s): %s", recorder_.name().c_str(),
                 ToString(recorder_.places()).c_str(), Summary().c_str());
-    if (!pending_reason_.empty()) status.add("recording pending after a failed stop", pending_reason_);
+    if (!pending_reason_.empty())
+      status.add("recording pending after a failed stop", pending_reason_);
   }
 }
 

@@ -12,8 +12,8 @@
 namespace bsf_vpr {
 namespace {
 
-constexpr double kHistoryS = 30.0;       // how far back topic poses are kept
-constexpr size_t kMaxSamples = 20000;    // and at most this many (a 500 Hz source)
+constexpr double kHistoryS = 30.0;     // how far back topic poses are kept
+constexpr size_t kMaxSamples = 20000;  // and at most this many (a 500 Hz source)
 
 PlacePose FromPose(const geometry_msgs::Pose& p) {
   return ToPlacePose(p.position.x, p.position.y, p.position.z, p.orientation.x, p.orientation.y,
@@ -205,8 +205,7 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
 
 PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
   std::unique_lock<std::mutex> lock(mutex_);
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   // Wait (on the wall clock: the poses come in real time) for a sample at or after the stamp.
   arrived_.wait_until(lock, deadline,
                       [&] { return !samples_.empty() && samples_.back().stamp >= stamp; });
@@ -220,8 +219,7 @@ PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
     out.loss = PoseLoss::kWaited;
     out.detail = "the newest pose on " + sub_.getTopic() + " is " +
                  std::to_string((stamp - samples_.back().stamp).toSec()) +
-                 " s older than the descriptor after waiting " + std::to_string(wait_s) +
-                 " s";
+                 " s older than the descriptor after waiting " + std::to_string(wait_s) + " s";
     return out;
   }
   if (samples_.front().stamp > stamp) {

@@ -29,8 +29,8 @@ std::string ResolveConfiguredPath(const std::string& base, const std::string& pa
   const std::string package = rest.substr(0, slash);
   const std::string folder = package.empty() ? "" : ros::package::getPath(package);
   if (folder.empty()) {
-    throw std::invalid_argument("reference set path " + QuotedForMessage(path) +
-                                " names package " + QuotedForMessage(package) +
+    throw std::invalid_argument("reference set path " + QuotedForMessage(path) + " names package " +
+                                QuotedForMessage(package) +
                                 ", which ROS does not find (ROS_PACKAGE_PATH)");
   }
   return slash == std::string::npos ? folder : folder + rest.substr(slash);

@@ -163,8 +163,9 @@ TEST(Fusion, ThresholdAcceptsAboveH) {
   EXPECT_NEAR(l.value, std::log(9.0), 1e-12);
   EXPECT_NEAR(l.As(Threshold::Kind::kProbability).value, 0.9, 1e-12);
   EXPECT_EQ(p.As(Threshold::Kind::kProbability).value, 0.9);
-  EXPECT_THROW((Threshold{Threshold::Kind::kLogOdds, 40}.As(Threshold::Kind::kProbability).Validate()),
-               std::invalid_argument);  // rounds to 1
+  EXPECT_THROW(
+      (Threshold{Threshold::Kind::kLogOdds, 40}.As(Threshold::Kind::kProbability).Validate()),
+      std::invalid_argument);  // rounds to 1
 }
 
 TEST(Fusion, RefusesABadPrior) {

@@ -1,9 +1,9 @@
-#include "bsf_vpr/core/pose_estimate.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+
+#include "bsf_vpr/core/pose_estimate.h"
 
 namespace bsf_vpr {
 namespace {
@@ -38,7 +38,8 @@ TEST(PoseEstimate, TheCovarianceGrowsWhenTheBeliefSpreadsOverDistantPlaces) {
   PoseEstimateOptions o;
   o.min_std_m = 1;
   // Half the mass on place 0, half on place 8 (80 m away): mean between, sd 40 m.
-  const auto spread = EstimatePose(BeliefOf({0.5, 0, 0, 0, 0, 0, 0, 0, 0.5}, 0), Route(9), false, o);
+  const auto spread =
+      EstimatePose(BeliefOf({0.5, 0, 0, 0, 0, 0, 0, 0, 0.5}, 0), Route(9), false, o);
   ASSERT_TRUE(spread);
   EXPECT_NEAR(spread->mean.x_m, 40.0, 1e-9);
   EXPECT_NEAR(spread->covariance(0, 0), 1600.0 + 1.0, 1e-6);

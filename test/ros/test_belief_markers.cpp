@@ -179,11 +179,14 @@ TEST(BeliefMarkers, TheLabelStaysInsideTheViewAtTheEndsOfTheRoute) {
     const Marker* label = Find(markers, "label");
     ASSERT_NE(label, nullptr);
     size_t longest = 0;
-    for (const std::string& line : BeliefLabelLines(belief, true)) longest = std::max(longest, line.size());
+    for (const std::string& line : BeliefLabelLines(belief, true))
+      longest = std::max(longest, line.size());
     const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
     // Its whole width within the view around the route's centre; it was centred on the end.
-    EXPECT_LE(label->pose.position.x + half_text, layout.centre.x() + options.view_size_m / 2 + 1e-9);
-    EXPECT_GE(label->pose.position.x - half_text, layout.centre.x() - options.view_size_m / 2 - 1e-9);
+    EXPECT_LE(label->pose.position.x + half_text,
+              layout.centre.x() + options.view_size_m / 2 + 1e-9);
+    EXPECT_GE(label->pose.position.x - half_text,
+              layout.centre.x() - options.view_size_m / 2 - 1e-9);
     EXPECT_NE(label->pose.position.x, layout.points[static_cast<size_t>(match)].x()) << match;
   }
   // A match in the middle keeps its label above it.

@@ -1,13 +1,12 @@
 // The fusion node's parts that need no master: selection counters, enumerations parsed
 // from parameters, message conversions, and the recording of a new reference set.
 #include <gtest/gtest.h>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "../../src/ros/conversions.h"
 #include "../../src/ros/odometry_tracker.h"
@@ -208,8 +207,7 @@ TEST_F(RecordingTest, WithSaveImagesEachPlaceKeepsTheImageOfItsDescriptor) {
   ASSERT_EQ(back.image_files.size(), 2u);
   EXPECT_EQ(back.images, dir_->path() + "/tonight_images");
   for (int k = 0; k < 2; ++k) {
-    const cv::Mat image =
-        cv::imread(back.images + "/" + back.image_files[static_cast<size_t>(k)]);
+    const cv::Mat image = cv::imread(back.images + "/" + back.image_files[static_cast<size_t>(k)]);
     ASSERT_FALSE(image.empty()) << k;
     EXPECT_NEAR(image.at<cv::Vec3b>(4, 4)[0], 10 * (k + 1), 2) << k;
   }
@@ -383,7 +381,8 @@ TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics
   rec.Diagnose(status);
   ASSERT_EQ(status.values.size(), 1u);
   EXPECT_EQ(status.values[0].key, "recording");
-  EXPECT_EQ(status.values[0].value, "tonight (places by sequential): received 1 descriptor(s), 1 kept");
+  EXPECT_EQ(status.values[0].value,
+            "tonight (places by sequential): received 1 descriptor(s), 1 kept");
 }
 
 TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {

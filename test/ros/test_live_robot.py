@@ -295,6 +295,20 @@ class LiveRobot(unittest.TestCase):
             launch.wait_until(lambda: any(s.level == 2 and "4096" in s.message and "2048" in s.message
                                           for s in self.fusion_status(since)), 60,
                               "the fusion node's start-up error")
+            # A camera at 10 Hz: diagnostics show the images arriving and every one dropped.
+            robot = Robot(self.frames["fall"], "tf")
+            wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the ingest")
+            since = time.time() + 1.5  # statuses over a window full of images
+            robot.drive([(0.0, 0.0), (4.0, 160.0)])
+
+            def values(status):
+                return {v.key: v.value for v in status.values}
+            rates = [values(s) for s in self.fusion_status(since)]
+            self.assertTrue(rates, "no diagnostics while the camera ran")
+            last = rates[-1]
+            self.assertGreater(float(last["received rate (Hz)"]), 5.0, last)
+            self.assertEqual(float(last["recognised rate (Hz)"]), 0.0, last)
+            self.assertGreater(float(last["dropped rate (Hz)"]), 5.0, last)
         finally:
             launch.stop()
         self.assertIn("no descriptor can be recognised", launch.output())
@@ -436,9 +450,21 @@ class LiveRobot(unittest.TestCase):
         finally:
             pipeline.interrupt()
         self.assertTrue(os.path.exists("/tmp/route/fall_tonight.yaml"))
+        # The pose-source variant, with the bag's own poses (/vpr/query_pose, PoseStamped), and
+        # the second terminal's commands with places: 'pose', as the README says to.
         variant = Shell(self.repo, blocks[3], logs % 3)
         try:
             wait_for(self.service_up, 60, "the pose-source variant of the pipeline")
+            by_pose = blocks[2].replace("places: 'localized'", "places: 'pose'")
+            by_pose = by_pose.replace("fall_tonight", "fall_by_pose")
+            self.assertNotEqual(by_pose, blocks[2])
+            second = Shell(self.repo, by_pose, logs % 5)
+            self.assertEqual(second.wait(300), 0, second.output())
+            self.assertIn("success: True", second.output())
+            out = second.output()
+            self.assertIn("num_received: 100", out)
+            self.assertIn("num_descriptors: 100", out)  # every frame had its pose
+            self.assertIn("num_places: 100", out)
         finally:
             variant.interrupt()
         last = Shell(self.repo, blocks[4], logs % 4)

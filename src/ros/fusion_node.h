@@ -132,8 +132,8 @@ class FusionNode {
 
   // Statistics since the last diagnostics update (guarded by mutex_).
   int processed_ = 0, rejected_ = 0, received_ = 0;
-  std::map<std::string, long>
-      pose_losses_;  // recording by pose: descriptors without a pose, by cause (since start)
+  // Recording by pose: descriptors without a pose, by cause (since start).
+  std::map<std::string, long> pose_losses_;
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
   std::string format_mismatch_;
   double processing_s_sum_ = 0, processing_s_max_ = 0;

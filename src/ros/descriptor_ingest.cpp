@@ -2,6 +2,7 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
+#include <xmlrpcpp/XmlRpcException.h>
 
 #include <chrono>
 #include <cmath>
@@ -146,6 +147,8 @@ void DescriptorIngest::UpdateSubscription() {
   } else if (!wanted && subscribed) {
     image_sub_.shutdown();
     descriptor_sub_.shutdown();
+    heard_.clear();  // the next subscription hears its publishers afresh
+    first_listed_.clear();
   }
 }
 
@@ -319,12 +322,16 @@ std::string DescriptorIngest::UnheardPublishers() {
   request[0] = ros::this_node::getName();
   if (!ros::master::execute("getSystemState", request, response, payload, false)) return "";
   std::vector<std::string> publishers;
-  if (payload.getType() == XmlRpc::XmlRpcValue::TypeArray && payload.size() > 0) {
-    XmlRpc::XmlRpcValue& pubs = payload[0];
-    for (int i = 0; i < pubs.size(); ++i) {
-      if (pubs[i].size() < 2 || static_cast<std::string>(pubs[i][0]) != topic) continue;
-      for (int j = 0; j < pubs[i][1].size(); ++j) publishers.push_back(pubs[i][1][j]);
+  try {
+    if (payload.getType() == XmlRpc::XmlRpcValue::TypeArray && payload.size() > 0) {
+      XmlRpc::XmlRpcValue& pubs = payload[0];
+      for (int i = 0; i < pubs.size(); ++i) {
+        if (pubs[i].size() < 2 || static_cast<std::string>(pubs[i][0]) != topic) continue;
+        for (int j = 0; j < pubs[i][1].size(); ++j) publishers.push_back(pubs[i][1][j]);
+      }
     }
+  } catch (const XmlRpc::XmlRpcException&) {
+    return "";  // a malformed answer from the master: nothing to say this time
   }
   const ros::WallTime now = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);

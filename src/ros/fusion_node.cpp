@@ -19,6 +19,13 @@ FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
 
 FusionNode::~FusionNode() {
+  // No callback may run on parts about to be destroyed (a nodelet unloaded while a
+  // descriptor waits for its pose on another thread): shutdown waits for a running one.
+  descriptor_sub_.shutdown();
+  recording_image_sub_.shutdown();
+  format_sub_.shutdown();
+  diagnostics_timer_.stop();
+  services_.clear();
   if (load_spinner_) load_spinner_->stop();
 }
 
@@ -240,7 +247,8 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   // Recording by localisation waits for the match; the other modes record every descriptor.
   const bool localized =
       recording_->accepting() && recording_->places() == RecordingPlaces::kLocalized;
-  if (recording && recording_->accepting() && !localized) {
+  // (A recording that started or changed mode between the two locks takes the next one.)
+  if (recording && recording_->accepting() && recording_->places() == places && !localized) {
     if (!pose.pose && recording_->places() == RecordingPlaces::kPose) {
       // Reported and counted by cause; recognition goes on.
       const std::string cause = ToString(pose.loss);
@@ -448,7 +456,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   recording_->Diagnose(status);
   if (combiner_) combiner_->Diagnose(status);
   for (const auto& [cause, n] : pose_losses_) {
-    status.add("descriptors recorded without a pose: " + cause, n);
+    status.add("descriptors not recorded, no pose: " + cause, n);
   }
   processed_ = rejected_ = received_ = 0;
   type_mismatch_.clear();

@@ -151,8 +151,12 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
     bad_message_ = sub_.getTopic() + " sent a pose with NaN or infinity";
     return;
   }
-  // Time went back (a bag played again, a restarted simulation): the history is another.
-  if (!samples_.empty() && header.stamp < samples_.back().stamp) samples_.clear();
+  if (!samples_.empty() && header.stamp < samples_.back().stamp) {
+    // Time went back far (a bag played again, a restarted simulation): the history is
+    // another. A message only a little late (a second publisher, a delay) is left out.
+    if ((samples_.back().stamp - header.stamp).toSec() <= options_.max_gap_s) return;
+    samples_.clear();
+  }
   samples_.push_back({header.stamp, pose});
   while (samples_.size() > kMaxSamples ||
          (samples_.back().stamp - samples_.front().stamp).toSec() > kHistoryS) {
@@ -175,18 +179,38 @@ PoseLookup RobotPoseSource::PoseAt(const ros::Time& stamp, double wait_s) {
 
 PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
   std::string error;
-  const ros::Duration wait(wait_s);
   PoseLookup out;
-  if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp, wait, &error)) {
-    out.detail = error;
-    if (error.find("past") != std::string::npos) {
-      out.loss = PoseLoss::kTooOld;
-    } else if (error.find("future") != std::string::npos) {
-      out.loss = PoseLoss::kWaited;
-    } else {
-      out.loss = PoseLoss::kNotYet;  // the frames are not (yet) connected
+  // Waits only for a pose that is on its way: tf has the frames, and its latest sample is
+  // less than max_gap_s before the stamp. Otherwise the answer is at once, so that a missing
+  // localiser costs recognition nothing.
+  if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp,
+                                ros::Duration(0), &error)) {
+    const bool coming = error.find("future") != std::string::npos ||
+                        error.find("only time") != std::string::npos;
+    ros::Time latest;
+    try {
+      latest = tf_buffer_->lookupTransform(options_.map_frame, options_.base_frame, ros::Time(0))
+                   .header.stamp;
+    } catch (const tf2::TransformException&) {
     }
-    return out;
+    const bool recent = !latest.isZero() && (stamp - latest).toSec() < options_.max_gap_s;
+    if (!(coming && recent) || wait_s <= 0 ||
+        !tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp,
+                                  ros::Duration(wait_s), &error)) {
+      out.detail = error;
+      if (latest.isZero()) {
+        out.loss = PoseLoss::kNotYet;  // the frames are not (yet) connected
+      } else if (stamp < latest && !coming) {
+        out.loss = PoseLoss::kTooOld;
+      } else if (!recent) {
+        out.loss = PoseLoss::kGap;
+        out.detail = "the latest tf is " + std::to_string((stamp - latest).toSec()) +
+                     " s older than the descriptor (" + error + ")";
+      } else {
+        out.loss = PoseLoss::kWaited;
+      }
+      return out;
+    }
   }
   try {
     const geometry_msgs::TransformStamped t =
@@ -206,9 +230,12 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
 PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
-  // Wait (on the wall clock: the poses come in real time) for a sample at or after the stamp.
-  arrived_.wait_until(lock, deadline,
-                      [&] { return !samples_.empty() && samples_.back().stamp >= stamp; });
+  // Wait (on the wall clock: the poses come in real time) for a sample at or after the stamp,
+  // only while poses flow: the newest less than max_gap_s before the stamp. Otherwise the
+  // answer is at once, so that a missing localiser costs recognition nothing.
+  if (!samples_.empty() && (stamp - samples_.back().stamp).toSec() < options_.max_gap_s) {
+    arrived_.wait_until(lock, deadline, [&] { return samples_.back().stamp >= stamp; });
+  }
   PoseLookup out;
   if (samples_.empty()) {
     out.loss = bad_loss_ != PoseLoss::kNone ? bad_loss_ : PoseLoss::kNotYet;
@@ -216,7 +243,8 @@ PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
     return out;
   }
   if (samples_.back().stamp < stamp) {
-    out.loss = PoseLoss::kWaited;
+    out.loss = (stamp - samples_.back().stamp).toSec() < options_.max_gap_s ? PoseLoss::kWaited
+                                                                             : PoseLoss::kGap;
     out.detail = "the newest pose on " + sub_.getTopic() + " is " +
                  std::to_string((stamp - samples_.back().stamp).toSec()) +
                  " s older than the descriptor after waiting " + std::to_string(wait_s) + " s";

@@ -5,7 +5,8 @@
 // taken from the publisher). A camera image is usually newer than the last pose sample:
 // PoseAt waits up to a given time for tf to reach the stamp, or for the topic's first message
 // after it, and interpolates between the samples around the stamp. Nothing is
-// extrapolated.
+// extrapolated. It waits only while poses flow (the latest less than max_gap_s before the
+// stamp): without a localiser it answers at once.
 //
 // Thread-safe. PoseAt blocks up to its wait: call it without holding a lock the pose's own
 // callbacks need (they run on a queue and thread of their own).
@@ -36,7 +37,9 @@ struct RobotPoseOptions {
   PoseSource source = PoseSource::kTf;
   std::string topic;  // kTopic: Odometry, PoseStamped or PoseWithCovarianceStamped
   std::string map_frame = "map", base_frame = "base_link";
-  // Two samples farther apart than this are not interpolated between (a gap in the poses).
+  // Two topic samples farther apart than this are not interpolated between (a gap in the
+  // poses; tf interpolates in its own cache); a latest pose older than this before the stamp
+  // is not waited for.
   double max_gap_s = 1.0;
 };
 
@@ -47,7 +50,7 @@ enum class PoseLoss {
   kNotYet,    // no pose at all has arrived yet
   kWaited,    // none at or after the stamp within wait_s (the poses lag the camera by more)
   kTooOld,    // the stamp is older than the poses kept
-  kGap,       // the samples around the stamp are farther apart than max_gap_s
+  kGap,       // the poses around (or before) the stamp are farther apart than max_gap_s
   kFrame,     // a message in another frame than map_frame
   kType,      // pose_topic carries another message type
   kNotFinite  // a pose with NaN or infinity

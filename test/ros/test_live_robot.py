@@ -134,7 +134,9 @@ class Robot:
         while not self.done and not rospy.is_shutdown():
             now = rospy.Time.now()
             x = self.x_at((now - start).to_sec())
-            if self.pose_as == "tf":
+            if self.pose_as == "none":
+                pass  # no localiser running
+            elif self.pose_as == "tf":
                 t = TransformStamped()
                 t.header.stamp = now
                 t.header.frame_id, t.child_frame_id = "map", "base_link"
@@ -429,6 +431,37 @@ class LiveRobot(unittest.TestCase):
             self.assertIn("no pose", r.message)
         finally:
             launch.stop()
+
+    def test_7_a_missing_localiser_costs_recognition_nothing(self):
+        # Recording by pose with nothing publishing the pose (tf and a topic): each descriptor
+        # is answered at once, not after pose_wait_s, so beliefs keep pace with the camera.
+        for pose_source in ("tf", "topic"):
+            config = os.path.join(self.tmp, "noloc_%s.yaml" % pose_source)
+            with open(config, "w") as f:
+                f.write("pose_source: %s\npose_topic: /nobody/pose\npose_wait_s: 0.5\n"
+                        % pose_source)
+            launch = Roslaunch("bsf_vpr.launch", {
+                "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond",
+                "config": config,
+                "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
+                "data_directory": os.path.join(self.tmp, "noloc_" + pose_source)})
+            try:
+                launch.wait_until(self.service_up, 60, "the fusion node")
+                attach_fusion_services(self)
+                self.assertTrue(self.start(name="noloc", condition="", overwrite=False,
+                                           places="pose").success)
+                robot = Robot(self.frames["fall"], "none")
+                wait_for(lambda: robot.camera.get_num_connections() > 0, 60, "the ingest")
+                sent = robot.drive([(0.0, 0.0), (5.0, 200.0)])
+                # Waiting 0.5 s for each of ~50 descriptors would put the last belief 20 s late.
+                wait_for(lambda: sent[-1][0] in self.beliefs, 2.0,
+                         "the last belief within 2 s of the last image (%s)" % pose_source)
+                r = self.stop(discard=False)
+                self.assertFalse(r.success)
+                self.assertIn("no pose received yet", r.message)
+                self.assertEqual(r.num_received, len(sent), r.message)
+            finally:
+                launch.stop()
 
     def test_5_the_readme_map_commands_run_as_written(self):
         # "The robot's map, end to end": import, replay and score; record on the robot (first

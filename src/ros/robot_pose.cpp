@@ -183,10 +183,10 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
   // Waits only for a pose that is on its way: tf has the frames, and its latest sample is
   // less than max_gap_s before the stamp. Otherwise the answer is at once, so that a missing
   // localiser costs recognition nothing.
-  if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp,
-                                ros::Duration(0), &error)) {
-    const bool coming = error.find("future") != std::string::npos ||
-                        error.find("only time") != std::string::npos;
+  if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp, ros::Duration(0),
+                                &error)) {
+    const bool coming =
+        error.find("future") != std::string::npos || error.find("only time") != std::string::npos;
     ros::Time latest;
     try {
       latest = tf_buffer_->lookupTransform(options_.map_frame, options_.base_frame, ros::Time(0))
@@ -244,7 +244,7 @@ PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
   }
   if (samples_.back().stamp < stamp) {
     out.loss = (stamp - samples_.back().stamp).toSec() < options_.max_gap_s ? PoseLoss::kWaited
-                                                                             : PoseLoss::kGap;
+                                                                            : PoseLoss::kGap;
     out.detail = "the newest pose on " + sub_.getTopic() + " is " +
                  std::to_string((stamp - samples_.back().stamp).toSec()) +
                  " s older than the descriptor after waiting " + std::to_string(wait_s) + " s";

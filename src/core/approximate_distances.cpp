@@ -15,9 +15,9 @@
 #include <unordered_set>
 #include <utility>
 
-#include "distance_formula.h"
-#include "distance_kernels.h"
-#include "worker_pool.h"
+#include "src/core/internal/distance_formula.h"
+#include "src/core/internal/distance_kernels.h"
+#include "src/core/internal/worker_pool.h"
 #pragma GCC diagnostic pop
 
 namespace bsf_vpr {

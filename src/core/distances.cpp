@@ -7,9 +7,9 @@
 #include <stdexcept>
 #include <thread>
 
-#include "distance_formula.h"
-#include "distance_kernels.h"
-#include "worker_pool.h"
+#include "src/core/internal/distance_formula.h"
+#include "src/core/internal/distance_kernels.h"
+#include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
 

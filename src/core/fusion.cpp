@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/distances.h"
-#include "worker_pool.h"
+#include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
 namespace {

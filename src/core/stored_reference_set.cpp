@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/reference_set.h"
-#include "distance_kernels.h"
+#include "src/core/internal/distance_kernels.h"
 
 namespace bsf_vpr {
 

@@ -6,8 +6,8 @@
 
 #include <iostream>
 
-#include "bsf_vpr/core/curation.h"
-#include "cli_util.h"
+#include "bsf_vpr/evaluation/curation.h"
+#include "src/tools/common/cli_util.h"
 
 namespace {
 

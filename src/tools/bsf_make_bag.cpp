@@ -6,12 +6,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "bsf_vpr/core/evaluation.h"
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/ground_truth_io.h"
-#include "bsf_vpr/core/npy.h"
-#include "cli_util.h"
-#include "query_bag.h"
+#include "bsf_vpr/evaluation/evaluation.h"
+#include "bsf_vpr/evaluation/ground_truth_io.h"
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+#include "src/tools/common/cli_util.h"
+#include "src/tools/common/query_bag.h"
 
 namespace {
 

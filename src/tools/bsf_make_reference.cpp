@@ -5,10 +5,10 @@
 #include <iostream>
 
 #include "bsf_vpr/core/distances.h"
-#include "bsf_vpr/core/image_describer.h"
-#include "bsf_vpr/core/reference_set_io.h"
-#include "cli_util.h"
-#include "describer_flags.h"
+#include "bsf_vpr/image/image_describer.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "src/tools/common/cli_util.h"
+#include "src/tools/common/describer_flags.h"
 
 namespace {
 

@@ -3,11 +3,11 @@
 #include <iostream>
 #include <sstream>
 
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/ground_truth_io.h"
-#include "bsf_vpr/core/npy.h"
-#include "bsf_vpr/core/synthetic.h"
-#include "cli_util.h"
+#include "bsf_vpr/evaluation/ground_truth_io.h"
+#include "bsf_vpr/evaluation/synthetic.h"
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+#include "src/tools/common/cli_util.h"
 
 namespace {
 

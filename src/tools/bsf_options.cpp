@@ -9,13 +9,13 @@
 #include <iostream>
 #include <sstream>
 
-#include "../ros/descriptor_ingest.h"
-#include "../ros/fusion_params.h"
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
-#include "cli_util.h"
-#include "import_args.h"
+#include "bsf_vpr/image/image_describer.h"
+#include "bsf_vpr/io/file_util.h"
+#include "src/ros/fusion/fusion_params.h"
+#include "src/ros/ingest/descriptor_ingest.h"
+#include "src/tools/common/cli_util.h"
+#include "src/tools/import/import_args.h"
 
 namespace bsf_vpr {
 namespace tools {

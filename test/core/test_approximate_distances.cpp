@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "bsf_vpr/core/approximate_distances.h"
-#include "bsf_vpr/core/image_descriptor.h"
-#include "bsf_vpr/core/npy.h"
-#include "test_util.h"
+#include "bsf_vpr/image/image_descriptor.h"
+#include "bsf_vpr/io/npy.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

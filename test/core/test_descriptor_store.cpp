@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "bsf_vpr/core/distances.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "bsf_vpr/core/distances.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

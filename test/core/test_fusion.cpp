@@ -5,7 +5,7 @@
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/fusion.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -4,7 +4,7 @@
 #include <numeric>
 
 #include "bsf_vpr/core/methods.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

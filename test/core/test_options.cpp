@@ -5,10 +5,10 @@
 #include <set>
 #include <stdexcept>
 
-#include "bsf_vpr/core/image_describer.h"
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/image/image_describer.h"
 
 namespace bsf_vpr {
 namespace {

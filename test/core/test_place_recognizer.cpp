@@ -5,7 +5,7 @@
 
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/sharding.h"
-#include "bsf_vpr/core/synthetic.h"
+#include "bsf_vpr/evaluation/synthetic.h"
 
 namespace bsf_vpr {
 namespace {

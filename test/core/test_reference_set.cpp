@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "bsf_vpr/core/reference_set.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "bsf_vpr/core/selection.h"
-#include "test_util.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <numeric>
 
-#include "bsf_vpr/core/evaluation_runner.h"
-#include "bsf_vpr/core/synthetic.h"
 #include "bsf_vpr/core/temporal_filter.h"
-#include "test_util.h"
+#include "bsf_vpr/evaluation/evaluation_runner.h"
+#include "bsf_vpr/evaluation/synthetic.h"
+#include "test/core/test_util.h"
 
 namespace bsf_vpr {
 namespace {

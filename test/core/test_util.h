@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
-#include "bsf_vpr/core/synthetic.h"
 #include "bsf_vpr/core/types.h"
+#include "bsf_vpr/evaluation/synthetic.h"
 
 namespace bsf_vpr {
 namespace testing {

@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "bsf_vpr/core/npy.h"
 #include "bsf_vpr/core/types.h"
+#include "bsf_vpr/io/npy.h"
 
 namespace bsf_vpr {
 namespace fuzz {

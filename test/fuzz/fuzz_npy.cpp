@@ -28,9 +28,9 @@
 #include <optional>
 #include <string>
 
-#include "bsf_vpr/core/npy.h"
-#include "bsf_vpr/core/reference_set_io.h"
-#include "fuzz_fixture.h"
+#include "bsf_vpr/io/npy.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "test/fuzz/fuzz_fixture.h"
 
 namespace bsf_vpr {
 namespace fuzz {

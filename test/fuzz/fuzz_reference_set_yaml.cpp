@@ -19,10 +19,10 @@
 #include <exception>
 #include <string>
 
-#include "bsf_vpr/core/data_directory.h"
 #include "bsf_vpr/core/reference_set.h"
-#include "bsf_vpr/core/reference_set_io.h"
-#include "fuzz_fixture.h"
+#include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "test/fuzz/fuzz_fixture.h"
 
 namespace bsf_vpr {
 namespace fuzz {

@@ -14,9 +14,9 @@
 #include <fstream>
 #include <string>
 
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/npy.h"
-#include "fuzz_fixture.h"
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+#include "test/fuzz/fuzz_fixture.h"
 
 namespace bsf_vpr {
 namespace fuzz {

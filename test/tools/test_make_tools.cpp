@@ -7,10 +7,10 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../core/test_util.h"
-#include "bsf_vpr/core/file_util.h"
-#include "bsf_vpr/core/reference_set_io.h"
-#include "tool_test_util.h"
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "test/core/test_util.h"
+#include "test/tools/tool_test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "tool_test_util.h"
+#include "test/tools/tool_test_util.h"
 
 namespace bsf_vpr {
 namespace {

@@ -1,0 +1,53 @@
+// Runs a list of methods over a whole query traversal and scores them (the offline
+// evaluation behind bsf_evaluate).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/methods.h"
+#include "bsf_vpr/core/types.h"
+#include "bsf_vpr/evaluation/evaluation.h"
+
+namespace bsf_vpr {
+
+struct QueryOutcome {
+  int match = -1;
+  double confidence = 0;
+  bool accepted = false;
+  std::vector<int> top_places;
+};
+
+struct MethodResults {
+  Method method;
+  std::vector<QueryOutcome> outcomes;  // one per query
+  Metrics metrics;
+};
+
+// The metrics of one method's outcomes (one per query) against `truth`.
+Metrics ScoreOutcomes(const std::vector<QueryOutcome>& outcomes, const GroundTruth& truth);
+
+// Fills (*block)[u] with the (end - begin) x N_u distances of queries [begin, end) to set u.
+using DistanceBlockFn = std::function<void(int begin, int end, std::vector<RowMatrixXf>* block)>;
+
+struct EvaluationInput {
+  int num_queries = 0;
+  int num_places = 0;
+  std::vector<std::string> set_names;
+  std::vector<std::vector<int>> place_ids;  // per set; an empty vector means row k is place k
+  std::vector<int> groups;  // per set its descriptor group (SetDistances::group); empty: all 0
+  DistanceBlockFn distances;
+};
+
+// Evaluates every method on every query, in order (+filter and +seq carry state from one
+// query to the next), `block_size` queries at a time (bounding memory
+// to block_size x sum N_u distances), and scores them against `truth` (which must have
+// num_queries queries). `progress(done, total)` is called after each block if given.
+std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
+                                           const std::vector<Method>& methods,
+                                           const MethodOptions& options, const GroundTruth& truth,
+                                           const std::function<void(int, int)>& progress = {},
+                                           int block_size = 256);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,94 @@
+// Image descriptors behind one interface, chosen by name: the patch-normalised image
+// (image_descriptor.h), HOG (OpenCV), and any ONNX network through OpenCV's dnn module
+// (the way users bring NetVLAD, CosPlace or MixVPR exported to ONNX).
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/types.h"
+#include "bsf_vpr/image/image_descriptor.h"
+
+namespace bsf_vpr {
+
+// HOG over the whole (resized) image: cells of cell_px, blocks of 2 x 2 cells moved by one
+// cell, `bins` orientation bins (OpenCV's HOGDescriptor).
+struct HogOptions {
+  int width_px = 64;
+  int height_px = 32;
+  int cell_px = 8;
+  int bins = 9;
+
+  void Validate() const;  // sizes must be multiples of cell_px, at least 2 cells each way
+  int dimension() const;
+};
+
+// An ONNX network. The image is converted to RGB (or kept BGR), resized to
+// input_width_px x input_height_px, scaled to [0, 1], normalised per channel with mean and
+// std, and fed as a 1 x 3 x H x W tensor. The output (output_layer, or the network's last
+// output when empty) is flattened, optionally projected by a K x D PCA matrix loaded from a
+// .npy, and optionally L2-normalised.
+struct OnnxOptions {
+  std::string model_path;
+  int input_width_px = 224;
+  int input_height_px = 224;
+  std::vector<float> mean = {0.485f, 0.456f, 0.406f};  // per channel, in [0, 1] units
+  std::vector<float> std = {0.229f, 0.224f, 0.225f};
+  bool rgb = true;           // feed R, G, B (false: B, G, R as OpenCV loads images)
+  std::string output_layer;  // empty: the default output
+  std::string pca_path;      // optional K x D .npy; empty: no projection
+  bool l2_normalize = true;
+
+  void Validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+enum class ImageDescriberKind { kPatchNorm, kHog, kOnnx };
+
+// "patchnorm", "hog" or "onnx"; throws std::invalid_argument naming the choices otherwise.
+ImageDescriberKind ParseImageDescriberKind(const std::string& name);
+std::string ToString(ImageDescriberKind kind);
+
+struct ImageDescriberOptions {
+  ImageDescriberKind kind = ImageDescriberKind::kPatchNorm;
+  PatchNormOptions patch_norm;
+  HogOptions hog;
+  OnnxOptions onnx;
+};
+
+// The options of ImageDescriberOptions: ROS parameters of the ingest nodelet and flags of
+// the tools that describe image folders (--image-descriptor hog --hog-cell-px 8).
+const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable();
+
+// Checks the options of the chosen describer (and the patch-normalised ones, always).
+// Throws std::invalid_argument naming the bad option. A missing ONNX model is found later,
+// by MakeImageDescriber.
+void ValidateImageDescriberOptions(const ImageDescriberOptions& options);
+
+class ImageDescriber {
+ public:
+  virtual ~ImageDescriber() = default;
+  // Describes one 8-bit image (1, 3 or 4 channels, BGR as OpenCV loads it). Thread-safe.
+  // Throws std::invalid_argument for an image it cannot take.
+  virtual Eigen::VectorXf Describe(const cv::Mat& image) const = 0;
+  virtual int dimension() const = 0;
+  virtual std::string descriptor_type() const = 0;  // e.g. "hog_64x32_c8_b9"
+};
+
+// Builds the describer; an ONNX model is loaded and run once on a blank image, so that a
+// missing, unreadable or incompatible model fails here (at start-up) with a message naming
+// the file and the problem (std::runtime_error), not on the first image.
+std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options);
+
+// Describes every image of ListImageFiles(folder), one row each.
+RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer);
+
+// Runs an ONNX model on a raw N x C x H x W float tensor and returns its output tensor
+// (the model-loading and inference path without image preprocessing; for tests and tools).
+cv::Mat RunOnnxTensor(const std::string& model_path, const cv::Mat& input,
+                      const std::string& output_layer = "");
+
+}  // namespace bsf_vpr

@@ -1,0 +1,79 @@
+// The reference-set YAML sidecar: a small text file describing one reference set and
+// pointing at its descriptor .npy.
+//
+//   name: winter                      # required
+//   condition: snow                   # optional
+//   descriptor_type: patchnorm_64x32_p8  # optional
+//   dimension: 2048                   # optional; checked against the .npy when given
+//   distance: euclidean               # optional: euclidean | cosine
+//   descriptors: winter.npy           # required; relative paths are relative to this file
+//                                     # (saving names it winter.<content hash>.npy)
+//   place_ids: [0, 1, 2]              # optional; default 0 .. N_u-1
+//   poses: [[x, y, z, yaw], ...]      # optional; one per row, metres and radians
+//   images: winter_images             # optional: the folder of the rows' images, relative
+//                                     # to this file (or absolute); row k shows the k-th
+//                                     # image file of the folder in name order
+//                                     # (ListImageFiles' order), which must hold one per row
+//   image_files: [a.png, b/c.png]     # optional, only with images: one file per row,
+//                                     # relative to images (no absolute path, no '..'), for
+//                                     # sets whose rows are not the folder's images in order
+//
+// Unknown keys are refused (a misspelt key would otherwise be silently ignored). A set whose
+// images are wrong (folder missing or not a folder, a count that does not match the rows, a
+// listed file that is not a regular file there) is refused whole. Loaded, a set holds
+// `images` as an absolute path and one image file per row (ReferenceSet::images,
+// image_files).
+#pragma once
+
+#include <string>
+
+#include "bsf_vpr/core/reference_set.h"
+#include "bsf_vpr/io/data_directory.h"
+
+namespace bsf_vpr {
+
+// Loads a reference set from a sidecar YAML. Throws std::runtime_error naming the file and
+// the problem (missing key, unknown key, unreadable .npy, dimension or count mismatch, no
+// descriptors). Only regular files are read.
+ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path);
+
+// Loads a descriptor .npy as a set named `name` whose row k is place k.
+ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name);
+
+// Dispatches on the extension: .yaml/.yml sidecar, or .npy (named `name`). Throws
+// std::runtime_error for other paths (saying so, or that the file is missing).
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name);
+
+// The same, for a request (relative, or absolute below dir.path()) from the outside world:
+// the YAML, the .npy and the images folder it names are read through `dir`
+// (DataDirectory::Read, ListFiles), so none may lie outside it, be reached through a link,
+// or be anything but a regular file (a folder for images); links among the images are not
+// listed. The set's `images` is then dir.path() + "/" + the folder's relative path.
+ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
+                                  const std::string& name);
+
+// The bytes of the image file of row `row` of `set` (images() + "/" + image_files()[row]):
+// read through dir->Read when `dir` is given and the file lies below dir->path() (so a link
+// there is refused, as for every request), else with ReadFile. Throws
+// std::invalid_argument for a set without images or a row outside 0..size()-1, and
+// std::runtime_error naming the set, the row and the file when it cannot be read.
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir);
+
+// Writes `set` as `yaml_path` plus its descriptors (float32) as `<stem>.<content hash>.npy`
+// beside it, which the YAML names. The pair is replaced as one: the .npy is written first
+// under its new name, then the YAML is renamed into place, then the old .npy (if it was
+// this set's) is removed; an interruption leaves the old or the new pair whole. Missing
+// folders are created. A set with images names its folder relative to the YAML's folder
+// when it lies below it (or is it), else absolute, and lists image_files explicitly.
+// Throws std::invalid_argument for an invalid set
+// (ReferenceSet::Validate), std::runtime_error naming the file when writing fails (nothing
+// is replaced then). A set a map holds is saved from StoredReferenceSet::ToReferenceSet(),
+// which refuses one held at reduced precision only.
+void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
+
+// The same below a data directory (`yaml_request` as for DataDirectory::Relative, ending
+// in .yaml). With `replace` false an existing YAML is never replaced.
+void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                      const std::string& yaml_request, bool replace);
+
+}  // namespace bsf_vpr

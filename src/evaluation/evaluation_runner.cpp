@@ -1,0 +1,85 @@
+#include "bsf_vpr/evaluation/evaluation_runner.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/method_runner.h"
+#include "src/core/internal/worker_pool.h"
+
+namespace bsf_vpr {
+
+std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
+                                           const std::vector<Method>& methods,
+                                           const MethodOptions& options, const GroundTruth& truth,
+                                           const std::function<void(int, int)>& progress,
+                                           int block_size) {
+  options.Validate();
+  if (truth.num_queries() != input.num_queries) {
+    throw std::invalid_argument("ground truth describes " + std::to_string(truth.num_queries()) +
+                                " queries, the evaluation has " +
+                                std::to_string(input.num_queries));
+  }
+  const size_t m = input.set_names.size();
+  std::vector<const std::vector<int>*> ids(m, nullptr);
+  for (size_t u = 0; u < m && u < input.place_ids.size(); ++u) {
+    if (!input.place_ids[u].empty()) ids[u] = &input.place_ids[u];
+  }
+  std::vector<MethodResults> results(methods.size());
+  std::vector<MethodRunner> runners;
+  for (size_t k = 0; k < methods.size(); ++k) {
+    runners.emplace_back(methods[k], options);
+    results[k].method = methods[k];
+    results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
+  }
+  std::vector<RowMatrixXf> block(m);
+  for (int begin = 0; begin < input.num_queries; begin += block_size) {
+    const int end = std::min(input.num_queries, begin + block_size);
+    input.distances(begin, end, &block);
+    for (size_t u = 0; u < m; ++u) {
+      if (block[u].rows() != end - begin) {
+        throw std::logic_error("distance block has the wrong number of rows");
+      }
+    }
+    for (size_t k = 0; k < methods.size(); ++k) {
+      const auto run = [&](MethodRunner& runner, int q) {
+        const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids, input.groups);
+        const PlaceBelief b = runner.Step(views, input.num_places, nullptr, std::nullopt, true);
+        QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
+        o.match = b.match;
+        o.confidence = b.confidence;
+        o.accepted = b.accepted;
+        o.top_places = b.top_places;
+      };
+      if (methods[k].temporal_filter || methods[k].sequence) {
+        for (int q = begin; q < end; ++q) run(runners[k], q);  // carries state: in order
+        continue;
+      }
+      // Without state every query stands alone: split them over the cores, one runner each.
+      const int threads = std::min(DistanceThreads(), end - begin);
+      RunParallel(threads, threads, [&](int t) {
+        MethodRunner runner(methods[k], options);
+        const int q0 = begin + (end - begin) * t / threads;
+        const int q1 = begin + (end - begin) * (t + 1) / threads;
+        for (int q = q0; q < q1; ++q) run(runner, q);
+      });
+    }
+    if (progress) progress(end, input.num_queries);
+  }
+  for (MethodResults& r : results) r.metrics = ScoreOutcomes(r.outcomes, truth);
+  return results;
+}
+
+Metrics ScoreOutcomes(const std::vector<QueryOutcome>& outcomes, const GroundTruth& truth) {
+  std::vector<int> matches;
+  std::vector<double> confidence;
+  std::vector<std::vector<int>> ranked;
+  for (const QueryOutcome& o : outcomes) {
+    matches.push_back(o.match);
+    confidence.push_back(o.confidence);
+    ranked.push_back(o.top_places);
+  }
+  return ComputeMetrics(matches, confidence, ranked, truth);
+}
+
+}  // namespace bsf_vpr

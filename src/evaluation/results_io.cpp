@@ -1,0 +1,84 @@
+#include "bsf_vpr/evaluation/results_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+#include "bsf_vpr/io/file_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+std::string FormatNumber(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.9g", v);
+  return buf;
+}
+
+std::string Fixed(double v, int decimals) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+}  // namespace
+
+std::string MethodFileStem(const std::string& method_name) {
+  std::string stem = method_name;
+  for (char& c : stem) {
+    if (c == ':' || c == '/') c = '_';
+  }
+  return stem;
+}
+
+void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResults>& results) {
+  MakeDirectories(dir + "/matches");
+  MakeDirectories(dir + "/pr");
+  std::ostringstream summary;
+  summary << "method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries\n";
+  for (const MethodResults& r : results) {
+    const Metrics& m = r.metrics;
+    summary << r.method.Name() << ',' << FormatNumber(m.auc) << ','
+            << FormatNumber(m.recall_at_full_precision) << ',' << FormatNumber(m.recall_at_1) << ','
+            << FormatNumber(m.recall_at_5) << ',' << FormatNumber(m.recall_at_10) << ','
+            << m.num_queries << '\n';
+    std::ostringstream matches;
+    matches << "query,match,confidence\n";
+    for (size_t q = 0; q < r.outcomes.size(); ++q) {
+      matches << q << ',' << r.outcomes[q].match << ',' << FormatNumber(r.outcomes[q].confidence)
+              << '\n';
+    }
+    WriteFileAtomically(dir + "/matches/" + MethodFileStem(r.method.Name()) + ".csv",
+                        matches.str());
+    std::ostringstream pr;
+    pr << "threshold,precision,recall\n";
+    for (const PrPoint& p : m.curve) {
+      pr << FormatNumber(p.threshold) << ',' << FormatNumber(p.precision) << ','
+         << FormatNumber(p.recall) << '\n';
+    }
+    WriteFileAtomically(dir + "/pr/" + MethodFileStem(r.method.Name()) + ".csv", pr.str());
+  }
+  WriteFileAtomically(dir + "/summary.csv", summary.str());
+}
+
+std::string FormatSummaryTable(const std::vector<MethodResults>& results) {
+  size_t width = 6;
+  for (const MethodResults& r : results) width = std::max(width, r.method.Name().size());
+  std::ostringstream out;
+  auto pad = [](const std::string& s, size_t w) {
+    return s + std::string(w - std::min(w, s.size()), ' ');
+  };
+  out << pad("method", width) << "    AUC  R@100P    R@1    R@5   R@10  queries\n";
+  for (const MethodResults& r : results) {
+    const Metrics& m = r.metrics;
+    out << pad(r.method.Name(), width) << "  " << Fixed(m.auc, 3) << "   "
+        << Fixed(m.recall_at_full_precision, 3) << "  " << Fixed(m.recall_at_1, 3) << "  "
+        << Fixed(m.recall_at_5, 3) << "  " << Fixed(m.recall_at_10, 3) << "  " << m.num_queries
+        << '\n';
+  }
+  return out.str();
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,281 @@
+#include "bsf_vpr/image/image_describer.h"
+
+#include <cmath>
+#include <filesystem>
+#include <opencv2/dnn.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/objdetect.hpp>
+#include <stdexcept>
+
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+
+namespace bsf_vpr {
+
+void HogOptions::Validate() const {
+  if (cell_px < 1 || bins < 1) throw std::invalid_argument("hog_cell_px and hog_bins must be >= 1");
+  if (width_px % cell_px != 0 || height_px % cell_px != 0 || width_px < 2 * cell_px ||
+      height_px < 2 * cell_px) {
+    throw std::invalid_argument(
+        "hog_width_px and hog_height_px must be multiples of hog_cell_px (" +
+        std::to_string(cell_px) + ") and at least two cells, got " + std::to_string(width_px) +
+        " x " + std::to_string(height_px));
+  }
+}
+
+int HogOptions::dimension() const {
+  return (width_px / cell_px - 1) * (height_px / cell_px - 1) * 4 * bins;
+}
+
+void OnnxOptions::Validate() const {
+  if (model_path.empty())
+    throw std::invalid_argument("onnx_model is empty: the onnx descriptor needs a network (.onnx)");
+  if (input_width_px < 1 || input_height_px < 1) {
+    throw std::invalid_argument("onnx_input_width_px and onnx_input_height_px must be >= 1");
+  }
+  if (mean.size() != 3 || std.size() != 3) {
+    throw std::invalid_argument("onnx_mean and onnx_std need 3 values (one per channel)");
+  }
+  for (float s : std) {
+    if (!(s > 0)) throw std::invalid_argument("onnx_std values must be > 0");
+  }
+}
+
+namespace {
+
+class PatchNormDescriber : public ImageDescriber {
+ public:
+  explicit PatchNormDescriber(const PatchNormOptions& o) : o_(o) { o_.Validate(); }
+  Eigen::VectorXf Describe(const cv::Mat& image) const override {
+    return DescribePatchNormalized(image, o_);
+  }
+  int dimension() const override { return o_.dimension(); }
+  std::string descriptor_type() const override { return o_.DescriptorType(); }
+
+ private:
+  PatchNormOptions o_;
+};
+
+class HogDescriber : public ImageDescriber {
+ public:
+  explicit HogDescriber(const HogOptions& o)
+      : o_(o),
+        hog_(cv::Size(o.width_px, o.height_px), cv::Size(2 * o.cell_px, 2 * o.cell_px),
+             cv::Size(o.cell_px, o.cell_px), cv::Size(o.cell_px, o.cell_px), o.bins) {
+    o_.Validate();
+  }
+  Eigen::VectorXf Describe(const cv::Mat& image) const override {
+    cv::Mat small;
+    cv::resize(ToGrayscale8(image), small, cv::Size(o_.width_px, o_.height_px), 0, 0,
+               cv::INTER_AREA);
+    std::vector<float> d;
+    hog_.compute(small, d);
+    return Eigen::Map<const Eigen::VectorXf>(d.data(), static_cast<Eigen::Index>(d.size()));
+  }
+  int dimension() const override { return o_.dimension(); }
+  std::string descriptor_type() const override {
+    return "hog_" + std::to_string(o_.width_px) + "x" + std::to_string(o_.height_px) + "_c" +
+           std::to_string(o_.cell_px) + "_b" + std::to_string(o_.bins);
+  }
+
+ private:
+  HogOptions o_;
+  cv::HOGDescriptor hog_;
+};
+
+cv::dnn::Net LoadNet(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) {
+    throw std::runtime_error("ONNX model '" + path + "' does not exist");
+  }
+  try {
+    cv::dnn::Net net = cv::dnn::readNetFromONNX(path);
+    if (net.empty()) throw std::runtime_error("empty network");
+    return net;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot load ONNX model '" + path + "': " + e.what());
+  }
+}
+
+class OnnxDescriber : public ImageDescriber {
+ public:
+  explicit OnnxDescriber(const OnnxOptions& o) : o_(o) {
+    o_.Validate();
+    net_ = LoadNet(o_.model_path);
+    if (!o_.pca_path.empty()) pca_ = ReadNpyMatrix(o_.pca_path);
+    // Run once now: an incompatible model or PCA fails at start-up, and fixes the dimension.
+    const cv::Mat blank(o_.input_height_px, o_.input_width_px, CV_8UC3, cv::Scalar::all(127));
+    try {
+      dimension_ = static_cast<int>(Forward(blank).size());
+    } catch (const std::exception& e) {
+      throw std::runtime_error("ONNX model '" + o_.model_path + "' cannot describe a " +
+                               std::to_string(o_.input_width_px) + "x" +
+                               std::to_string(o_.input_height_px) + " RGB image: " + e.what());
+    }
+  }
+  Eigen::VectorXf Describe(const cv::Mat& image) const override { return Forward(image); }
+  int dimension() const override { return dimension_; }
+  std::string descriptor_type() const override {
+    return "onnx_" + std::filesystem::path(o_.model_path).stem().string() + "_" +
+           std::to_string(dimension_);
+  }
+
+ private:
+  Eigen::VectorXf Forward(const cv::Mat& image) const {
+    cv::Mat resized, f;
+    cv::resize(ToBgr8(image), resized, cv::Size(o_.input_width_px, o_.input_height_px), 0, 0,
+               cv::INTER_AREA);
+    if (o_.rgb) cv::cvtColor(resized, resized, cv::COLOR_BGR2RGB);
+    resized.convertTo(f, CV_32F, 1.0 / 255.0);
+    std::vector<cv::Mat> ch;
+    cv::split(f, ch);
+    for (int c = 0; c < 3; ++c) ch[c] = (ch[c] - o_.mean[c]) / o_.std[c];
+    cv::merge(ch, f);
+    const cv::Mat blob = cv::dnn::blobFromImage(f);  // 1 x 3 x H x W, no further scaling
+    cv::Mat out;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);  // cv::dnn::Net::forward is not const
+      net_.setInput(blob);
+      out = o_.output_layer.empty() ? net_.forward() : net_.forward(o_.output_layer);
+    }
+    const cv::Mat flat = out.reshape(1, 1);
+    Eigen::VectorXf v = Eigen::Map<const Eigen::VectorXf>(flat.ptr<float>(),
+                                                          static_cast<Eigen::Index>(flat.total()));
+    if (pca_.size() > 0) {
+      if (pca_.cols() != v.size()) {
+        throw std::runtime_error("PCA matrix '" + o_.pca_path + "' is " +
+                                 std::to_string(pca_.rows()) + " x " + std::to_string(pca_.cols()) +
+                                 ", the network outputs " + std::to_string(v.size()) + " values");
+      }
+      v = pca_ * v;
+    }
+    if (!v.allFinite()) throw std::runtime_error("the network produced NaN or infinity");
+    if (o_.l2_normalize && v.norm() > 0) v.normalize();
+    return v;
+  }
+
+  OnnxOptions o_;
+  mutable cv::dnn::Net net_;
+  mutable std::mutex mutex_;
+  RowMatrixXf pca_;
+  int dimension_ = 0;
+};
+
+}  // namespace
+
+const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable() {
+  static const OptionTable<ImageDescriberOptions> kTable =
+      OptionTable<ImageDescriberOptions>()
+          .AddChoice(
+              "image_descriptor", [](auto& o) -> auto& { return o.kind; },
+              "image descriptor: patchnorm (patch-normalised, downsampled image), hog or "
+              "onnx (a network, e.g. NetVLAD exported to ONNX)",
+              {"patchnorm", "hog", "onnx"}, ParseImageDescriberKind)
+          .Add(
+              "patch_width_px", [](auto& o) -> auto& { return o.patch_norm.width_px; },
+              "patchnorm: width the image is resized to", "px", AtLeast(1))
+          .Add(
+              "patch_height_px", [](auto& o) -> auto& { return o.patch_norm.height_px; },
+              "patchnorm: height the image is resized to", "px", AtLeast(1))
+          .Add(
+              "patch_size_px", [](auto& o) -> auto& { return o.patch_norm.patch_size_px; },
+              "patchnorm: side of the patches normalised to zero mean and unit variance", "px",
+              AtLeast(1))
+          .Add(
+              "hog_width_px", [](auto& o) -> auto& { return o.hog.width_px; },
+              "hog: width the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
+          .Add(
+              "hog_height_px", [](auto& o) -> auto& { return o.hog.height_px; },
+              "hog: height the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
+          .Add(
+              "hog_cell_px", [](auto& o) -> auto& { return o.hog.cell_px; },
+              "hog: cell side; blocks are 2 x 2 cells moved by one cell", "px", AtLeast(1))
+          .Add(
+              "hog_bins", [](auto& o) -> auto& { return o.hog.bins; }, "hog: orientation bins", "",
+              AtLeast(1))
+          .Add("onnx_model", [](auto& o) -> auto& { return o.onnx.model_path; },
+               "onnx: path of the network (.onnx); required for onnx", "", {})
+          .Add(
+              "onnx_input_width_px", [](auto& o) -> auto& { return o.onnx.input_width_px; },
+              "onnx: network input width", "px", AtLeast(1))
+          .Add(
+              "onnx_input_height_px", [](auto& o) -> auto& { return o.onnx.input_height_px; },
+              "onnx: network input height", "px", AtLeast(1))
+          .Add(
+              "onnx_mean", [](auto& o) -> auto& { return o.onnx.mean; },
+              "onnx: per-channel mean of [0, 1] pixels, R,G,B (ImageNet's by default)")
+          .Add(
+              "onnx_std", [](auto& o) -> auto& { return o.onnx.std; },
+              "onnx: per-channel standard deviation of [0, 1] pixels, R,G,B", "", Above(0))
+          .Add(
+              "onnx_rgb", [](auto& o) -> auto& { return o.onnx.rgb; },
+              "onnx: feed R, G, B (false: B, G, R)")
+          .Add(
+              "onnx_output_layer", [](auto& o) -> auto& { return o.onnx.output_layer; },
+              "onnx: output layer name (\"\": the network's output)")
+          .Add(
+              "onnx_pca_path", [](auto& o) -> auto& { return o.onnx.pca_path; },
+              "onnx: K x D projection .npy applied to the output (\"\": none)")
+          .Add(
+              "onnx_l2_normalize", [](auto& o) -> auto& { return o.onnx.l2_normalize; },
+              "onnx: L2-normalise the network output");
+  return kTable;
+}
+
+void ValidateImageDescriberOptions(const ImageDescriberOptions& options) {
+  options.patch_norm.Validate();
+  if (options.kind == ImageDescriberKind::kHog) options.hog.Validate();
+  if (options.kind == ImageDescriberKind::kOnnx) options.onnx.Validate();
+}
+
+ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
+  if (name == "patchnorm") return ImageDescriberKind::kPatchNorm;
+  if (name == "hog") return ImageDescriberKind::kHog;
+  if (name == "onnx") return ImageDescriberKind::kOnnx;
+  throw std::invalid_argument("unknown image descriptor '" + name +
+                              "' (expected patchnorm, hog or onnx)");
+}
+
+std::string ToString(ImageDescriberKind kind) {
+  switch (kind) {
+    case ImageDescriberKind::kHog:
+      return "hog";
+    case ImageDescriberKind::kOnnx:
+      return "onnx";
+    case ImageDescriberKind::kPatchNorm:
+      break;
+  }
+  return "patchnorm";
+}
+
+std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options) {
+  switch (options.kind) {
+    case ImageDescriberKind::kPatchNorm:
+      return std::make_unique<PatchNormDescriber>(options.patch_norm);
+    case ImageDescriberKind::kHog:
+      return std::make_unique<HogDescriber>(options.hog);
+    case ImageDescriberKind::kOnnx:
+      return std::make_unique<OnnxDescriber>(options.onnx);
+  }
+  throw std::invalid_argument("unknown image descriptor kind");
+}
+
+RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer) {
+  const std::vector<std::string> files = ListImageFiles(folder);
+  RowMatrixXf out(static_cast<Eigen::Index>(files.size()), describer.dimension());
+  for (size_t i = 0; i < files.size(); ++i) {
+    const cv::Mat img = cv::imread(files[i], cv::IMREAD_COLOR);
+    if (img.empty()) throw std::runtime_error("cannot decode image '" + files[i] + "'");
+    out.row(static_cast<Eigen::Index>(i)) = describer.Describe(img).transpose();
+  }
+  return out;
+}
+
+cv::Mat RunOnnxTensor(const std::string& model_path, const cv::Mat& input,
+                      const std::string& output_layer) {
+  cv::dnn::Net net = LoadNet(model_path);
+  net.setInput(input);
+  return (output_layer.empty() ? net.forward() : net.forward(output_layer)).clone();
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,360 @@
+#include "bsf_vpr/io/data_directory.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "src/io/internal/posix_file.h"
+
+namespace bsf_vpr {
+namespace {
+
+// Marks WriteAtomically's temporaries: ".<name>.bsf_tmp.<random>".
+constexpr char kTempMarker[] = ".bsf_tmp.";
+
+std::string SystemError(const std::string& what, const std::string& path, int err) {
+  return "cannot " + what + " " + QuotedForMessage(path) + ": " + std::strerror(err);
+}
+
+std::vector<std::string> Split(const std::string& relative) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  while (start <= relative.size()) {
+    const size_t slash = relative.find('/', start);
+    const size_t end = slash == std::string::npos ? relative.size() : slash;
+    parts.push_back(relative.substr(start, end - start));
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  return parts;
+}
+
+// Opens the folder that holds the last component of `relative`, one component at a time
+// without following links; with `create`, missing folders are made. Returns the handle.
+Fd OpenParent(int root, const std::vector<std::string>& parts, const std::string& relative,
+              bool create) {
+  Fd dir(fcntl(root, F_DUPFD_CLOEXEC, 0));
+  if (dir.get() < 0) throw std::runtime_error(SystemError("open the folder of", relative, errno));
+  for (size_t i = 0; i + 1 < parts.size(); ++i) {
+    int next = openat(dir.get(), parts[i].c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (next < 0 && errno == ENOENT && create) {
+      if (mkdirat(dir.get(), parts[i].c_str(), 0755) != 0 && errno != EEXIST) {
+        throw std::runtime_error(SystemError("create the folder of", relative, errno));
+      }
+      next = openat(dir.get(), parts[i].c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    }
+    if (next < 0) {
+      const int err = errno;
+      throw std::runtime_error(SystemError("open the folder of", relative, err) +
+                               (err == ELOOP || err == ENOTDIR
+                                    ? " (a link or a file where a folder should be; links "
+                                      "are not followed below the data directory)"
+                                    : ""));
+    }
+    dir = Fd(next);
+  }
+  return dir;
+}
+
+std::string RandomSuffix() {
+  static thread_local std::mt19937_64 rng(std::random_device{}());
+  static const char kChars[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  std::string s(8, 'x');
+  for (char& c : s) c = kChars[rng() % (sizeof(kChars) - 1)];
+  return s;
+}
+
+int RemoveTemporariesBelow(int dir_fd) {
+  int removed = 0;
+  const int dup = fcntl(dir_fd, F_DUPFD_CLOEXEC, 0);
+  if (dup < 0) return 0;
+  DIR* d = fdopendir(dup);
+  if (d == nullptr) {
+    close(dup);
+    return 0;
+  }
+  std::vector<std::string> folders;
+  while (const dirent* e = readdir(d)) {
+    const std::string name = e->d_name;
+    if (name == "." || name == "..") continue;
+    struct stat st;
+    if (fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
+    if (S_ISDIR(st.st_mode)) {
+      folders.push_back(name);
+    } else if (S_ISREG(st.st_mode) && name[0] == '.' &&
+               name.find(kTempMarker) != std::string::npos) {
+      if (unlinkat(dir_fd, name.c_str(), 0) == 0) ++removed;
+    }
+  }
+  closedir(d);
+  for (const std::string& f : folders) {
+    Fd sub(openat(dir_fd, f.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
+    if (sub.get() >= 0) removed += RemoveTemporariesBelow(sub.get());
+  }
+  return removed;
+}
+
+}  // namespace
+
+DataDirectory::DataDirectory(const std::string& path, bool create) {
+  if (path.empty()) throw std::runtime_error("no data directory is configured");
+  std::error_code ec;
+  if (create) std::filesystem::create_directories(path, ec);
+  const Fd root(open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (root.get() < 0) throw std::runtime_error(SystemError("open the data directory", path, errno));
+  path_ = std::filesystem::canonical(path, ec).string();
+  if (ec) path_ = std::filesystem::absolute(path).lexically_normal().string();
+}
+
+int DataDirectory::OpenRoot() const {
+  const int fd = open(path_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error(SystemError("open the data directory", path_, errno));
+  return fd;
+}
+
+std::string DataDirectory::Relative(const std::string& request) const {
+  if (request.empty()) throw std::invalid_argument("empty path");
+  if (!IsPrintableUtf8(request)) {
+    throw std::invalid_argument("path " + QuotedForMessage(request) +
+                                " holds a control character or invalid UTF-8");
+  }
+  std::string rest = request;
+  if (request[0] == '/') {
+    const std::string prefix = path_ == "/" ? "/" : path_ + "/";
+    if (request.compare(0, prefix.size(), prefix) != 0) {
+      throw std::invalid_argument("path " + QuotedForMessage(request) +
+                                  " lies outside the data directory '" + path_ + "'");
+    }
+    rest = request.substr(prefix.size());
+  }
+  std::vector<std::string> kept;
+  for (const std::string& part : Split(rest)) {
+    if (part.empty() || part == ".") continue;
+    if (part == "..") {
+      if (kept.empty()) {
+        throw std::invalid_argument("path " + QuotedForMessage(request) +
+                                    " lies outside the data directory '" + path_ + "'");
+      }
+      kept.pop_back();
+      continue;
+    }
+    if (part.size() > 255) {
+      throw std::invalid_argument("path " + QuotedForMessage(request) +
+                                  " has a component longer than 255 bytes");
+    }
+    kept.push_back(part);
+  }
+  if (kept.empty()) {
+    throw std::invalid_argument("path " + QuotedForMessage(request) +
+                                " names the data directory itself, not a file in it");
+  }
+  std::string out;
+  for (const std::string& part : kept) out += (out.empty() ? "" : "/") + part;
+  if (out.size() > 4000)
+    throw std::invalid_argument("path " + QuotedForMessage(request) + " is too long");
+  return out;
+}
+
+std::string DataDirectory::Read(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
+  const Fd file(openat(dir.get(), parts.back().c_str(),
+                       O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+  if (file.get() < 0) {
+    const int err = errno;
+    throw std::runtime_error(
+        SystemError("open", relative, err) +
+        (err == ELOOP ? " (links are not followed below the data directory)" : ""));
+  }
+  return ReadRegularFile(file.get(), relative);
+}
+
+std::vector<std::string> DataDirectory::ListFiles(const std::string& relative_folder) const {
+  const std::vector<std::string> parts = Split(Relative(relative_folder));
+  const Fd root(OpenRoot());
+  const Fd parent = OpenParent(root.get(), parts, relative_folder, false);
+  const int raw =
+      openat(parent.get(), parts.back().c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (raw < 0) {
+    int err = errno;
+    // O_DIRECTORY reports a link as "not a folder": tell the two apart.
+    struct stat st;
+    if (err == ENOTDIR &&
+        fstatat(parent.get(), parts.back().c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 &&
+        S_ISLNK(st.st_mode)) {
+      err = ELOOP;
+    }
+    throw std::runtime_error(
+        err == ENOTDIR
+            ? QuotedForMessage(relative_folder) + " is not a folder"
+            : SystemError("open the folder", relative_folder, err) +
+                  (err == ELOOP ? " (links are not followed below the data directory)" : ""));
+  }
+  // fdopendir takes the descriptor over: closedir closes it.
+  DIR* d = fdopendir(raw);
+  if (d == nullptr) {
+    const int err = errno;
+    close(raw);
+    throw std::runtime_error(SystemError("list", relative_folder, err));
+  }
+  std::vector<std::string> names;
+  errno = 0;
+  while (const dirent* e = readdir(d)) {
+    struct stat st;
+    if (fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode)) {
+      names.emplace_back(e->d_name);
+    }
+    errno = 0;
+  }
+  const int err = errno;
+  closedir(d);
+  if (err != 0) throw std::runtime_error(SystemError("list", relative_folder, err));
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+bool DataDirectory::Exists(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  try {
+    const Fd root(OpenRoot());
+    const Fd dir = OpenParent(root.get(), parts, relative, false);
+    struct stat st;
+    return fstatat(dir.get(), parts.back().c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0;
+  } catch (const std::runtime_error&) {
+    return false;  // a missing folder on the way
+  }
+}
+
+void DataDirectory::WriteAtomically(const std::string& relative, const std::string& bytes,
+                                    bool replace) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, true);
+  const std::string& name = parts.back();
+  std::string tmp;
+  int raw = -1;
+  for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
+    tmp = "." + name.substr(0, 200) + kTempMarker + RandomSuffix();
+    raw =
+        openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (raw < 0 && errno != EEXIST) break;
+  }
+  if (raw < 0)
+    throw std::runtime_error(SystemError("create a temporary file for", relative, errno));
+  int err = 0;
+  {
+    const Fd file(raw);
+    size_t written = 0;
+    while (written < bytes.size()) {
+      const ssize_t n = write(file.get(), bytes.data() + written, bytes.size() - written);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) {
+        err = errno;
+        break;
+      }
+      written += static_cast<size_t>(n);
+    }
+    if (err == 0 && fsync(file.get()) != 0) err = errno;
+  }
+  if (err == 0) {
+    const int rc =
+        replace ? renameat(dir.get(), tmp.c_str(), dir.get(), name.c_str())
+                : renameat2(dir.get(), tmp.c_str(), dir.get(), name.c_str(), RENAME_NOREPLACE);
+    if (rc != 0) err = errno;
+  }
+  if (err != 0) {
+    unlinkat(dir.get(), tmp.c_str(), 0);
+    throw std::runtime_error(SystemError("write", relative, err) +
+                             (err == EEXIST ? " (it exists and is not replaced)" : ""));
+  }
+  fsync(dir.get());  // the rename itself survives a power cut
+}
+
+void DataDirectory::Remove(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
+  if (unlinkat(dir.get(), parts.back().c_str(), 0) != 0 && errno != ENOENT) {
+    throw std::runtime_error(SystemError("remove", relative, errno));
+  }
+}
+
+int DataDirectory::RemoveStaleTemporaries() const {
+  const Fd root(OpenRoot());
+  return RemoveTemporariesBelow(root.get());
+}
+
+std::string QuotedForMessage(const std::string& text, size_t max_chars) {
+  std::string out = "'";
+  size_t shown = 0;
+  for (const char c : text) {
+    if (shown >= max_chars) break;
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\x%02x", u);
+      out += buf;
+    } else {
+      out.push_back(c);
+    }
+    ++shown;
+  }
+  out += "'";
+  if (text.size() > max_chars) {
+    out.insert(out.size() - 1, "...");
+    out += " (" + std::to_string(text.size()) + " characters)";
+  }
+  return out;
+}
+
+bool IsPrintableUtf8(const std::string& text) {
+  size_t i = 0;
+  while (i < text.size()) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) return false;
+    int extra = 0;
+    uint32_t cp = 0;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if ((c & 0xe0) == 0xc0) {
+      extra = 1;
+      cp = c & 0x1f;
+    } else if ((c & 0xf0) == 0xe0) {
+      extra = 2;
+      cp = c & 0x0f;
+    } else if ((c & 0xf8) == 0xf0) {
+      extra = 3;
+      cp = c & 0x07;
+    } else {
+      return false;
+    }
+    if (i + static_cast<size_t>(extra) >= text.size()) return false;
+    for (int k = 1; k <= extra; ++k) {
+      const unsigned char cc = static_cast<unsigned char>(text[i + static_cast<size_t>(k)]);
+      if ((cc & 0xc0) != 0x80) return false;
+      cp = (cp << 6) | (cc & 0x3f);
+    }
+    // Overlong forms, surrogates, beyond U+10FFFF, C1 controls.
+    if ((extra == 1 && cp < 0x80) || (extra == 2 && cp < 0x800) || (extra == 3 && cp < 0x10000) ||
+        (cp >= 0xd800 && cp <= 0xdfff) || cp > 0x10ffff || (cp >= 0x80 && cp < 0xa0)) {
+      return false;
+    }
+    i += static_cast<size_t>(extra) + 1;
+  }
+  return true;
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,404 @@
+#include "bsf_vpr/io/reference_set_io.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+
+namespace bsf_vpr {
+namespace {
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// Where the files of a reference set come from: the file system as the caller sees it
+// (command-line tools, the node's start-up configuration), or a data directory that no
+// request may leave (the node's services).
+struct FileAccess {
+  // The path of the file (or folder) that `field` (a path in a YAML) names, relative to
+  // `yaml_path`.
+  std::function<std::string(const std::string& yaml_path, const std::string& field)> resolve;
+  std::function<std::string(const std::string& path)> read;
+  // The names of the regular files in the folder at `path` (from resolve), sorted.
+  std::function<std::vector<std::string>(const std::string& path)> list;
+  // The folder at `path` (from resolve) as the absolute path ReferenceSet::images holds.
+  std::function<std::string(const std::string& path)> absolute;
+  bool confined = false;  // below a data directory (Below)
+};
+
+// `path` made absolute and lexically normal, without a trailing '/'.
+std::string AbsoluteFolder(const std::string& path) {
+  std::filesystem::path p = std::filesystem::absolute(path).lexically_normal();
+  if (!p.has_filename() && p != p.root_path()) p = p.parent_path();
+  return p.string();
+}
+
+FileAccess Unconfined() {
+  return {[](const std::string& yaml, const std::string& field) {
+            return ResolvePath(DirName(yaml), field);
+          },
+          [](const std::string& path) { return ReadFile(path); },
+          [](const std::string& path) { return ListFileNames(path); },
+          [](const std::string& path) { return AbsoluteFolder(path); }};
+}
+
+FileAccess Below(const DataDirectory& dir) {
+  return {[&dir](const std::string& yaml, const std::string& field) {
+            // An absolute field must lie below the directory; a relative one is relative to
+            // the YAML's folder and may not climb out of the directory.
+            return dir.Relative(!field.empty() && field[0] == '/' ? field
+                                                                  : DirName(yaml) + "/" + field);
+          },
+          [&dir](const std::string& path) { return dir.Read(path); },
+          [&dir](const std::string& path) { return dir.ListFiles(path); },
+          [&dir](const std::string& path) {
+            return (dir.path() == "/" ? "" : dir.path()) + "/" + path;
+          },
+          /*confined=*/true};
+}
+
+// The descriptors of a set, refused before anything is allocated for them if empty or too
+// many rows for an int place index.
+RowMatrixXf ReadDescriptors(const FileAccess& files, const std::string& npy_path) {
+  const std::string bytes = files.read(npy_path);
+  const NpyHeader h = ParseNpyHeader(bytes, npy_path);
+  if (h.rows == 0 || h.cols == 0) {
+    throw std::runtime_error("'" + npy_path + "' holds no descriptors (shape " +
+                             std::to_string(h.rows) + " x " + std::to_string(h.cols) + ")");
+  }
+  if (h.rows > kMaxPlaces || h.cols > kMaxDimension) {
+    throw std::runtime_error("'" + npy_path + "' has shape " + std::to_string(h.rows) + " x " +
+                             std::to_string(h.cols) + ": at most " + std::to_string(kMaxPlaces) +
+                             " rows (places) and " + std::to_string(kMaxDimension) +
+                             " columns (dimension) are accepted");
+  }
+  return DecodeNpyMatrix(bytes, npy_path);
+}
+
+// Refuses the first of `names` (paths relative to the folder at `folder`, from
+// files.resolve; `field` as the YAML names it) that is not a regular file there. Each folder
+// the names lie in is listed once.
+void CheckImageFilesExist(const FileAccess& files, const std::string& folder,
+                          const std::string& field, const std::vector<std::string>& names) {
+  std::map<std::string, std::vector<std::string>> listed = {{"", files.list(folder)}};
+  for (size_t k = 0; k < names.size(); ++k) {
+    const size_t slash = names[k].rfind('/');
+    const std::string sub = slash == std::string::npos ? "" : names[k].substr(0, slash);
+    auto it = listed.find(sub);
+    if (it == listed.end()) {
+      std::vector<std::string> in_sub;
+      try {
+        in_sub = files.list(folder + "/" + sub);
+      } catch (const std::exception&) {
+        // No such folder (or one that cannot be listed): the file is not there.
+      }
+      it = listed.emplace(sub, std::move(in_sub)).first;
+    }
+    const std::string base = slash == std::string::npos ? names[k] : names[k].substr(slash + 1);
+    if (!std::binary_search(it->second.begin(), it->second.end(), base)) {
+      throw std::runtime_error("image_files[" + std::to_string(k) + "] " +
+                               QuotedForMessage(names[k]) + " is not a file in images " +
+                               QuotedForMessage(field));
+    }
+  }
+}
+
+// The `images` folder and `image_files` of a sidecar, checked against the set's rows and
+// the folder's files; nothing when the YAML has no `images`.
+void ParseImages(const YAML::Node& root, const std::string& yaml_path, const FileAccess& files,
+                 ReferenceSet* set) {
+  if (!root["images"]) {
+    if (root["image_files"]) {
+      throw std::runtime_error("'image_files' needs 'images', the folder they lie in");
+    }
+    return;
+  }
+  const std::string field = root["images"].as<std::string>();
+  if (field.empty()) throw std::runtime_error("'images' is empty");
+  std::string folder;
+  std::vector<std::string> names;
+  try {
+    try {
+      folder = files.resolve(yaml_path, field);
+    } catch (const std::invalid_argument&) {
+      // A set loaded through a data directory whose images lie outside it (bsf_import
+      // writes the YAML there and names the dataset's frames): its descriptors are
+      // loaded, its images are not read.
+      if (files.confined) return;
+      throw;
+    }
+    if (root["image_files"]) {
+      const YAML::Node list = root["image_files"];
+      if (!list.IsSequence()) throw std::runtime_error("'image_files' is not a list");
+      if (list.size() != static_cast<size_t>(set->size())) {
+        throw std::runtime_error("'image_files' lists " + std::to_string(list.size()) +
+                                 " files for " + std::to_string(set->size()) + " descriptors");
+      }
+      names = list.as<std::vector<std::string>>();
+      for (size_t k = 0; k < names.size(); ++k) {
+        const std::string problem = ImageFileProblem(names[k]);
+        if (!problem.empty()) {
+          throw std::runtime_error("image_files[" + std::to_string(k) + "] " + problem);
+        }
+      }
+      CheckImageFilesExist(files, folder, field, names);
+    } else {
+      // Row k is the k-th image of the folder in name order, as ListImageFiles lists them.
+      for (std::string& name : files.list(folder)) {
+        if (IsImageFileName(name)) names.push_back(std::move(name));
+      }
+      if (names.size() != static_cast<size_t>(set->size())) {
+        throw std::runtime_error(QuotedForMessage(field) + " holds " +
+                                 std::to_string(names.size()) + " image files for " +
+                                 std::to_string(set->size()) +
+                                 " descriptors; list each row's file with image_files");
+      }
+    }
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("images: ") + e.what());
+  }
+  set->images = files.absolute(folder);
+  set->image_files = std::move(names);
+}
+
+ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
+                          const FileAccess& files) {
+  if (!root.IsMap()) throw std::runtime_error("is not a YAML mapping");
+  static const std::set<std::string> kKnown = {
+      "name",        "condition", "descriptor_type", "dimension", "distance",
+      "descriptors", "place_ids", "poses",           "images",    "image_files"};
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (!kKnown.count(key)) throw std::runtime_error("unknown key " + QuotedForMessage(key));
+  }
+  if (!root["name"]) throw std::runtime_error("missing required key 'name'");
+  if (!root["descriptors"]) throw std::runtime_error("missing required key 'descriptors'");
+  const std::string npy = files.resolve(yaml_path, root["descriptors"].as<std::string>());
+  ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadDescriptors(files, npy));
+  if (root["condition"]) set.condition = root["condition"].as<std::string>();
+  if (root["descriptor_type"]) set.descriptor_type = root["descriptor_type"].as<std::string>();
+  if (root["distance"]) {
+    set.distance = root["distance"].as<std::string>();
+    ParseDistanceMetric(set.distance);  // refuses unknown names
+  }
+  if (root["dimension"] && root["dimension"].as<int64_t>() != set.dimension()) {
+    throw std::runtime_error("declares dimension " + root["dimension"].as<std::string>() +
+                             " but '" + npy + "' has " + std::to_string(set.dimension()) +
+                             " columns");
+  }
+  if (root["place_ids"]) {
+    const YAML::Node ids = root["place_ids"];
+    if (!ids.IsSequence()) throw std::runtime_error("'place_ids' is not a list");
+    if (ids.size() != static_cast<size_t>(set.size())) {
+      throw std::runtime_error("lists " + std::to_string(ids.size()) + " place_ids for " +
+                               std::to_string(set.size()) + " descriptors");
+    }
+    set.place_ids = ids.as<std::vector<int>>();
+  }
+  if (root["poses"]) {
+    const YAML::Node poses = root["poses"];
+    if (!poses.IsSequence() || poses.size() != static_cast<size_t>(set.size())) {
+      throw std::runtime_error("'poses' must list one [x, y, z, yaw] per descriptor (" +
+                               std::to_string(set.size()) + ")");
+    }
+    for (const auto& p : poses) {
+      const std::vector<double> v = p.as<std::vector<double>>();
+      if (v.size() != 4) throw std::runtime_error("a pose must be [x, y, z, yaw]");
+      set.poses.push_back({v[0], v[1], v[2], v[3]});
+    }
+  }
+  ParseImages(root, yaml_path, files, &set);
+  set.Validate();
+  return set;
+}
+
+ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
+  const std::string text = files.read(yaml_path);  // names the file when it fails
+  try {
+    return ParseSidecar(YAML::Load(text), yaml_path, files);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("reference set file '" + yaml_path + "': " + e.what());
+  }
+}
+
+ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
+                     const std::string& name) {
+  ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
+  try {
+    set.Validate();
+  } catch (const std::exception& e) {
+    throw std::runtime_error("'" + npy_path + "': " + e.what());
+  }
+  return set;
+}
+
+ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
+  if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
+    ReferenceSet set = LoadYaml(files, path);
+    if (!name.empty()) set.name = name;
+    return set;
+  }
+  if (EndsWith(path, ".npy")) return LoadNpy(files, path, name);
+  files.read(path);  // a missing file is reported as missing
+  throw std::runtime_error(QuotedForMessage(path) +
+                           " is neither a reference-set .yaml (.yml) nor a descriptor .npy");
+}
+
+// FNV-1a, 64 bits: names a descriptor file by its content.
+uint64_t ContentHash(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (const char c : bytes) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// How a sidecar in `yaml_folder` (absolute, links resolved: a data directory's path) names
+// the folder `images`: relative to yaml_folder when it lies below it (or is it), else
+// absolute. `images` is compared as given and with its links resolved.
+std::string ImagesField(const std::string& images, const std::string& yaml_folder) {
+  namespace fs = std::filesystem;
+  const std::string absolute = AbsoluteFolder(images);
+  std::error_code ec;
+  for (const fs::path& p : {fs::path(absolute), fs::weakly_canonical(absolute, ec)}) {
+    const fs::path relative = p.lexically_relative(yaml_folder);
+    if (!relative.empty() && *relative.begin() != "..") return relative.string();
+  }
+  return absolute;
+}
+
+std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
+                        const std::string& yaml_folder) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << set.name;
+  if (!set.condition.empty()) out << YAML::Key << "condition" << YAML::Value << set.condition;
+  if (!set.descriptor_type.empty()) {
+    out << YAML::Key << "descriptor_type" << YAML::Value << set.descriptor_type;
+  }
+  out << YAML::Key << "dimension" << YAML::Value << set.dimension();
+  if (!set.distance.empty()) out << YAML::Key << "distance" << YAML::Value << set.distance;
+  out << YAML::Key << "descriptors" << YAML::Value << npy_name;
+  out << YAML::Key << "place_ids" << YAML::Value << YAML::Flow << set.place_ids;
+  if (!set.poses.empty()) {
+    out << YAML::Key << "poses" << YAML::Value << YAML::BeginSeq;
+    for (const PlacePose& p : set.poses) {
+      out << YAML::Flow << std::vector<double>{p.x_m, p.y_m, p.z_m, p.yaw_rad};
+    }
+    out << YAML::EndSeq;
+  }
+  if (!set.image_files.empty()) {
+    out << YAML::Key << "images" << YAML::Value << ImagesField(set.images, yaml_folder);
+    out << YAML::Key << "image_files" << YAML::Value << YAML::Flow << set.image_files;
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
+  return LoadYaml(Unconfined(), yaml_path);
+}
+
+ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name) {
+  return LoadNpy(Unconfined(), npy_path, name);
+}
+
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name) {
+  return LoadFile(Unconfined(), path, name);
+}
+
+ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
+                                  const std::string& name) {
+  return LoadFile(Below(dir), dir.Relative(request), name);
+}
+
+void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
+  const DataDirectory dir(DirName(yaml_path), /*create=*/true);
+  SaveReferenceSet(dir, set, BaseName(yaml_path), /*replace=*/true);
+}
+
+void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                      const std::string& yaml_request, bool replace) {
+  set.Validate();
+  const std::string yaml = dir.Relative(yaml_request);
+  if (!EndsWith(yaml, ".yaml")) {
+    throw std::invalid_argument("a reference set is saved as a .yaml, got " +
+                                QuotedForMessage(yaml_request));
+  }
+  if (!replace && dir.Exists(yaml)) {
+    throw std::invalid_argument(QuotedForMessage(yaml) +
+                                " exists already; choose another name (or ask to overwrite)");
+  }
+  // The descriptors go to a file named by their content, then the YAML that names them is
+  // renamed into place: that rename is the one step that replaces the old set by the new
+  // one, so an interruption anywhere leaves either the old pair or the new pair whole.
+  const std::string stem = yaml.substr(0, yaml.size() - 5);
+  const std::string bytes = EncodeNpyMatrix(set.descriptors);
+  char hash[17];
+  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ContentHash(bytes)));
+  const std::string npy = stem + "." + std::string(hash, 12) + ".npy";
+  std::string old_npy;
+  if (dir.Exists(yaml)) {
+    try {
+      const YAML::Node old = YAML::Load(dir.Read(yaml));
+      if (old.IsMap() && old["descriptors"]) {
+        old_npy = Below(dir).resolve(yaml, old["descriptors"].as<std::string>());
+      }
+    } catch (const std::exception&) {
+      // An unreadable old YAML: its descriptors are left where they are.
+    }
+  }
+  dir.WriteAtomically(npy, bytes);
+  try {
+    const std::string folder = DirName(yaml) == "." ? dir.path() : dir.path() + "/" + DirName(yaml);
+    dir.WriteAtomically(yaml, SidecarText(set, BaseName(npy), folder), replace);
+  } catch (...) {
+    if (npy != old_npy) dir.Remove(npy);
+    throw;
+  }
+  // The old descriptors, if they were this set's own file (<stem>.npy or <stem>.<hash>.npy).
+  if (!old_npy.empty() && old_npy != npy && old_npy.rfind(stem + ".", 0) == 0 &&
+      EndsWith(old_npy, ".npy") && old_npy.find('/', stem.size()) == std::string::npos) {
+    try {
+      dir.Remove(old_npy);
+    } catch (const std::exception&) {
+      // Left behind: the new pair is whole; the old file only takes space.
+    }
+  }
+}
+
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir) {
+  const std::string who = "reference set " + QuotedForMessage(set.name());
+  if (set.image_files().empty()) throw std::invalid_argument(who + " names no images");
+  if (row < 0 || row >= set.size()) {
+    throw std::invalid_argument(who + " has rows 0.." + std::to_string(set.size() - 1) + ", not " +
+                                std::to_string(row));
+  }
+  const std::string path = set.images() + "/" + set.image_files()[static_cast<size_t>(row)];
+  try {
+    if (dir != nullptr) {
+      const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
+      if (path.compare(0, below.size(), below) == 0) return dir->Read(path.substr(below.size()));
+    }
+    return ReadFile(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(who + " row " + std::to_string(row) + ": " + e.what());
+  }
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,151 @@
+#include "src/ros/common/conversions.h"
+
+#include <cmath>
+
+#include "bsf_vpr/core/sharding.h"
+
+namespace bsf_vpr {
+
+void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
+                 Belief* out) {
+  const PlaceBelief& b = r.belief;
+  const ReferenceMap& map = recognizer.map();
+  out->method = recognizer.options().method;
+  out->gamma = recognizer.options().method_options.selection.gamma_fraction;
+  out->num_places = map.num_places();
+  out->place_ids.clear();
+  out->posterior.clear();
+  if (b.log_posterior.size() > 0) {
+    if (belief_top_k == 0) {
+      out->place_ids.resize(static_cast<size_t>(b.log_posterior.size()));
+      out->posterior.resize(out->place_ids.size());
+      for (Eigen::Index i = 0; i < b.log_posterior.size(); ++i) {
+        out->place_ids[static_cast<size_t>(i)] = static_cast<int32_t>(i);
+        out->posterior[static_cast<size_t>(i)] = static_cast<float>(std::exp(b.log_posterior(i)));
+      }
+    } else {
+      for (int place : TopK(b.log_posterior, belief_top_k)) {
+        out->place_ids.push_back(place);
+        out->posterior.push_back(static_cast<float>(std::exp(b.log_posterior(place))));
+      }
+    }
+  } else {
+    out->place_ids.assign(b.top_places.begin(), b.top_places.end());
+  }
+  out->set_names.clear();
+  out->set_min_distances.clear();
+  for (int u = 0; u < map.num_sets(); ++u) {
+    out->set_names.push_back(map.set(u).name());
+    out->set_min_distances.push_back(b.selection.set_stats.at(static_cast<size_t>(u)).min);
+  }
+  out->selected_sets.clear();
+  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name());
+  out->used_sets.clear();
+  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name());
+  out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
+  out->missing_sets.clear();
+  for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name());
+  out->match = b.match;
+  out->confidence = b.confidence;
+  out->accepted = b.accepted;
+}
+
+geometry_msgs::Pose ToPoseMsg(const PlacePose& pose) {
+  geometry_msgs::Pose p;
+  p.position.x = pose.x_m;
+  p.position.y = pose.y_m;
+  p.position.z = pose.z_m;
+  p.orientation.z = std::sin(pose.yaw_rad / 2);
+  p.orientation.w = std::cos(pose.yaw_rad / 2);
+  return p;
+}
+
+void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out) {
+  out->place_id = r.belief.match;
+  out->confidence = r.belief.confidence;
+  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name() : "";
+  const std::optional<PlacePose> pose = map.PoseOf(r.belief.match);
+  out->has_pose = pose.has_value();
+  out->pose = pose ? ToPoseMsg(*pose) : geometry_msgs::Pose();
+  if (!pose) out->pose.orientation.w = 1;
+}
+
+void ToPoseWithCovarianceMsg(const PoseEstimate& e, geometry_msgs::PoseWithCovariance* out) {
+  out->pose = ToPoseMsg(e.mean);
+  out->covariance.fill(0.0);
+  // Row-major 6 x 6 over (x, y, z, rotation about x, y, z); the estimate is over (x, y, yaw).
+  constexpr int kIndex[3] = {0, 1, 5};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) out->covariance[6 * kIndex[i] + kIndex[j]] = e.covariance(i, j);
+  }
+  for (int k : {2, 3, 4}) out->covariance[6 * k + k] = kUnknownVariance;
+}
+
+geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ros::Time& stamp,
+                                                    const std::string& place_frame) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = match.header.frame_id;
+  t.child_frame_id = place_frame;
+  t.transform.translation.x = match.pose.position.x;
+  t.transform.translation.y = match.pose.position.y;
+  t.transform.translation.z = match.pose.position.z;
+  t.transform.rotation = match.pose.orientation;
+  return t;
+}
+
+ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
+  ReferenceSetInfo info;
+  info.name = set.name();
+  info.condition = set.condition();
+  info.descriptor_type = set.descriptor_type();
+  info.num_places = set.size();
+  info.dimension = set.dimension();
+  info.memory_bytes = set.MemoryBytes();
+  info.storage = ToString(set.precision());
+  return info;
+}
+
+ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {
+  ShardSet m;
+  m.name = set.name();
+  m.condition = set.condition();
+  m.descriptor_type = set.descriptor_type();
+  m.fingerprint = fingerprint;
+  m.dimension = set.dimension();
+  m.memory_bytes = set.MemoryBytes();
+  m.storage = ToString(set.precision());
+  m.place_ids.assign(set.place_ids().begin(), set.place_ids().end());
+  m.poses.reserve(4 * set.poses().size());
+  for (const PlacePose& p : set.poses()) {
+    m.poses.insert(m.poses.end(), {p.x_m, p.y_m, p.z_m, p.yaw_rad});
+  }
+  m.images = set.images();
+  m.image_files = set.image_files();
+  return m;
+}
+
+ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg) {
+  ReferenceSet set;
+  set.name = msg.name;
+  set.condition = msg.condition;
+  set.descriptor_type = msg.descriptor_type;
+  set.place_ids.assign(msg.place_ids.begin(), msg.place_ids.end());
+  if (!msg.poses.empty()) {
+    if (msg.poses.size() != 4 * msg.place_ids.size()) {
+      throw std::invalid_argument("shard set '" + msg.name + "' has " +
+                                  std::to_string(msg.poses.size()) + " pose values for " +
+                                  std::to_string(msg.place_ids.size()) +
+                                  " places (4 per place expected)");
+    }
+    for (size_t k = 0; k < msg.place_ids.size(); ++k) {
+      const double* p = &msg.poses[4 * k];
+      set.poses.push_back(PlacePose{p[0], p[1], p[2], p[3]});
+    }
+  }
+  set.images = msg.images;
+  set.image_files = msg.image_files;
+  return LayoutOnlySet(std::move(set));
+}
+
+}  // namespace bsf_vpr

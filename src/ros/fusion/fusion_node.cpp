@@ -1,0 +1,467 @@
+#include "src/ros/fusion/fusion_node.h"
+
+#include <cv_bridge/cv_bridge.h>
+
+#include <chrono>
+#include <opencv2/imgcodecs.hpp>
+
+#include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/ros/names.h"
+#include "src/ros/common/conversions.h"
+#include "src/ros/common/image_problem.h"
+#include "src/ros/common/service_queue.h"
+#include "src/ros/fusion/reconfigure_options.h"
+#include "src/ros/map/set_loading.h"
+
+namespace bsf_vpr {
+
+FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
+
+FusionNode::~FusionNode() {
+  // No callback may run on parts about to be destroyed (a nodelet unloaded while a
+  // descriptor waits for its pose on another thread): shutdown waits for a running one.
+  descriptor_sub_.shutdown();
+  recording_image_sub_.shutdown();
+  format_sub_.shutdown();
+  diagnostics_timer_.stop();
+  services_.clear();
+  if (load_spinner_) load_spinner_->stop();
+}
+
+void FusionNode::Start() {
+  params_ = LoadFusionParams(pnh_);
+  if (!params_.data_directory.empty()) {
+    data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
+    const int stale = data_dir_->RemoveStaleTemporaries();
+    if (stale > 0) {
+      ROS_WARN("bsf_vpr: removed %d temporary file(s) left in %s by an interrupted save", stale,
+               data_dir_->path().c_str());
+    }
+  }
+  recording_ = std::make_unique<Recording>(data_dir_.get());
+  if (!params_.shards.empty()) {
+    if (!params_.reference_sets.empty()) {
+      throw std::invalid_argument(
+          "a fusion node with shards fuses the shards' sets and holds none of its own: give "
+          "reference_sets to the shards (docs/sharding.md)");
+    }
+    if (params_.recognizer.first_stage.kind != "exact") {
+      ROS_WARN(
+          "bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
+          "distances",
+          params_.recognizer.first_stage.kind.c_str());
+      params_.recognizer.first_stage.kind = "exact";
+    }
+  }
+  LoadConfiguredSets(&params_, &recognizer_);
+  recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
+  PrepareFirstStage();
+  const Method& method = recognizer_.method();
+  if (!method.IsBayesian() && !method.sequence &&
+      params_.recognizer.method_options.max_match_distance == 0) {
+    ROS_WARN(
+        "bsf_vpr: method %s is gated by max_match_distance, which is 0: only a query "
+        "identical to a reference is accepted; set it to the largest distance to accept",
+        params_.recognizer.method.c_str());
+  }
+
+  RecognitionPublisherOptions publishing;
+  publishing.map_frame = params_.map_frame;
+  publishing.place_frame = params_.place_frame;
+  publishing.publish_tf = params_.publish_tf;
+  publishing.publish_pose = params_.publish_pose;
+  publishing.pose_min_std_m = params_.pose_min_std_m;
+  publishing.belief_top_k = params_.belief_top_k;
+  publishing.view = params_.view;
+  publishing.ground_truth_topic = params_.ground_truth_topic;
+  publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
+  odometry_ = std::make_unique<OdometryTracker>(
+      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
+  RobotPoseOptions pose_options;
+  pose_options.source = params_.pose_source;
+  pose_options.topic = params_.pose_topic;
+  pose_options.map_frame = params_.map_frame;
+  pose_options.base_frame = params_.base_frame;
+  robot_pose_ = std::make_unique<RobotPoseSource>(nh_, pose_options);
+  // Sharded map: the combiner exists before any service can ask for it (and decides
+  // queries from now on: what it calls exists).
+  if (!params_.shards.empty()) {
+    ShardCombiner::Callbacks callbacks;
+    callbacks.layout = [this](std::vector<ReferenceSet> sets, DistanceMetric metric,
+                              const std::string& why) {
+      OnShardLayout(std::move(sets), metric, why);
+    };
+    callbacks.query = [this](ShardCombiner::Query& query) { OnShardQuery(query); };
+    callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
+    std::lock_guard<std::mutex> lock(mutex_);  // its callbacks take it
+    combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
+                                                params_.queue_size, &mutex_, std::move(callbacks));
+  }
+  services_.push_back(
+      nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
+  {
+    // Its own queue and thread: reading a large set must not hold up the descriptors.
+    services_.push_back(AdvertiseOnQueue<LoadReferenceSet>(
+        nh_, names::kLoadReferenceSetService, &FusionNode::OnLoad, this, &load_queue_));
+    // On the same thread: with a sharded map both wait for the shard's new shard_info,
+    // which arrives on the node's own queue.
+    services_.push_back(AdvertiseOnQueue<UnloadReferenceSet>(
+        nh_, names::kUnloadReferenceSetService, &FusionNode::OnUnload, this, &load_queue_));
+    load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
+    load_spinner_->start();
+  }
+  // A combiner's query_place calls every shard: on the load queue's thread, so that a shard
+  // that does not answer holds up no descriptor (a single node's answers at once).
+  services_.push_back(AdvertiseOnQueue<QueryPlace>(nh_, names::kQueryPlaceService,
+                                                   &FusionNode::OnQuery, this,
+                                                   combiner_ ? &load_queue_ : nullptr));
+  services_.push_back(
+      nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
+  services_.push_back(
+      nh_.advertiseService(names::kStopRecordingService, &FusionNode::OnStopRecording, this));
+  services_.push_back(
+      nh_.advertiseService(names::kSelectionStatisticsService, &FusionNode::OnStatistics, this));
+
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<FusionConfig>>(pnh_);
+  reconfigure_->setCallback(
+      [this](FusionConfig& config, uint32_t level) { OnReconfigure(config, level); });
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+  diagnostics_->setHardwareID("bsf_vpr");
+  diagnostics_->add("fusion", this, &FusionNode::Diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
+    diagnostics_->update();  // publishes at ~diagnostic_period
+  });
+  last_diagnostics_ = ros::WallTime::now();
+
+  if (combiner_) {
+    ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
+             params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
+    return;
+  }
+  format_sub_ =
+      nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
+  // Always subscribed: the belief is state that must follow every query.
+  descriptor_sub_ =
+      nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
+                    &FusionNode::OnDescriptor, this);
+  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
+           params_.recognizer.method.c_str(), recognizer_.map().num_sets(),
+           recognizer_.map().num_places());
+}
+
+void FusionNode::RejectMessage(const std::string& why) {
+  ++rejected_;
+  last_rejection_ = why;
+  ROS_ERROR_THROTTLE(1.0, "bsf_vpr: dropped a descriptor: %s", why.c_str());
+}
+
+void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  format_ = msg;
+  CheckDescriptorFormat();
+}
+
+void FusionNode::CheckDescriptorFormat() {
+  const ReferenceMap& map = recognizer_.map();
+  std::string problem;
+  if (format_ && format_->dimension > 0 && map.num_sets() > 0 &&
+      map.dimension() != format_->dimension) {
+    std::string types;
+    for (const StoredReferenceSet& s : map.sets()) {
+      if (!s.descriptor_type().empty() && types.find(s.descriptor_type()) == std::string::npos) {
+        types += (types.empty() ? "" : ", ") + s.descriptor_type();
+      }
+    }
+    problem =
+        "descriptor_ingest sends " + std::to_string(format_->dimension) + "-d " +
+        (format_->descriptor_type.empty() ? std::string("descriptors")
+                                          : "'" + format_->descriptor_type + "' descriptors") +
+        " (" + format_->source + "); the reference sets hold " + std::to_string(map.dimension()) +
+        "-d ones" + (types.empty() ? "" : " (" + types + ")") +
+        ": no descriptor can be recognised. Load sets made with the ingest's describer "
+        "(bsf_make_reference --images <folder> --image-descriptor <the ingest's "
+        "image_descriptor>), or give the ingest the sets' describer or input:=descriptor";
+  }
+  if (problem != format_mismatch_ && !problem.empty()) ROS_ERROR("bsf_vpr: %s", problem.c_str());
+  if (problem.empty() && !format_mismatch_.empty()) {
+    ROS_INFO("bsf_vpr: the reference sets now match the ingest's descriptors");
+  }
+  format_mismatch_ = problem;
+}
+
+void FusionNode::FollowRecordingImages() {
+  const bool wanted = recording_->accepting() && recording_->saves_images();
+  if (wanted && !recording_image_sub_) {
+    recording_image_sub_ =
+        nh_.subscribe(names::kImageTopic, 10, &FusionNode::OnRecordingImage, this);
+  } else if (!wanted && recording_image_sub_) {
+    recording_image_sub_.shutdown();
+  }
+}
+
+void FusionNode::OnRecordingImage(const sensor_msgs::ImageConstPtr& msg) {
+  // Encoded without the lock: recognition goes on meanwhile.
+  std::vector<uchar> jpeg;
+  try {
+    if (!ImageProblem(*msg).empty()) return;  // the ingest reports bad images
+    const cv_bridge::CvImageConstPtr cv = cv_bridge::toCvShare(msg, "bgr8");
+    cv::imencode(".jpg", cv->image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "bsf_vpr: recording: cannot keep a camera image: %s", e.what());
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  recording_->AddImage(msg->header.stamp.toSec(), std::string(jpeg.begin(), jpeg.end()));
+}
+
+void FusionNode::CheckDescriptorType(const std::string& type) {
+  const std::string mismatch = DescriptorTypeMismatch(type, recognizer_.map());
+  if (mismatch.empty()) return;
+  type_mismatch_ = mismatch;
+  ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
+                    type_mismatch_.c_str());
+}
+
+void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
+  // A recording by pose waits for the robot's pose at the descriptor's stamp (up to
+  // pose_wait_s: a camera image is usually newer than the last pose), without the lock.
+  // Other recordings take a pose only if there is one already.
+  RecordingPlaces places = RecordingPlaces::kSequential;
+  bool recording = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    recording = recording_->accepting();
+    places = recording_->places();
+  }
+  PoseLookup pose;
+  if (recording && places != RecordingPlaces::kLocalized) {
+    pose = robot_pose_->PoseAt(msg->header.stamp,
+                               places == RecordingPlaces::kPose ? params_.pose_wait_s : 0.0);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
+  // Recording by localisation waits for the match; the other modes record every descriptor.
+  const bool localized =
+      recording_->accepting() && recording_->places() == RecordingPlaces::kLocalized;
+  // (A recording that started or changed mode between the two locks takes the next one.)
+  if (recording && recording_->accepting() && recording_->places() == places && !localized) {
+    if (!pose.pose && recording_->places() == RecordingPlaces::kPose) {
+      // Reported and counted by cause; recognition goes on.
+      const std::string cause = ToString(pose.loss);
+      recording_->NoteLost("no pose: " + cause);
+      ++pose_losses_[cause];
+      ROS_WARN_THROTTLE(1.0,
+                        "bsf_vpr: recording by pose: no pose of the robot at the descriptor's "
+                        "stamp from %s (%s: %s); not recorded",
+                        robot_pose_->Describe().c_str(), cause.c_str(), pose.detail.c_str());
+    } else {
+      try {
+        recording_->Add(d, msg->descriptor_type, pose.pose, std::nullopt,
+                        msg->header.stamp.toSec());
+      } catch (const std::exception& e) {
+        // Reported; recognition goes on (a recording must not stop localisation).
+        RejectMessage(std::string("recording: ") + e.what());
+      }
+    }
+  }
+  if (recognizer_.map().num_sets() == 0) {
+    if (!recording_->recording()) RejectMessage("no reference set is loaded");
+    return;
+  }
+  CheckDescriptorType(msg->descriptor_type);
+  Recognition r;
+  try {
+    r = recognizer_.Recognize(d, true, OdometryStep(msg->header.stamp));
+  } catch (const std::exception& e) {
+    RejectMessage(e.what());
+    return;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++processed_;
+  processing_s_sum_ += seconds;
+  processing_s_max_ = std::max(processing_s_max_, seconds);
+  if (localized && r.belief.accepted) {
+    try {
+      recording_->Add(d, msg->descriptor_type, std::nullopt,
+                      LocalizedPlace{r.belief.match, r.belief.confidence},
+                      msg->header.stamp.toSec());
+    } catch (const std::exception& e) {
+      RejectMessage(std::string("recording: ") + e.what());
+    }
+  }
+  counters_.Count(r, recognizer_.map());
+  publisher_->Publish(msg->header, r, recognizer_, seconds);
+}
+
+void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric,
+                               const std::string& why) {
+  // A new map from the shards' layouts, in their order; refused (thrown) as a load would be
+  // (poses that contradict, a method naming a set no shard holds is only logged).
+  RecognizerOptions options = recognizer_.options();
+  if (!sets.empty() && params_.distance_given() && metric != params_.recognizer.metric) {
+    throw std::invalid_argument("the shards use " + ToString(metric) + " distance, this node " +
+                                ToString(params_.recognizer.metric));
+  }
+  options.metric = metric;
+  PlaceRecognizer fresh(options);
+  fresh.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
+  for (ReferenceSet& set : sets) fresh.AddReferenceSet(std::move(set));
+  try {
+    fresh.SetOptions(options);
+  } catch (const std::exception& e) {
+    ROS_ERROR("bsf_vpr: %s", e.what());  // every query says so until the method is changed
+  }
+  recognizer_ = std::move(fresh);
+  params_.recognizer.metric = metric;
+  ROS_INFO(
+      "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
+      "afresh",
+      why.c_str(), recognizer_.map().num_sets(), recognizer_.map().num_places());
+}
+
+void FusionNode::OnShardQuery(ShardCombiner::Query& query) {
+  const auto start = std::chrono::steady_clock::now();
+  Recognition r;
+  try {
+    r = recognizer_.RecognizeDistances(query.distances, true, OdometryStep(query.header.stamp));
+  } catch (const std::exception& e) {
+    RejectMessage(e.what());
+    return;
+  }
+  // The core's own time: the slowest shard's distances and the fusion here.
+  const double seconds =
+      query.shard_seconds +
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++processed_;
+  processing_s_sum_ += seconds;
+  processing_s_max_ = std::max(processing_s_max_, seconds);
+  counters_.Count(r, recognizer_.map());
+  publisher_->Publish(query.header, r, recognizer_, seconds);
+}
+
+std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
+  const double spacing = params_.place_spacing_m > 0
+                             ? params_.place_spacing_m
+                             : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
+  return odometry_->StepPlaces(stamp, spacing);
+}
+
+void FusionNode::PrepareFirstStage() {
+  PrepareFirstStageOrFallBack(&recognizer_, &params_, &first_stage_error_);
+}
+
+double FusionNode::PlaceSpacing() const {
+  if (params_.place_spacing_m > 0) return params_.place_spacing_m;
+  const double median = recognizer_.map().MedianPlaceSpacing().value_or(1.0);
+  return median > 0 ? median : 1.0;
+}
+
+void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OptionTable<RecognizerOptions>& table = RecognizerOptionsTable();
+  dynamic_reconfigure::Config request;
+  config.__toMessage__(request);
+  MapOptionSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
+  RecognizerOptions o = recognizer_.options();
+  try {
+    table.Apply(source, &o, /*live_only=*/true);  // refuses values out of the table's bounds
+    // threshold_kind switched alone: the same threshold in the other kind's units.
+    Threshold& h = o.method_options.threshold;
+    const Threshold& before = recognizer_.options().method_options.threshold;
+    if (h.kind != before.kind && h.value == before.value) {
+      h = before.As(h.kind);
+      if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
+        throw std::invalid_argument(
+            "threshold_kind probability: log-odds " + std::to_string(before.value) +
+            " is a probability that rounds to 1; send threshold_kind probability with a "
+            "threshold below 1 (e.g. 0.999999), or keep log_odds");
+      }
+      ROS_INFO("bsf_vpr: threshold %g (%s) is %g as %s", before.value,
+               ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
+    }
+    recognizer_.SetOptions(o);
+    last_reconfigure_refusal_.clear();
+    ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
+             o.method.c_str(), o.method_options.selection.gamma_fraction,
+             ToString(o.method_options.selection.rule).c_str(),
+             ToString(o.method_options.likelihood.variant).c_str());
+  } catch (const std::exception& e) {
+    last_reconfigure_refusal_ = e.what();
+    ROS_ERROR("bsf_vpr: reconfiguration refused, keeping the previous settings: %s", e.what());
+  }
+  // Report what is in force (the previous values where the request was refused).
+  dynamic_reconfigure::Config now = ConfigFromValues(table.Values(recognizer_.options(), true));
+  config.__fromMessage__(now);
+}
+
+void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
+  const ReferenceMap& map = recognizer_.map();
+  if (!format_mismatch_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
+  } else if (rejected_ > 0 && processed_ == 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "every descriptor dropped (%d): %s",
+                    rejected_, last_rejection_.c_str());
+  } else if (rejected_ > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
+                    rejected_, last_rejection_.c_str());
+  } else if (!recording_->pending_reason().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "recording '" + recording_->name() +
+                       "' is pending after a failed stop: " + recording_->pending_reason());
+  } else if (combiner_ && !combiner_->MissingSummary().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "deciding without shard(s) " + combiner_->MissingSummary());
+  } else if (map.num_sets() == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
+  } else if (!first_stage_error_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "first stage pca failed, exact search instead: " + first_stage_error_);
+  } else if (!type_mismatch_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "recognising places");
+  }
+  // What arrived, what was recognised and what was dropped, each a rate of its own: a
+  // stream that arrives but is dropped whole shows as such.
+  status.add("received rate (Hz)", received_ / elapsed);
+  status.add("recognised rate (Hz)", processed_ / elapsed);
+  status.add("dropped rate (Hz)", rejected_ / elapsed);
+  status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
+  status.add("max processing time (ms)", 1e3 * processing_s_max_);
+  status.add("dropped descriptors", rejected_);
+  status.add("method", recognizer_.options().method);
+  if (!last_reconfigure_refusal_.empty()) {
+    status.add("last reconfiguration refused", last_reconfigure_refusal_);
+  }
+  status.add("distance", ToString(recognizer_.options().metric));
+  status.add("first stage", first_stage_error_.empty()
+                                ? recognizer_.distance_stage().Summary()
+                                : "exact: pca failed: " + first_stage_error_);
+  status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
+  status.add("loaded reference sets", map.num_sets());
+  status.add("places", map.num_places());
+  for (const StoredReferenceSet& s : map.sets()) {
+    const ReferenceSetUsage usage = counters_.Usage(s.name());
+    status.addf("selected: " + s.name(), "%.1f%% of %ld queries, mean weight %.3f",
+                100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);
+  }
+  recording_->Diagnose(status);
+  if (combiner_) combiner_->Diagnose(status);
+  for (const auto& [cause, n] : pose_losses_) {
+    status.add("descriptors not recorded, no pose: " + cause, n);
+  }
+  processed_ = rejected_ = received_ = 0;
+  type_mismatch_.clear();
+  processing_s_sum_ = processing_s_max_ = 0;
+  last_diagnostics_ = now;
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,148 @@
+// The fusion node: holds the M reference sets in memory, recognises the place of every
+// descriptor that arrives, and publishes the belief, the accepted matches, a tf frame for
+// the matched place, rviz markers and diagnostics. Services list, load and unload reference
+// sets, answer what-if queries, and record a new set from the incoming descriptors.
+//
+// FusionNode wires the parts beside it: RecognitionPublisher (the messages and tf of each
+// query), Recording (start_recording / stop_recording), OdometryTracker and
+// SelectionCounters; the service handlers are in fusion_services.cpp.
+//
+// Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
+// Every callback takes mutex_: services and reconfiguration may run while descriptors
+// stream in, from any thread. load_reference_set runs on a queue and thread of its own and
+// reads its files without the lock, so a large load never stops recognition.
+#pragma once
+
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/DescriptorFormat.h>
+#include <bsf_vpr/FusionConfig.h>
+#include <bsf_vpr/GetSelectionStatistics.h>
+#include <bsf_vpr/GetShardDistances.h>
+#include <bsf_vpr/ListReferenceSets.h>
+#include <bsf_vpr/LoadReferenceSet.h>
+#include <bsf_vpr/QueryPlace.h>
+#include <bsf_vpr/StartRecording.h>
+#include <bsf_vpr/StopRecording.h>
+#include <bsf_vpr/UnloadReferenceSet.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <ros/spinner.h>
+#include <sensor_msgs/Image.h>
+
+#include <Eigen/Core>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/io/data_directory.h"
+#include "src/ros/fusion/fusion_params.h"
+#include "src/ros/fusion/odometry_tracker.h"
+#include "src/ros/fusion/recognition_publisher.h"
+#include "src/ros/fusion/recording.h"
+#include "src/ros/fusion/robot_pose.h"
+#include "src/ros/fusion/selection_counters.h"
+#include "src/ros/map/shard_combiner.h"
+
+namespace bsf_vpr {
+
+class FusionNode {
+ public:
+  FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~FusionNode();
+
+  // Reads the parameters and loads the configured reference sets, then starts listening.
+  // Throws std::exception with a message naming the problem if the node cannot start.
+  void Start();
+
+ private:
+  void OnDescriptor(const Descriptor::ConstPtr& msg);
+  // Sharded map (parameter shards): the combiner's callbacks, with mutex_ held.
+  void OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric, const std::string& why);
+  void OnShardQuery(ShardCombiner::Query& query);
+  // load_reference_set / unload_reference_set on a combiner: the request goes to the shard
+  // (`shard`), and the answer comes once the shard's new shard_info is in the map. Called
+  // without mutex_.
+  template <typename Service>
+  bool RouteToShard(int shard, const std::string& service, Service* srv, std::string* message);
+  void QueryShards(QueryPlace::Request& req, QueryPlace::Response& res);
+  // The progress since the previous query in places, from odometry (nullopt without).
+  // Caller holds mutex_.
+  std::optional<double> OdometryStep(const ros::Time& stamp);
+  // The distance between places in metres: place_spacing_m, or the median spacing of the
+  // loaded place poses, or 1. Caller holds mutex_.
+  double PlaceSpacing() const;
+  // The first stage's index for the current sets (first_stage pca), built now and logged, so
+  // that the next descriptor does not wait for it (descriptors wait meanwhile: the map is
+  // under mutex_, which the caller holds). Never throws: a failed build (memory) falls back
+  // to exact search, logged and in diagnostics, the sets as they are.
+  void PrepareFirstStage();
+  void OnReconfigure(FusionConfig& config, uint32_t level);
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void RejectMessage(const std::string& why);
+
+  bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
+  bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res);
+  bool OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res);
+  bool OnQuery(QueryPlace::Request& req, QueryPlace::Response& res);
+  bool OnStartRecording(StartRecording::Request& req, StartRecording::Response& res);
+  bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res);
+  bool OnStatistics(GetSelectionStatistics::Request& req, GetSelectionStatistics::Response& res);
+
+  // Warns (log and diagnostics) when a descriptor's type differs from the loaded sets'.
+  void CheckDescriptorType(const std::string& type);
+  // The ingest's announced format (DescriptorFormat, latched) against the loaded sets: a
+  // dimension they do not have is an ERROR in the log and diagnostics at once, before any
+  // descriptor. Called when the format arrives and whenever the sets change; caller holds
+  // mutex_.
+  void OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg);
+  void CheckDescriptorFormat();
+  // Recording with save_images: the camera images, encoded and handed to the recording.
+  void OnRecordingImage(const sensor_msgs::ImageConstPtr& msg);
+  // Subscribes to the images while a recording takes them, and not otherwise. Caller holds
+  // mutex_.
+  void FollowRecordingImages();
+
+  ros::NodeHandle nh_, pnh_;
+  FusionParams params_;
+  std::mutex mutex_;
+  PlaceRecognizer recognizer_;
+  std::unique_ptr<DataDirectory> data_dir_;  // null: the file services are off
+  std::unique_ptr<Recording> recording_;     // over data_dir_
+  // load_reference_set's own queue and thread.
+  ros::CallbackQueue load_queue_;
+  std::unique_ptr<ros::AsyncSpinner> load_spinner_;
+
+  ros::Subscriber descriptor_sub_;
+  ros::Subscriber format_sub_;
+  ros::Subscriber recording_image_sub_;  // while a recording with save_images runs
+  DescriptorFormat::ConstPtr format_;    // the ingest's, once heard
+  std::unique_ptr<RecognitionPublisher> publisher_;
+  std::vector<ros::ServiceServer> services_;
+  std::unique_ptr<OdometryTracker> odometry_;
+  std::unique_ptr<RobotPoseSource> robot_pose_;  // for recording by pose
+  std::unique_ptr<ShardCombiner> combiner_;      // sharded map: null on a node with its sets
+  std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  // Statistics since the last diagnostics update (guarded by mutex_).
+  int processed_ = 0, rejected_ = 0, received_ = 0;
+  // Recording by pose: descriptors without a pose, by cause (since start).
+  std::map<std::string, long> pose_losses_;
+  // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
+  std::string format_mismatch_;
+  double processing_s_sum_ = 0, processing_s_max_ = 0;
+  std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
+  std::string last_rejection_;
+  std::string last_reconfigure_refusal_;  // "" since the last reconfiguration taken
+  std::string type_mismatch_;             // the last descriptor_type that differs from the sets'
+  SelectionCounters counters_;            // since start or the last statistics reset
+  ros::WallTime last_diagnostics_;
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,247 @@
+#include "src/ros/fusion/fusion_params.h"
+
+#include <ros/param.h>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include <algorithm>
+#include <optional>
+#include <stdexcept>
+
+namespace bsf_vpr {
+namespace {
+
+std::string Member(XmlRpc::XmlRpcValue& entry, const char* key, size_t index, bool required) {
+  if (!entry.hasMember(key)) {
+    if (required) {
+      throw std::invalid_argument("reference_sets[" + std::to_string(index) + "] has no '" + key +
+                                  "'");
+    }
+    return "";
+  }
+  if (entry[key].getType() != XmlRpc::XmlRpcValue::TypeString) {
+    throw std::invalid_argument("reference_sets[" + std::to_string(index) + "]." + key +
+                                " must be a string");
+  }
+  return static_cast<std::string>(entry[key]);
+}
+
+std::vector<ReferenceSetEntry> LoadReferenceSetEntries(RosParamSource& source) {
+  std::vector<ReferenceSetEntry> out;
+  std::optional<XmlRpc::XmlRpcValue> raw = source.GetRaw("reference_sets");
+  if (!raw) return out;
+  XmlRpc::XmlRpcValue& list = *raw;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    throw std::invalid_argument("reference_sets must be a list of {name, path, condition}");
+  }
+  for (int i = 0; i < list.size(); ++i) {
+    XmlRpc::XmlRpcValue& e = list[i];
+    const size_t idx = static_cast<size_t>(i);
+    if (e.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+      throw std::invalid_argument("reference_sets[" + std::to_string(idx) + "] is not a mapping");
+    }
+    for (auto it = e.begin(); it != e.end(); ++it) {
+      if (it->first != "name" && it->first != "path" && it->first != "condition") {
+        throw std::invalid_argument("reference_sets[" + std::to_string(idx) +
+                                    "] has unknown key '" + it->first +
+                                    "' (expected name, path, condition)");
+      }
+    }
+    out.push_back({Member(e, "name", idx, false), Member(e, "path", idx, true),
+                   Member(e, "condition", idx, false)});
+  }
+  return out;
+}
+
+std::vector<std::string> LoadShardNames(RosParamSource& source) {
+  std::vector<std::string> out;
+  std::optional<XmlRpc::XmlRpcValue> raw = source.GetRaw("shards");
+  if (!raw) return out;
+  XmlRpc::XmlRpcValue& list = *raw;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    throw std::invalid_argument("shards must be a list of shard names, e.g. [shard_0, shard_1]");
+  }
+  for (int i = 0; i < list.size(); ++i) {
+    if (list[i].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        static_cast<std::string>(list[i]).empty()) {
+      throw std::invalid_argument("shards[" + std::to_string(i) + "] is not a shard name");
+    }
+    const std::string name = static_cast<std::string>(list[i]);
+    if (std::find(out.begin(), out.end(), name) != out.end()) {
+      throw std::invalid_argument("shards names '" + name + "' twice");
+    }
+    out.push_back(name);
+  }
+  return out;
+}
+
+}  // namespace
+
+const OptionTable<FusionParams>& FusionParamsTable() {
+  static const OptionTable<FusionParams> kTable =
+      OptionTable<FusionParams>()
+          .AddExternal("reference_sets",
+                       "reference sets loaded at start: a list of {name, path, condition}. "
+                       "path is a descriptor .npy (then name is required) or a reference-set "
+                       ".yaml; relative paths are relative to data_directory. All sets share "
+                       "one descriptor dimension.",
+                       "[]")
+          .Add(
+              "data_directory", [](auto& p) -> auto& { return p.data_directory; },
+              "folder below which the load_reference_set, start_recording and "
+              "stop_recording services read and write files (created at start); paths that "
+              "escape it are refused. \"\" turns those services off (bsf_vpr.launch sets "
+              "it from its data_directory argument)")
+          .AddChoice(
+              "distance", [](auto& p) -> auto& { return p.distance; },
+              "distance between descriptors (not squared); \"\": the distance the sets "
+              "loaded at start declare (YAML distance:), or the first set loaded into "
+              "an empty node; else euclidean",
+              {"", "euclidean", "cosine"}, [](const std::string& v) { return v; })
+          .AddChoice(
+              "storage", [](auto& p) -> auto& { return p.storage; },
+              "precision every reference set is held at: float16 halves and int8 (one "
+              "scale per set) quarters the bytes and the time per query",
+              {"float32", "float16", "int8"}, ParseStoragePrecision)
+          .Include(
+              RecognizerOptionsTable(), [](auto& p) -> auto& { return p.recognizer; })
+          .Add(
+              "belief_top_k", [](auto& p) -> auto& { return p.belief_top_k; },
+              "places in each Belief message: 0 = all N places, else the K best", "places",
+              AtLeast(0))
+          .AddChoice(
+              "odometry_source", [](auto& p) -> auto& { return p.odometry_source; },
+              "progress between queries for +filter methods: none (the "
+              "filter_step_mean_places), topic (nav_msgs/Odometry on odometry_topic) "
+              "or tf (odom_frame -> base_frame)",
+              {"none", "topic", "tf"}, ParseOdometrySource)
+          .Add(
+              "odometry_topic", [](auto& p) -> auto& { return p.odometry_topic; },
+              "nav_msgs/Odometry topic when odometry_source is topic")
+          .Add(
+              "odom_frame", [](auto& p) -> auto& { return p.odom_frame; },
+              "odometry frame when odometry_source is tf")
+          .Add(
+              "base_frame", [](auto& p) -> auto& { return p.base_frame; },
+              "robot frame when odometry_source is tf")
+          .Add(
+              "place_spacing_m", [](auto& p) -> auto& { return p.place_spacing_m; },
+              "distance between places along the route: turns odometry into a step in places "
+              "(+filter), and spaces the places a recording by pose makes where the map has "
+              "none; 0: the median spacing of the loaded place poses (1 m without any)",
+              "m", AtLeast(0))
+          .AddChoice(
+              "pose_source", [](auto& p) -> auto& { return p.pose_source; },
+              "where the robot's pose in map_frame comes from when recording by pose: "
+              "tf (map_frame -> base_frame), topic (pose_topic) or none",
+              {"tf", "topic", "none"}, ParsePoseSource)
+          .Add(
+              "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
+              "the robot's pose in map_frame when pose_source is topic: nav_msgs/Odometry, "
+              "geometry_msgs/PoseStamped or geometry_msgs/PoseWithCovarianceStamped (the "
+              "type is taken from the publisher)")
+          .Add(
+              "pose_wait_s", [](auto& p) -> auto& { return p.pose_wait_s; },
+              "how long a descriptor waits for the robot's pose at its stamp (tf, or the "
+              "pose_topic message after it, interpolated): a camera image is usually newer "
+              "than the last pose; enough for a 10 Hz pose source by default",
+              "s", Between(0, 10))
+          .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
+                   {"place_spacing_m"})
+          .Add(
+              "place_pose_tolerance_m", [](auto& p) -> auto& { return p.place_pose_tolerance_m; },
+              "a reference set (loaded or recorded) that puts a place farther than this from "
+              "where the loaded sets have it is refused: its place ids belong to another map",
+              "m", Above(0))
+          .Add(
+              "map_frame", [](auto& p) -> auto& { return p.map_frame; },
+              "frame of the place poses, parent of place_frame")
+          .Add(
+              "place_frame", [](auto& p) -> auto& { return p.place_frame; },
+              "tf child frame broadcast at an accepted match that has a pose")
+          .Add(
+              "publish_tf", [](auto& p) -> auto& { return p.publish_tf; },
+              "broadcast map_frame -> place_frame on accepted matches")
+          .Add(
+              "publish_pose", [](auto& p) -> auto& { return p.publish_pose; },
+              "publish the robot's pose on pose (geometry_msgs/PoseWithCovarianceStamped in "
+              "map_frame, stamped as the query) for accepted matches whose places have poses: "
+              "the posterior-weighted mean and covariance of the place poses, for "
+              "robot_localization (pose0) or amcl (initialpose)")
+          .Add(
+              "pose_min_std_m", [](auto& p) -> auto& { return p.pose_min_std_m; },
+              "floor of that pose's standard deviation in x and y (a place stands for a "
+              "stretch of route); 0: half the median place spacing",
+              "m", AtLeast(0))
+          .Add(
+              "queue_size", [](auto& p) -> auto& { return p.queue_size; },
+              "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))
+          .Add(
+              "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
+              "distance between places drawn in rviz when they do not all have poses; 0: the "
+              "places are spread over marker_view_size_m",
+              "m", AtLeast(0))
+          .Add(
+              "marker_view_size_m", [](auto& p) -> auto& { return p.view.view_size_m; },
+              "size of the area the rviz view shows (rviz/bsf_vpr.rviz frames 100 m): markers "
+              "are sized for the smaller of it and the route's extent, and view_frame follows "
+              "the match on routes larger than it",
+              "m", Above(0))
+          .Add(
+              "marker_log_scale", [](auto& p) -> auto& { return p.view.log_scale; },
+              "belief bars and the match image's plot show log10 of the posterior over 4 "
+              "decades instead of the posterior")
+          .Add(
+              "view_frame", [](auto& p) -> auto& { return p.view.view_frame; },
+              "tf child of map_frame broadcast with the markers, which rviz/bsf_vpr.rviz "
+              "follows: at the route's centre when the route fits marker_view_size_m, else at "
+              "the match")
+          .Add(
+              "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
+              "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
+              "carry it): rviz and the match image mark the true places; \"\": none")
+          .Add(
+              "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
+              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0))
+          .AddExternal("shards",
+                       "sharded map (docs/sharding.md): the fusion shards whose sets this node "
+                       "fuses, a list of their names (resolved in this node's namespace, e.g. "
+                       "[shard_0, shard_1]); the map's set order is theirs, shard by shard. "
+                       "Empty: this node holds its own sets (reference_sets), the usual case",
+                       "[]")
+          .Add(
+              "shard_timeout", [](auto& p) -> auto& { return p.shard_timeout; },
+              "sharded map: how long a query waits for the shards that have not answered "
+              "after the first one did; then it is decided without their sets "
+              "(Belief.missing_sets)",
+              "s", Above(0));
+  return kTable;
+}
+
+FusionParams LoadFusionParams(RosParamSource& source) {
+  for (const char* retired : {"carry_prior", "prior_uniform_fraction"}) {
+    if (source.Has(retired)) {
+      throw std::invalid_argument(
+          std::string("parameter ") + retired +
+          " was removed: the +filter suffix carries the belief between queries (e.g. method: "
+          "bsf+filter, with filter_step_mean_places 0 for the former carry_prior)");
+    }
+  }
+  FusionParams p = LoadOptions(FusionParamsTable(), source);
+  p.reference_sets = LoadReferenceSetEntries(source);
+  p.shards = LoadShardNames(source);
+  source.RefuseUnread();
+  p.recognizer.metric = ParseDistanceMetric(p.distance_given() ? p.distance : "euclidean");
+  p.recognizer.Validate();
+  if (p.map_frame.empty() || p.place_frame.empty() || p.view.view_frame.empty()) {
+    throw std::invalid_argument("map_frame, place_frame and view_frame must not be empty");
+  }
+  p.view.map_frame = p.map_frame;
+  return p;
+}
+
+FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
+  RosParamSource source = RosParamSource::FromNodeHandle(pnh);
+  return LoadFusionParams(source);
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,82 @@
+// Parameters of the fusion node, read from its private namespace. FusionParamsTable()
+// declares each one (name, default, unit, doc, bounds); config/fusion.yaml, cfg/Fusion.cfg
+// and docs/options.md are written from it by bsf_options.
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_index.h"
+#include "bsf_vpr/core/place_recognizer.h"
+#include "src/ros/common/param_util.h"
+#include "src/ros/fusion/odometry_tracker.h"
+#include "src/ros/fusion/robot_pose.h"
+#include "src/ros/view/belief_view_options.h"
+
+namespace bsf_vpr {
+
+struct ReferenceSetEntry {
+  std::string name;       // required for a .npy; overrides a YAML's name if set
+  std::string path;       // descriptor .npy or reference-set .yaml
+  std::string condition;  // optional
+};
+
+struct FusionParams {
+  RecognizerOptions recognizer;
+  std::vector<ReferenceSetEntry> reference_sets;
+  std::string data_directory;  // services read and write files only below it (created)
+  // "euclidean" or "cosine"; "": the distance the sets loaded at start declare, or the
+  // first set loaded into an empty node (recognizer.metric holds the one in use).
+  std::string distance;
+  StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
+  std::string map_frame = "map";
+  std::string place_frame = "vpr_place";
+  bool publish_tf = true;
+  bool publish_pose = true;   // the robot's pose from accepted matches (pose_estimate.h)
+  double pose_min_std_m = 0;  // its x/y standard deviation's floor; 0: half the spacing
+  int belief_top_k = 0;       // 0: the belief message carries every place
+  int queue_size = 100;       // descriptors buffered before the oldest are dropped
+  // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.
+  BeliefViewOptions view;
+  std::string ground_truth_topic = "/vpr/ground_truth";  // "": no true places drawn
+  // Odometry for +filter methods: "none", "topic" (nav_msgs/Odometry on odometry_topic) or
+  // "tf" (odom_frame -> base_frame). The distance travelled between two queries divided by
+  // the place spacing (place_spacing_m, or the median spacing of the place poses when 0) is
+  // the filter's step for that query.
+  OdometrySource odometry_source = OdometrySource::kNone;
+  std::string odometry_topic = "odom";
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double place_spacing_m = 0;
+  // Recording by pose (start_recording places: pose): where the robot's pose in map_frame
+  // comes from (robot_pose.h: tf map_frame -> base_frame, or a pose topic), how long a
+  // descriptor waits for it, and how it is associated with the places
+  // (places.place_spacing_m is set from place_spacing_m).
+  PoseSource pose_source = PoseSource::kTf;
+  std::string pose_topic = "odometry/map";
+  double pose_wait_s = 0.2;
+  PlaceIndexOptions places;
+  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
+  double diagnostic_period = 1.0;      // seconds (diagnostic_updater reads it too)
+  // Sharded map (shard_combiner.h): the shards whose distances this node fuses, instead of
+  // holding sets of its own; a query waits shard_timeout for the shards that have not
+  // answered after the first did.
+  std::vector<std::string> shards;
+  double shard_timeout = 0.5;
+
+  bool distance_given() const { return !distance.empty(); }
+};
+
+// The declaration of every parameter (reference_sets, a list of mappings, is read by code
+// of its own).
+const OptionTable<FusionParams>& FusionParamsTable();
+
+// Reads and validates every parameter. Throws std::invalid_argument naming the parameter:
+// a wrong type, a bad value, or a key that no option read (a misspelt parameter would
+// otherwise be silently ignored).
+FusionParams LoadFusionParams(RosParamSource& source);
+FusionParams LoadFusionParams(const ros::NodeHandle& pnh);
+
+}  // namespace bsf_vpr

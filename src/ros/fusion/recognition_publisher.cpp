@@ -1,0 +1,68 @@
+#include "src/ros/fusion/recognition_publisher.h"
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+
+#include <utility>
+
+#include "bsf_vpr/core/pose_estimate.h"
+#include "bsf_vpr/ros/names.h"
+#include "src/ros/common/conversions.h"
+
+namespace bsf_vpr {
+
+RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle& pnh,
+                                           RecognitionPublisherOptions options,
+                                           const DataDirectory* data_dir)
+    : options_(std::move(options)),
+      view_(nh, pnh, options_.view, options_.ground_truth_topic, data_dir) {
+  belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, 10);
+  match_pub_ = nh.advertise<Match>(names::kMatchTopic, 10);
+  if (options_.publish_pose) {
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(names::kPoseTopic, 10);
+  }
+  if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+}
+
+void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recognition& r,
+                                   const PlaceRecognizer& recognizer, double seconds) {
+  auto belief = boost::make_shared<Belief>();
+  belief->header = header;
+  ToBeliefMsg(r, recognizer, options_.belief_top_k, belief.get());
+  belief->processing_time = seconds;
+  belief_pub_.publish(belief);
+  if (r.belief.accepted) {
+    auto match = boost::make_shared<Match>();
+    match->header = header;
+    match->header.frame_id = options_.map_frame;
+    ToMatchMsg(r, recognizer.map(), match.get());
+    match_pub_.publish(match);
+    if (tf_ && match->has_pose) {
+      const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
+      tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
+    }
+    if (options_.publish_pose) PublishPose(header, r, recognizer);
+  }
+  view_.Show(*belief, r, recognizer);
+}
+
+void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Recognition& r,
+                                       const PlaceRecognizer& recognizer) {
+  PoseEstimateOptions o;
+  const double spacing = recognizer.map().MedianPlaceSpacing().value_or(0.0);
+  o.min_std_m = options_.pose_min_std_m > 0 ? options_.pose_min_std_m : 0.5 * spacing;
+  if (!(o.min_std_m > 0)) o.min_std_m = 1.0;
+  const Method& method = recognizer.method();
+  // A +seq match is the sequence's end, and a distance method has no posterior: the pose is
+  // the match's, with the posterior's spread about it.
+  const bool centred = method.sequence || !method.IsBayesian();
+  const std::optional<PoseEstimate> e =
+      EstimatePose(r.belief, recognizer.map().place_poses(), centred, o);
+  if (!e) return;  // no pose at the match, or nothing finite
+  auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+  msg->header = header;
+  msg->header.frame_id = options_.map_frame;
+  ToPoseWithCovarianceMsg(*e, &msg->pose);
+  pose_pub_.publish(msg);
+}
+
+}  // namespace bsf_vpr

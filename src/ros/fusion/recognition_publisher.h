@@ -1,0 +1,61 @@
+// What the fusion node publishes for each recognised descriptor: the belief (always); the
+// match when accepted, with the tf frame map_frame -> place_frame at the matched place when
+// the place has a pose, and the robot's pose with its covariance (pose_estimate.h) for a
+// localiser to fuse; and what rviz shows of it (belief_view.h: markers, view frame, match
+// image) while someone listens. Topics are names.h's, advertised in the namespace of the node
+// handle given (the match image in the private one).
+//
+// Not thread-safe: the fusion node holds its lock.
+#pragma once
+
+#include <ros/node_handle.h>
+#include <ros/publisher.h>
+#include <std_msgs/Header.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <memory>
+#include <string>
+
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/io/data_directory.h"
+#include "src/ros/view/belief_view.h"
+
+namespace bsf_vpr {
+
+// Filled from the fusion parameters of the same names (fusion_params.h, which documents
+// them); fixed once the node has started.
+struct RecognitionPublisherOptions {
+  std::string map_frame;    // frame of the match, the markers and the tf parent
+  std::string place_frame;  // tf child frame at the matched place
+  bool publish_tf = false;
+  int belief_top_k = 0;            // 0: the belief lists every place
+  BeliefViewOptions view;          // its map_frame is map_frame
+  std::string ground_truth_topic;  // "": none
+  bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
+  // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
+  double pose_min_std_m = 0;
+};
+
+class RecognitionPublisher {
+ public:
+  // Advertises the topics on `nh` (and the match image on `pnh`). `data_dir` (may be null)
+  // is where reference images below it are read through; it must outlive the publisher.
+  RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle& pnh,
+                       RecognitionPublisherOptions options, const DataDirectory* data_dir);
+
+  // Publishes what `r` found for the descriptor whose header is `header`. `recognizer` is
+  // the one that found it (method, gamma, sets and place poses); `seconds` the time spent.
+  void Publish(const std_msgs::Header& header, const Recognition& r,
+               const PlaceRecognizer& recognizer, double seconds);
+
+ private:
+  void PublishPose(const std_msgs::Header& header, const Recognition& r,
+                   const PlaceRecognizer& recognizer);
+
+  RecognitionPublisherOptions options_;
+  ros::Publisher belief_pub_, match_pub_, pose_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
+  BeliefView view_;
+};
+
+}  // namespace bsf_vpr

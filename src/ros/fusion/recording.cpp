@@ -1,0 +1,237 @@
+#include "src/ros/fusion/recording.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+#include "bsf_vpr/io/reference_set_io.h"
+
+namespace bsf_vpr {
+namespace {
+
+// The YAML a recording named `name` is saved to, below `dir`. Throws std::invalid_argument
+// for a name that is not a plain path of printable parts.
+std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
+  if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
+  size_t start = 0;
+  for (;;) {
+    const size_t slash = name.find('/', start);
+    const std::string part = name.substr(start, slash == std::string::npos ? slash : slash - start);
+    if (part.empty() || part == "." || part == "..") {
+      throw std::invalid_argument("recording name " + QuotedForMessage(name) +
+                                  " has an empty, '.' or '..' part");
+    }
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
+}
+
+void CheckRecording(const ReferenceRecorder& recorder) {
+  if (!recorder.recording()) throw std::invalid_argument("no recording is running");
+}
+
+}  // namespace
+
+void Recording::Start(const std::string& name, const std::string& condition, bool overwrite,
+                      const ReferenceMap& loaded, RecordingPlaces places, bool save_images) {
+  if (!data_dir_) {
+    throw std::invalid_argument("no data directory is configured (parameter data_directory)");
+  }
+  if (recorder_.recording()) {
+    if (!pending_reason_.empty()) {
+      throw std::invalid_argument("the recording '" + recorder_.name() +
+                                  "' is pending: its stop failed (" + pending_reason_ +
+                                  "); call stop_recording to save it again, or stop_recording "
+                                  "{discard: true} to drop it, before starting another");
+    }
+    throw std::invalid_argument("the recording '" + recorder_.name() + "' is running (" +
+                                Summary() + "); stop it first (stop_recording)");
+  }
+  const std::string path = RecordingPath(*data_dir_, name);
+  if (loaded.IndexOf(name) >= 0) {
+    throw std::invalid_argument("a reference set named '" + name + "' is already loaded");
+  }
+  if (data_dir_->Exists(path) && !overwrite) {
+    throw std::invalid_argument("'" + path + "' exists in the data directory; choose another " +
+                                "name, or set overwrite to replace it");
+  }
+  if (places == RecordingPlaces::kLocalized && loaded.num_sets() == 0) {
+    throw std::invalid_argument(
+        "recording by localisation needs a loaded reference set to "
+        "localise against");
+  }
+  recorder_.Start(name, condition, loaded.dimension(), places);  // refuses a second one
+  overwrite_ = overwrite;
+  descriptor_type_.clear();
+  counts_ = Counts();
+  pending_reason_.clear();
+  save_images_ = save_images;
+}
+
+void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
+                    const std::string& descriptor_type, const std::optional<PlacePose>& pose,
+                    const std::optional<LocalizedPlace>& localized, double stamp_s) {
+  if (!pending_reason_.empty()) {
+    throw std::invalid_argument("the recording '" + recorder_.name() +
+                                "' is pending after a failed stop and takes no descriptor");
+  }
+  try {
+    recorder_.Add(descriptor, pose, localized);
+  } catch (const std::invalid_argument& e) {
+    if (recorder_.recording()) NoteLost(e.what());
+    throw;
+  }
+  ++counts_.received;
+  counts_.with_pose += pose.has_value();
+  if (!descriptor_type.empty()) descriptor_type_ = descriptor_type;
+  if (save_images_) {
+    stamps_.push_back(stamp_s);
+    images_.emplace_back();
+    for (auto it = early_images_.begin(); it != early_images_.end(); ++it) {
+      if (it->first == stamp_s) {
+        images_.back() = std::move(it->second);
+        early_images_.erase(it);
+        break;
+      }
+    }
+  }
+}
+
+void Recording::AddImage(double stamp_s, std::string encoded) {
+  if (!accepting() || !save_images_) return;
+  // The descriptor came first: one of the latest rows (the ingest is at most a few behind).
+  const size_t first = stamps_.size() > kEarlyImages ? stamps_.size() - kEarlyImages : 0;
+  for (size_t k = stamps_.size(); k-- > first;) {
+    if (stamps_[k] == stamp_s && images_[k].empty()) {
+      images_[k] = std::move(encoded);
+      return;
+    }
+  }
+  early_images_.emplace_back(stamp_s, std::move(encoded));
+  if (early_images_.size() > kEarlyImages) early_images_.pop_front();
+}
+
+std::string Recording::SaveImages(const std::vector<int>& source, ReferenceSet* set) const {
+  std::vector<std::string> files;
+  int missing = 0;
+  for (int row : source) {
+    const std::string& bytes = images_[static_cast<size_t>(row)];
+    missing += bytes.empty();
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06d%s", row,
+                  bytes.size() > 3 && bytes.compare(1, 3, "PNG") == 0 ? ".png" : ".jpg");
+    files.push_back(name);
+  }
+  if (missing > 0) {
+    return "saved without images: " + std::to_string(missing) + " of its " +
+           std::to_string(source.size()) + " places had no camera image with the descriptor's " +
+           "stamp (is the fusion node's image topic the camera's?)";
+  }
+  const std::string folder = recorder_.name() + "_images";
+  for (size_t k = 0; k < source.size(); ++k) {
+    data_dir_->WriteAtomically(folder + "/" + files[k], images_[static_cast<size_t>(source[k])]);
+  }
+  set->images = data_dir_->path() + "/" + folder;
+  set->image_files = std::move(files);
+  return "";
+}
+
+void Recording::NoteLost(const std::string& cause) {
+  if (!accepting()) return;
+  ++counts_.received;
+  ++counts_.lost[cause];
+}
+
+std::string Recording::Summary() const {
+  std::string s = "received " + std::to_string(counts_.received) + " descriptor(s)";
+  if (recorder_.places() == RecordingPlaces::kPose) {
+    s += ", " + std::to_string(counts_.with_pose) + " with a pose of the robot";
+  }
+  s += ", " + std::to_string(recorder_.count()) + " kept";
+  if (save_images_) {
+    const auto with_image = std::count_if(images_.begin(), images_.end(),
+                                          [](const std::string& i) { return !i.empty(); });
+    s += ", " + std::to_string(with_image) + " with an image";
+  }
+  if (!counts_.lost.empty()) {
+    s += " (lost:";
+    bool first = true;
+    for (const auto& [cause, n] : counts_.lost) {
+      s += (first ? " " : "; ") + std::to_string(n) + " " + cause;
+      first = false;
+    }
+    s += ")";
+  }
+  return s;
+}
+
+Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* loaded,
+                                 const PlaceIndexOptions& options) {
+  CheckRecording(recorder_);
+  if (recorder_.count() == 0) {
+    // Nothing to keep: the recording ends, and the answer says what arrived.
+    const std::string what = "nothing saved: recording '" + recorder_.name() + "' " + Summary();
+    End();
+    throw std::invalid_argument(what + "; the recording is ended: fix the cause and start again");
+  }
+  const std::string path = RecordingPath(*data_dir_, recorder_.name());
+  ReferenceRecorder::Map map;
+  map.options = options;
+  if (loaded) map.place_poses = loaded->place_poses();
+  // Built, saved, and only then forgotten: a save that fails keeps the recording, closed.
+  const auto keep = [&](const std::string& why) {
+    pending_reason_ = why;
+    return why + "; " + Summary() +
+           "; the recording is kept and takes no more descriptors: "
+           "call stop_recording again to retry, or stop_recording {discard: true} to drop it";
+  };
+  Saved saved;
+  std::vector<int> source;
+  try {
+    saved.set = recorder_.Build(descriptor_type_, map, &source);
+    saved.set.distance = ToString(distance);
+    if (loaded) loaded->CheckPlacePoses(saved.set);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(keep(std::string("the recording cannot be saved: ") + e.what()));
+  }
+  try {
+    if (save_images_) saved.note = SaveImages(source, &saved.set);
+    SaveReferenceSet(*data_dir_, saved.set, path, overwrite_);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(keep(std::string("saving failed: ") + e.what()));
+  }
+  End();
+  saved.path = data_dir_->path() + "/" + path;
+  return saved;
+}
+
+void Recording::Discard() {
+  CheckRecording(recorder_);
+  End();
+}
+
+void Recording::End() {
+  recorder_.Discard();
+  pending_reason_.clear();
+  stamps_.clear();
+  images_.clear();
+  early_images_.clear();
+}
+
+void Recording::CheckNotRecording(const std::string& set_name) const {
+  if (recorder_.recording() && recorder_.name() == set_name) {
+    throw std::invalid_argument("a reference set named '" + set_name + "' is being recorded");
+  }
+}
+
+void Recording::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
+  if (recorder_.recording()) {
+    status.addf("recording", "%s (places by %s): %s", recorder_.name().c_str(),
+                ToString(recorder_.places()).c_str(), Summary().c_str());
+    if (!pending_reason_.empty())
+      status.add("recording pending after a failed stop", pending_reason_);
+  }
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,277 @@
+#include "src/ros/fusion/robot_pose.h"
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "bsf_vpr/core/place_index.h"
+
+namespace bsf_vpr {
+namespace {
+
+constexpr double kHistoryS = 30.0;     // how far back topic poses are kept
+constexpr size_t kMaxSamples = 20000;  // and at most this many (a 500 Hz source)
+
+PlacePose FromPose(const geometry_msgs::Pose& p) {
+  return ToPlacePose(p.position.x, p.position.y, p.position.z, p.orientation.x, p.orientation.y,
+                     p.orientation.z, p.orientation.w);
+}
+
+}  // namespace
+
+PoseSource ParsePoseSource(const std::string& text) {
+  if (text == "none") return PoseSource::kNone;
+  if (text == "tf") return PoseSource::kTf;
+  if (text == "topic") return PoseSource::kTopic;
+  throw std::invalid_argument("pose_source must be tf, topic or none, got '" + text + "'");
+}
+
+std::string ToString(PoseSource source) {
+  switch (source) {
+    case PoseSource::kTf:
+      return "tf";
+    case PoseSource::kTopic:
+      return "topic";
+    case PoseSource::kNone:
+      break;
+  }
+  return "none";
+}
+
+std::string ToString(PoseLoss loss) {
+  switch (loss) {
+    case PoseLoss::kNone:
+      return "none";
+    case PoseLoss::kNoSource:
+      return "no pose source";
+    case PoseLoss::kNotYet:
+      return "no pose received yet";
+    case PoseLoss::kWaited:
+      return "no pose at or after the stamp within pose_wait_s";
+    case PoseLoss::kTooOld:
+      return "stamp older than the poses kept";
+    case PoseLoss::kGap:
+      return "gap in the poses around the stamp";
+    case PoseLoss::kFrame:
+      return "pose message in another frame";
+    case PoseLoss::kType:
+      return "pose message of another type";
+    case PoseLoss::kNotFinite:
+      return "pose not finite";
+  }
+  return "?";
+}
+
+PlacePose ToPlacePose(double x, double y, double z, double qx, double qy, double qz, double qw) {
+  PlacePose p;
+  p.x_m = x;
+  p.y_m = y;
+  p.z_m = z;
+  p.yaw_rad = std::atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz));
+  return p;
+}
+
+RobotPoseSource::RobotPoseSource(ros::NodeHandle nh, RobotPoseOptions options)
+    : options_(std::move(options)) {
+  if (options_.source == PoseSource::kTf) {
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+  } else if (options_.source == PoseSource::kTopic) {
+    ros::NodeHandle own(nh);
+    own.setCallbackQueue(&queue_);
+    sub_ = own.subscribe(options_.topic, 100, &RobotPoseSource::OnMessage, this);
+    spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
+    spinner_->start();
+  }
+}
+
+RobotPoseSource::~RobotPoseSource() {
+  if (spinner_) spinner_->stop();
+  sub_.shutdown();
+}
+
+std::string RobotPoseSource::Describe() const {
+  switch (options_.source) {
+    case PoseSource::kTf:
+      return "tf " + options_.map_frame + " -> " + options_.base_frame;
+    case PoseSource::kTopic:
+      return "topic " + sub_.getTopic();
+    case PoseSource::kNone:
+      break;
+  }
+  return "nowhere (pose_source none)";
+}
+
+void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) {
+  const std::string& type = msg->getDataType();
+  std_msgs::Header header;
+  PlacePose pose;
+  try {
+    if (type == "nav_msgs/Odometry") {
+      const auto m = msg->instantiate<nav_msgs::Odometry>();
+      header = m->header;
+      pose = FromPose(m->pose.pose);
+    } else if (type == "geometry_msgs/PoseStamped") {
+      const auto m = msg->instantiate<geometry_msgs::PoseStamped>();
+      header = m->header;
+      pose = FromPose(m->pose);
+    } else if (type == "geometry_msgs/PoseWithCovarianceStamped") {
+      const auto m = msg->instantiate<geometry_msgs::PoseWithCovarianceStamped>();
+      header = m->header;
+      pose = FromPose(m->pose.pose);
+    } else {
+      std::lock_guard<std::mutex> lock(mutex_);
+      bad_loss_ = PoseLoss::kType;
+      bad_message_ = sub_.getTopic() + " carries " + type +
+                     "; pose_topic takes nav_msgs/Odometry, geometry_msgs/PoseStamped or "
+                     "geometry_msgs/PoseWithCovarianceStamped";
+      return;
+    }
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bad_loss_ = PoseLoss::kType;
+    bad_message_ = std::string("unreadable pose message: ") + e.what();
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string frame = header.frame_id.size() > 1 && header.frame_id[0] == '/'
+                                ? header.frame_id.substr(1)
+                                : header.frame_id;
+  if (!frame.empty() && frame != options_.map_frame) {
+    bad_loss_ = PoseLoss::kFrame;
+    bad_message_ = sub_.getTopic() + " is in frame '" + frame + "', not map_frame '" +
+                   options_.map_frame + "'";
+    return;
+  }
+  if (!IsFinite(pose)) {
+    bad_loss_ = PoseLoss::kNotFinite;
+    bad_message_ = sub_.getTopic() + " sent a pose with NaN or infinity";
+    return;
+  }
+  if (!samples_.empty() && header.stamp < samples_.back().stamp) {
+    // Time went back far (a bag played again, a restarted simulation): the history is
+    // another. A message only a little late (a second publisher, a delay) is left out.
+    if ((samples_.back().stamp - header.stamp).toSec() <= options_.max_gap_s) return;
+    samples_.clear();
+  }
+  samples_.push_back({header.stamp, pose});
+  while (samples_.size() > kMaxSamples ||
+         (samples_.back().stamp - samples_.front().stamp).toSec() > kHistoryS) {
+    samples_.pop_front();
+  }
+  arrived_.notify_all();
+}
+
+PoseLookup RobotPoseSource::PoseAt(const ros::Time& stamp, double wait_s) {
+  switch (options_.source) {
+    case PoseSource::kTf:
+      return FromTf(stamp, wait_s);
+    case PoseSource::kTopic:
+      return FromTopic(stamp, wait_s);
+    case PoseSource::kNone:
+      break;
+  }
+  return {std::nullopt, PoseLoss::kNoSource, "pose_source is none"};
+}
+
+PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
+  std::string error;
+  PoseLookup out;
+  // Waits only for a pose that is on its way: tf has the frames, and its latest sample is
+  // less than max_gap_s before the stamp. Otherwise the answer is at once, so that a missing
+  // localiser costs recognition nothing.
+  if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp, ros::Duration(0),
+                                &error)) {
+    const bool coming =
+        error.find("future") != std::string::npos || error.find("only time") != std::string::npos;
+    ros::Time latest;
+    try {
+      latest = tf_buffer_->lookupTransform(options_.map_frame, options_.base_frame, ros::Time(0))
+                   .header.stamp;
+    } catch (const tf2::TransformException&) {
+    }
+    const bool recent = !latest.isZero() && (stamp - latest).toSec() < options_.max_gap_s;
+    if (!(coming && recent) || wait_s <= 0 ||
+        !tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp,
+                                  ros::Duration(wait_s), &error)) {
+      out.detail = error;
+      if (latest.isZero()) {
+        out.loss = PoseLoss::kNotYet;  // the frames are not (yet) connected
+      } else if (stamp < latest && !coming) {
+        out.loss = PoseLoss::kTooOld;
+      } else if (!recent) {
+        out.loss = PoseLoss::kGap;
+        out.detail = "the latest tf is " + std::to_string((stamp - latest).toSec()) +
+                     " s older than the descriptor (" + error + ")";
+      } else {
+        out.loss = PoseLoss::kWaited;
+      }
+      return out;
+    }
+  }
+  try {
+    const geometry_msgs::TransformStamped t =
+        tf_buffer_->lookupTransform(options_.map_frame, options_.base_frame, stamp);
+    const auto& v = t.transform.translation;
+    const auto& q = t.transform.rotation;
+    const PlacePose p = ToPlacePose(v.x, v.y, v.z, q.x, q.y, q.z, q.w);
+    if (!IsFinite(p)) return {std::nullopt, PoseLoss::kNotFinite, "tf gave NaN or infinity"};
+    out.pose = p;
+  } catch (const tf2::TransformException& e) {
+    out.loss = PoseLoss::kWaited;
+    out.detail = e.what();
+  }
+  return out;
+}
+
+PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  // Wait (on the wall clock: the poses come in real time) for a sample at or after the stamp,
+  // only while poses flow: the newest less than max_gap_s before the stamp. Otherwise the
+  // answer is at once, so that a missing localiser costs recognition nothing.
+  if (!samples_.empty() && (stamp - samples_.back().stamp).toSec() < options_.max_gap_s) {
+    arrived_.wait_until(lock, deadline, [&] { return samples_.back().stamp >= stamp; });
+  }
+  PoseLookup out;
+  if (samples_.empty()) {
+    out.loss = bad_loss_ != PoseLoss::kNone ? bad_loss_ : PoseLoss::kNotYet;
+    out.detail = bad_message_.empty() ? "nothing on " + sub_.getTopic() : bad_message_;
+    return out;
+  }
+  if (samples_.back().stamp < stamp) {
+    out.loss = (stamp - samples_.back().stamp).toSec() < options_.max_gap_s ? PoseLoss::kWaited
+                                                                            : PoseLoss::kGap;
+    out.detail = "the newest pose on " + sub_.getTopic() + " is " +
+                 std::to_string((stamp - samples_.back().stamp).toSec()) +
+                 " s older than the descriptor after waiting " + std::to_string(wait_s) + " s";
+    return out;
+  }
+  if (samples_.front().stamp > stamp) {
+    out.loss = PoseLoss::kTooOld;
+    out.detail = "the descriptor is older than the oldest pose kept";
+    return out;
+  }
+  PoseTrack track;
+  // The two samples around the stamp (the track is ascending).
+  auto after = std::lower_bound(samples_.begin(), samples_.end(), stamp,
+                                [](const Sample& s, const ros::Time& t) { return s.stamp < t; });
+  auto before = after;
+  if (after->stamp > stamp) --before;  // after != begin: front().stamp <= stamp
+  for (auto it = before; it != std::next(after); ++it) {
+    track.stamps_s.push_back(it->stamp.toSec());
+    track.poses.push_back(it->pose);
+  }
+  out.pose = InterpolatePose(track, stamp.toSec(), options_.max_gap_s);
+  if (!out.pose) {
+    out.loss = PoseLoss::kGap;
+    out.detail = "the poses around the stamp are " +
+                 std::to_string((after->stamp - before->stamp).toSec()) + " s apart";
+  }
+  return out;
+}
+
+}  // namespace bsf_vpr

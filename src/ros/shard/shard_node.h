@@ -1,0 +1,91 @@
+// A fusion shard: one part of a sharded map (docs/sharding.md). It holds some of the map's
+// reference sets and, for every descriptor, publishes the exact distances of the query to
+// each of them (bsf_vpr/ShardDistances on ~distances, stamped with the descriptor's header);
+// a fusion node with the parameter `shards` (the combiner) fuses every shard's distances
+// into the belief. The shard decides nothing: selection, fusion, the temporal prior and
+// sequence matching are the combiner's, so that its belief is bitwise the single node's.
+//
+// It reads the fusion node's parameters and uses those of the sets: reference_sets,
+// data_directory, distance, storage, place_pose_tolerance_m, first_stage* (a pca first
+// stage is per shard and no longer bitwise the single node's), queue_size and
+// diagnostic_period. What it holds is latched on ~shard_info (bsf_vpr/ShardInfo) and
+// published again on every change; ~list_reference_sets, ~load_reference_set,
+// ~unload_reference_set and ~get_distances serve the combiner (and operators).
+//
+// Every callback takes mutex_; load_reference_set reads its files on a thread of its own.
+#pragma once
+
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/GetShardDistances.h>
+#include <bsf_vpr/ListReferenceSets.h>
+#include <bsf_vpr/LoadReferenceSet.h>
+#include <bsf_vpr/ShardDistances.h>
+#include <bsf_vpr/UnloadReferenceSet.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <ros/spinner.h>
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/io/data_directory.h"
+#include "src/ros/fusion/fusion_params.h"
+
+namespace bsf_vpr {
+
+class ShardNode {
+ public:
+  ShardNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~ShardNode();
+
+  // Reads the parameters, loads the configured sets, publishes ~shard_info and starts
+  // listening. Throws std::exception naming the problem if the shard cannot start.
+  void Start();
+
+ private:
+  void OnDescriptor(const Descriptor::ConstPtr& msg);
+  // The query's distances to every set held, or the refusal in out->error. Caller holds
+  // mutex_.
+  void ComputeFor(const Descriptor& descriptor, ShardDistances* out);
+  // Publishes what the shard holds now (latched). Caller holds mutex_.
+  void PublishInfo();
+  // The first stage (first_stage pca) for the current sets; exact search if it fails.
+  // Caller holds mutex_.
+  void PrepareFirstStage();
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
+  bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res);
+  bool OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res);
+  bool OnCompute(GetShardDistances::Request& req, GetShardDistances::Response& res);
+
+  ros::NodeHandle nh_, pnh_;
+  FusionParams params_;
+  std::mutex mutex_;
+  PlaceRecognizer sets_;                // the shard's sets and their distances; decides nothing
+  std::vector<uint64_t> fingerprints_;  // SetFingerprint of each set of sets_.map()
+  std::unique_ptr<DataDirectory> data_dir_;  // null: load_reference_set is off
+  ros::CallbackQueue load_queue_;
+  std::unique_ptr<ros::AsyncSpinner> load_spinner_;
+
+  ros::Subscriber descriptor_sub_;
+  ros::Publisher distances_pub_, info_pub_;
+  std::vector<ros::ServiceServer> services_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  // Since the last diagnostics update (guarded by mutex_).
+  int processed_ = 0, rejected_ = 0;
+  double processing_s_sum_ = 0;
+  std::string last_rejection_;
+  std::string first_stage_error_;
+  std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
+  ros::WallTime last_diagnostics_;
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,102 @@
+#include "src/tools/benchmark/benchmark_large.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/place_recognizer.h"
+#include "src/tools/benchmark/benchmark_util.h"
+
+namespace bsf_vpr {
+namespace tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double ResidentMb() { return ResidentBytes() / 1e6; }
+
+// Uniform values in [-1, 1) from xorshift64*: a 4 GB map is made in seconds (a normal
+// generator would take minutes). Random rows have no low-dimensional structure, so the
+// first stage's error here is far worse than on real descriptors: this section measures
+// time only; the recall on real data is in docs/performance.md and the tests.
+RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
+  RowMatrixXf m(rows, cols);
+  uint64_t x = seed * 0x9E3779B97F4A7C15ull + 1;
+  for (Eigen::Index i = 0; i < m.size(); ++i) {
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    const uint64_t r = x * 0x2545F4914F6CDD1Dull;
+    m.data()[i] = static_cast<float>(static_cast<int64_t>(r >> 40) - (1 << 23)) / (1 << 23);
+  }
+  return m;
+}
+
+}  // namespace
+
+void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage) {
+  const int m = 10, n = 100000 / scale, d = 4096;
+  // int8 rows, plus one set at float32 while it is made and converted.
+  const double needed = (static_cast<double>(m) + 4.0) * n * d;
+  if (needed > 0.75 * AvailableBytes()) {
+    std::printf(
+        "large   M=%d N=%d D=%d int8: skipped (needs %.1f GB; %.1f GB is 3/4 of the "
+        "memory available)\n",
+        m, n, d, needed / 1e9, 0.75 * AvailableBytes() / 1e9);
+    return;
+  }
+  PlaceRecognizer recognizer;
+  recognizer.SetStoragePrecision(StoragePrecision::kInt8);
+  const double rss0 = ResidentMb();
+  auto t0 = Clock::now();
+  for (int u = 0; u < m; ++u) {
+    recognizer.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), Uniform(n, d, 100 + u)));
+  }
+  const double build_s = Ms(t0) / 1000;
+  const double map_mb = ResidentMb() - rss0;
+  const RowMatrixXf queries = Uniform(repeats + 1, d, 7);
+  // Median time of Recognize over `repeats` queries, after one warm-up query.
+  const auto time_queries = [&](PlaceRecognizer& r) {
+    int q = 0;
+    return TimeMs(repeats, [&] { r.Recognize(queries.row(q++).transpose(), false); });
+  };
+  const double exact_ms = time_queries(recognizer);
+
+  RecognizerOptions options;
+  options.first_stage = first_stage;
+  recognizer.SetOptions(options);
+  const double rss1 = ResidentMb();
+  t0 = Clock::now();
+  recognizer.PrepareFirstStage();
+  const double index_s = Ms(t0) / 1000;
+  const double index_mb = ResidentMb() - rss1;
+  const double pca_ms = time_queries(recognizer);
+  const ApproximateIndex& index = *recognizer.distance_stage().index();
+  // The first stage's distances alone, for the share fusion takes of a query.
+  std::vector<double> stage_ms;
+  for (int q = 0; q < repeats; ++q) {
+    const RowMatrixXf one = queries.row(q);
+    const auto start = Clock::now();
+    const std::vector<RowMatrixXf> dist =
+        index.Distances(DistanceMetric::kEuclidean, one, recognizer.map());
+    stage_ms.push_back(Ms(start));
+  }
+  std::printf(
+      "large   M=%d N=%d D=%d int8 (%.0f MB resident, made in %.1f s; random data: time only): "
+      "exact %.1f ms/query (%.1f queries/s) vs pca first stage (d'=%d, %d re-ranked per set; "
+      "index %.1f s, %.0f MB) %.1f ms/query (%.1f queries/s; its distances %.1f ms): %.1fx "
+      "faster\n",
+      m, n, d, map_mb, build_s, exact_ms, 1000 / exact_ms, index.dimensions(),
+      index.options().rerank, index_s, index_mb, pca_ms, 1000 / pca_ms, Median(stage_ms),
+      exact_ms / pca_ms);
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr

@@ -1,0 +1,180 @@
+// bsf_evaluate: offline evaluation of place recognition methods (see --help).
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include "bsf_vpr/evaluation/ground_truth_io.h"
+#include "bsf_vpr/evaluation/results_io.h"
+#include "src/tools/common/cli_util.h"
+#include "src/tools/evaluate/evaluate_args.h"
+#include "src/tools/evaluate/evaluate_ground_truth.h"
+#include "src/tools/evaluate/evaluate_inputs.h"
+#include "src/tools/evaluate/evaluate_results_bag.h"
+
+namespace {
+
+// --timings: wall time and cores busy (CPU time of all threads / wall time) per phase.
+class PhaseTimes {
+ public:
+  void End(const std::string& phase) {
+    const Point now = Now();
+    const double wall = now.wall - last_.wall, cpu = now.cpu - last_.cpu;
+    text_ += (text_.empty() ? "" : ", ") + phase + " " + Format(wall, 3) + " s (" +
+             Format(wall > 0 ? cpu / wall : 0.0, 2) + " cores)";
+    last_ = now;
+  }
+  std::string text() const { return text_; }
+
+ private:
+  struct Point {
+    double wall = 0, cpu = 0;
+  };
+  static Point Now() {
+    return {
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(),
+        bsf_vpr::tools::CpuSeconds(RUSAGE_SELF)};
+  }
+  static std::string Format(double v, int decimals) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    return buf;
+  }
+  Point last_ = Now();
+  std::string text_;
+};
+
+void Report(const std::vector<bsf_vpr::MethodResults>& results, const std::string& out_dir) {
+  std::cout << bsf_vpr::FormatSummaryTable(results);
+  if (!out_dir.empty()) {
+    bsf_vpr::WriteEvaluationOutputs(out_dir, results);
+    std::cout << "bsf_evaluate: wrote " << out_dir << "/summary.csv and " << out_dir
+              << "/matches/\n";
+  }
+}
+
+// The ground truth by position of a replay's queries that have a pose (`scored`, in query
+// order; the others are left out of the scores: where they were is unknown).
+struct BagMetricTruth {
+  bsf_vpr::GroundTruth truth;  // over the scored queries only
+  std::vector<int> scored;
+  std::string description;
+};
+
+BagMetricTruth MetricTruthOfBag(const bsf_vpr::tools::EvaluateArgs& args,
+                                const bsf_vpr::tools::ResultsBag& bag) {
+  using namespace bsf_vpr;
+  if (bag.num_poses == 0) {
+    throw std::invalid_argument("results bag '" + args.results_bag +
+                                "' holds no geometry_msgs/PoseStamped on " + args.pose_topic +
+                                ": --tolerance-m needs the query poses (bsf_make_bag --poses)");
+  }
+  const std::vector<std::optional<PlacePose>> place_poses =
+      tools::NodePlacePoses(args.references, bag.set_names, bag.num_places);
+  BagMetricTruth out;
+  std::vector<PlacePose> query_poses;
+  for (size_t k = 0; k < bag.query_poses.size(); ++k) {
+    if (!bag.query_poses[k]) continue;
+    out.scored.push_back(static_cast<int>(k));
+    query_poses.push_back(*bag.query_poses[k]);
+  }
+  if (out.scored.empty()) {
+    throw std::invalid_argument("no belief in '" + args.results_bag + "' has a pose on " +
+                                args.pose_topic + " with its header stamp (" +
+                                std::to_string(bag.num_poses) +
+                                " poses there): a query's pose must carry the query's stamp");
+  }
+  out.truth = GroundTruth::FromMetricTolerance(query_poses, place_poses, args.tolerance_m);
+  out.description = tools::DescribeMetricTruth(args.tolerance_m, args.pose_topic, place_poses);
+  return out;
+}
+
+// Scores the beliefs recorded during a replay exactly as the offline mode scores a method.
+int RunResultsBag(const bsf_vpr::tools::EvaluateArgs& args) {
+  using namespace bsf_vpr;
+  tools::ResultsBag bag =
+      tools::ReadResultsBag(args.results_bag, args.belief_topic, args.truth_topic,
+                            args.tolerance_m >= 0 ? args.pose_topic : "");
+  const int q = static_cast<int>(bag.outcomes.size());
+  GroundTruth truth;
+  std::string truth_description;
+  std::vector<QueryOutcome> scored = bag.outcomes;
+  if (args.tolerance_frames >= 0) {
+    truth = GroundTruth::FromFrameTolerance(q, bag.num_places, args.tolerance_frames);
+    truth_description = tools::DescribeFrameTruth(args.tolerance_frames);
+  } else if (args.tolerance_m >= 0) {
+    BagMetricTruth metric = MetricTruthOfBag(args, bag);
+    scored.clear();
+    for (int k : metric.scored) scored.push_back(bag.outcomes[static_cast<size_t>(k)]);
+    truth = std::move(metric.truth);
+    truth_description = metric.description;
+  } else if (!args.ground_truth.empty()) {
+    truth = ReadGroundTruthFile(args.ground_truth, q, bag.num_places);
+    truth_description = "the correct places listed in '" + args.ground_truth + "'";
+  } else if (bag.truth) {
+    truth = *bag.truth;
+    truth_description = "the correct places recorded on " + args.truth_topic;
+  } else {
+    throw std::invalid_argument(
+        "no ground truth: give --tolerance, --tolerance-m or --ground-truth, or record " +
+        args.truth_topic + " in the results bag");
+  }
+  MethodResults r;
+  r.method = ParseMethod(bag.method, bag.set_names);
+  r.metrics = ScoreOutcomes(scored, truth);
+  r.outcomes = std::move(bag.outcomes);  // all of them, for matches/<method>.csv
+  std::cout << "bsf_evaluate: results bag " << args.results_bag << ": " << q << " queries, method "
+            << bag.method;
+  if (bag.missing > 0) std::cout << ", " << bag.missing << " without a belief (counted as wrong)";
+  if (static_cast<int>(scored.size()) < q) {
+    std::cout << ", " << q - static_cast<int>(scored.size()) << " without a query pose on "
+              << args.pose_topic << " (left out of the scores)";
+  }
+  std::cout << "\nbsf_evaluate: ground truth: " << truth_description << "; "
+            << tools::CountTrueMatches(truth) << std::endl;
+  Report({r}, args.out_dir);
+  return 0;
+}
+
+int Run(int argc, char** argv) {
+  using namespace bsf_vpr;
+  const tools::EvaluateArgs args = tools::ParseEvaluateArgs(argc, argv);
+  if (args.help) {
+    std::cout << tools::EvaluateUsage();
+    return 0;
+  }
+  if (!args.results_bag.empty()) return RunResultsBag(args);
+  PhaseTimes times;
+  const auto data = tools::LoadEvaluationData(args);
+  times.End("load");
+  const std::vector<Method> methods = ParseMethodList(args.methods, data->input.set_names);
+  std::cout << "bsf_evaluate: " << data->description
+            << "\nbsf_evaluate: ground truth: " << data->truth_description << std::endl;
+
+  const auto start = std::chrono::steady_clock::now();
+  auto last_report = start;
+  std::function<void(int, int)> progress;
+  if (args.progress) {
+    progress = [&](int done, int total) {
+      const auto now = std::chrono::steady_clock::now();
+      if (done < total && now - last_report < std::chrono::seconds(2)) return;
+      last_report = now;
+      std::fprintf(stderr, "bsf_evaluate: %d/%d queries (%.1f s)\n", done, total,
+                   std::chrono::duration<double>(now - start).count());
+    };
+  }
+  const std::vector<MethodResults> results =
+      EvaluateMethods(data->input, methods, args.options, data->truth, progress);
+  times.End("distances, fusion and metrics");
+  Report(results, args.out_dir);
+  times.End("table and files");
+  if (args.timings) std::fprintf(stderr, "bsf_evaluate: timings: %s\n", times.text().c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return bsf_vpr::tools::RunTool("bsf_evaluate", Run, argc, argv); }

@@ -1,0 +1,249 @@
+#include "src/tools/evaluate/evaluate_inputs.h"
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <filesystem>
+#include <numeric>
+#include <optional>
+#include <stdexcept>
+#include <thread>
+
+#include "bsf_vpr/evaluation/ground_truth_io.h"
+#include "bsf_vpr/image/image_describer.h"
+#include "bsf_vpr/io/npy.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "src/tools/common/describer_flags.h"
+#include "src/tools/evaluate/evaluate_ground_truth.h"
+
+namespace bsf_vpr {
+namespace tools {
+namespace {
+
+bool IsFolder(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_directory(path, ec);
+}
+
+// Image folders are described with `describer`, built on first use (an ONNX model is then
+// loaded once for all the folders one loading thread describes, see LoadAllSets).
+ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
+                        const ImageDescriberOptions& options,
+                        std::unique_ptr<ImageDescriber>* describer) {
+  if (IsFolder(path)) {
+    if (!*describer) *describer = MakeImageDescriber(options);
+    return DescribeImageFolderAsSet(path, name, **describer);
+  }
+  return LoadReferenceSetFile(path, name);
+}
+
+// A distance declared by a reference-set (or query) YAML, and who declared it.
+struct DeclaredDistance {
+  std::string who;  // e.g. "reference set 'winter' (winter.yaml)"
+  std::string distance;
+};
+
+// Records the distance `set` declares, if any (a set without a declaration fits any
+// distance). Refuses a set meant for another distance than --distance, or, without
+// --distance, than the first declaration.
+void NoteDeclaredDistance(const EvaluateArgs& args, const std::string& who, const ReferenceSet& set,
+                          std::vector<DeclaredDistance>* declared) {
+  if (set.distance.empty()) return;
+  if (args.metric && set.distance != ToString(*args.metric)) {
+    throw std::invalid_argument(who + " is meant for " + set.distance +
+                                " distance but --distance is " + ToString(*args.metric));
+  }
+  if (!declared->empty() && set.distance != declared->front().distance) {
+    throw std::invalid_argument(declared->front().who + " declares " + declared->front().distance +
+                                " distance but " + who + " declares " + set.distance +
+                                ": give --distance euclidean|cosine");
+  }
+  declared->push_back({who, set.distance});
+}
+
+// The distance to compute: --distance, else the one the inputs declare, else euclidean;
+// `*how` says where it came from (for the description line).
+DistanceMetric ChooseMetric(const EvaluateArgs& args, const std::vector<DeclaredDistance>& declared,
+                            std::string* how) {
+  if (args.metric) return *args.metric;
+  if (declared.empty()) {
+    *how = " (the default: --distance not given and no input declares one)";
+    return DistanceMetric::kEuclidean;
+  }
+  const size_t more = declared.size() - 1;
+  *how = " (--distance not given: declared by " + declared[0].who +
+         (more > 0 ? " and " + std::to_string(more) + " more" : "") + ")";
+  return ParseDistanceMetric(declared[0].distance);
+}
+
+// The reference sets, then the query, loaded (read, decoded and validated) on up to two
+// threads at once; the first failure in argument order is thrown.
+std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
+  std::vector<NamedPath> inputs = args.references;
+  inputs.push_back({"query", args.query});
+  std::vector<ReferenceSet> sets(inputs.size());
+  std::vector<std::exception_ptr> errors(inputs.size());
+  std::atomic<size_t> next{0};
+  const auto work = [&] {
+    std::unique_ptr<ImageDescriber> describer;  // one per thread: describers are not shared
+    for (size_t i = next++; i < inputs.size(); i = next++) {
+      try {
+        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, &describer);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::thread second(work);
+  work();
+  second.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return sets;
+}
+
+void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
+  data->map.SetStoragePrecision(args.storage);
+  std::vector<DeclaredDistance> declared;
+  std::vector<ReferenceSet> sets = LoadAllSets(args);
+  ReferenceSet query = std::move(sets.back());
+  sets.pop_back();
+  for (size_t u = 0; u < sets.size(); ++u) {
+    const NamedPath& r = args.references[u];
+    NoteDeclaredDistance(args, "reference set '" + r.name + "' (" + r.path + ")", sets[u],
+                         &declared);
+    data->map.Add(std::move(sets[u]));
+  }
+  NoteDeclaredDistance(args, "query '" + args.query + "'", query, &declared);
+  std::string how;
+  const DistanceMetric metric = ChooseMetric(args, declared, &how);
+  if (query.dimension() != data->map.dimension()) {
+    throw std::invalid_argument("query '" + args.query + "' has dimension " +
+                                std::to_string(query.dimension()) + ", the reference sets have " +
+                                std::to_string(data->map.dimension()));
+  }
+  data->queries = std::move(query.descriptors);
+  data->query_poses = std::move(query.poses);
+  data->input.num_queries = static_cast<int>(data->queries.rows());
+  data->input.num_places = data->map.num_places();
+  for (const StoredReferenceSet& s : data->map.sets()) {
+    data->input.set_names.push_back(s.name());
+    data->input.place_ids.push_back(s.place_ids());
+  }
+  data->stage.SetOptions(args.first_stage);
+  data->stage.Prepare(data->map);  // the pca index, built once for the whole evaluation
+  data->input.distances = [data, metric](int begin, int end, std::vector<RowMatrixXf>* block) {
+    const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
+    *block = data->stage.Distances(metric, q, data->map);
+  };
+  data->description = std::to_string(data->map.num_sets()) + " reference set(s), " +
+                      std::to_string(data->map.num_places()) + " places, " +
+                      std::to_string(data->input.num_queries) + " queries, dimension " +
+                      std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
+                      " storage, " + ToString(metric) + " distance" + how +
+                      (data->stage.index() ? ", first stage " + data->stage.Summary() : "");
+}
+
+void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
+  std::vector<NamedPath> sources;
+  for (const NamedPath& p : args.distances) sources.push_back(p);
+  for (const NamedPath& p : args.similarities) sources.push_back(p);
+  for (const NamedPath& p : sources) {
+    for (const std::string& n : data->input.set_names) {
+      if (n == p.name) throw std::invalid_argument("source name '" + p.name + "' is given twice");
+    }
+    RowMatrixXf m = ReadNpyMatrix(p.path);
+    if (m.size() == 0) throw std::invalid_argument("'" + p.path + "' is an empty matrix");
+    if (!m.allFinite()) throw std::invalid_argument("'" + p.path + "' holds NaN or infinity");
+    if (!data->matrices.empty() &&
+        (m.rows() != data->matrices[0].rows() || m.cols() != data->matrices[0].cols())) {
+      throw std::invalid_argument("'" + p.path + "' is " + std::to_string(m.rows()) + " x " +
+                                  std::to_string(m.cols()) + ", the first source is " +
+                                  std::to_string(data->matrices[0].rows()) + " x " +
+                                  std::to_string(data->matrices[0].cols()));
+    }
+    data->matrices.push_back(std::move(m));
+    data->input.set_names.push_back(p.name);
+  }
+  const size_t num_dist = args.distances.size();
+  for (size_t u = 0; u < num_dist; ++u) {
+    if (data->matrices[u].minCoeff() < 0) {
+      throw std::invalid_argument("'" + args.distances[u].path +
+                                  "' holds negative distances (use --similarities for scores)");
+    }
+  }
+  std::vector<const RowMatrixXf*> sims;
+  for (size_t u = num_dist; u < data->matrices.size(); ++u) sims.push_back(&data->matrices[u]);
+  if (!sims.empty()) {
+    const float offset = SimilarityOffset(sims);
+    for (size_t u = num_dist; u < data->matrices.size(); ++u) {
+      SimilaritiesToDistances(offset, &data->matrices[u]);
+    }
+  }
+  data->input.num_queries = static_cast<int>(data->matrices[0].rows());
+  data->input.num_places = static_cast<int>(data->matrices[0].cols());
+  data->input.place_ids.assign(data->matrices.size(), {});
+  // Matrices of different techniques are different descriptors, each its own group.
+  data->input.groups.assign(data->matrices.size(), 0);
+  if (!args.same_descriptor) std::iota(data->input.groups.begin(), data->input.groups.end(), 0);
+  data->input.distances = [data](int begin, int end, std::vector<RowMatrixXf>* block) {
+    block->resize(data->matrices.size());
+    for (size_t u = 0; u < data->matrices.size(); ++u) {
+      (*block)[u] = data->matrices[u].middleRows(begin, end - begin);
+    }
+  };
+  data->description = std::to_string(data->matrices.size()) + " source matri" +
+                      (data->matrices.size() == 1 ? "x" : "ces") + ", " +
+                      std::to_string(data->input.num_places) + " places, " +
+                      std::to_string(data->input.num_queries) + " queries";
+}
+
+// --tolerance-m offline: query poses from --query-poses or the query YAML, place poses from
+// the reference sets.
+void LoadMetricTruth(const EvaluateArgs& args, EvaluationData* data) {
+  std::string query_source = "query '" + args.query + "'";
+  if (!args.query_poses.empty()) {
+    if (!data->query_poses.empty()) {
+      throw std::invalid_argument("query '" + args.query +
+                                  "' has poses of its own: --query-poses is for a query "
+                                  "without (a .npy or an image folder)");
+    }
+    data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
+    query_source = "'" + args.query_poses + "'";
+  } else if (data->query_poses.empty()) {
+    throw std::invalid_argument(
+        "--tolerance-m needs query poses: give --query-poses CSV, or the query as a YAML with "
+        "'poses'");
+  }
+  const std::vector<std::optional<PlacePose>> place_poses = PlacePosesOf(data->map);
+  data->truth = GroundTruth::FromMetricTolerance(data->query_poses, place_poses, args.tolerance_m);
+  data->truth_description = DescribeMetricTruth(args.tolerance_m, query_source, place_poses);
+}
+
+}  // namespace
+
+std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
+  auto data = std::make_unique<EvaluationData>();
+  if (!args.references.empty()) {
+    LoadDescriptors(args, data.get());
+  } else {
+    LoadMatrices(args, data.get());
+  }
+  if (args.tolerance_frames >= 0) {
+    data->truth = GroundTruth::FromFrameTolerance(data->input.num_queries, data->input.num_places,
+                                                  args.tolerance_frames);
+    data->truth_description = DescribeFrameTruth(args.tolerance_frames);
+  } else if (args.tolerance_m >= 0) {
+    LoadMetricTruth(args, data.get());
+  } else {
+    data->truth =
+        ReadGroundTruthFile(args.ground_truth, data->input.num_queries, data->input.num_places);
+    data->truth_description = "the correct places listed in '" + args.ground_truth + "'";
+  }
+  data->truth_description += "; " + CountTrueMatches(data->truth);
+  return data;
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr

@@ -1,0 +1,83 @@
+// EvaluateMethods: the offline evaluation of methods over blocks of queries, in parallel.
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "bsf_vpr/core/method_runner.h"
+#include "bsf_vpr/evaluation/evaluation_runner.h"
+#include "bsf_vpr/evaluation/synthetic.h"
+#include "test/core/test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+// Stateless methods run their queries on several threads: the outcomes must be exactly the
+// sequential ones, and an error in a worker must reach the caller.
+TEST(EvaluationRunner, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErrorsOn) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  EvaluationInput in;
+  in.num_queries = static_cast<int>(data.queries.rows());
+  in.num_places = data.map.num_places();
+  in.set_names = data.map.SetNames();
+  const std::vector<RowMatrixXf> all =
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
+  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
+  };
+  const Method bsf = ParseMethod("bsf", in.set_names);
+  std::vector<MethodResults> r;
+  {
+    const testing::ScopedDistanceThreads threads(3);
+    r = EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50);
+  }
+  MethodRunner sequential(bsf, {});
+  for (int q = 0; q < in.num_queries; ++q) {
+    const PlaceBelief b =
+        sequential.Step(QueryRowViews(all, q, {}), in.num_places, nullptr, std::nullopt, true);
+    const QueryOutcome& o = r[0].outcomes[static_cast<size_t>(q)];
+    ASSERT_EQ(o.match, b.match) << q;
+    ASSERT_EQ(o.confidence, b.confidence) << q;
+    ASSERT_EQ(o.top_places, b.top_places) << q;
+  }
+  std::vector<int> outside(static_cast<size_t>(in.num_places));
+  std::iota(outside.begin(), outside.end(), 0);
+  outside.back() = in.num_places + 5;  // a place id the map does not have
+  in.place_ids = {outside, outside, outside};
+  EXPECT_THROW(EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50), std::invalid_argument);
+}
+
+// With many places, fusion inside the evaluator's parallel queries runs its own parallel
+// step nested in theirs: it must neither deadlock nor change a result.
+TEST(EvaluationRunner, NestedParallelFusionInTheEvaluatorMatchesOneThread) {
+  const int n = 20000, q = 6;
+  std::vector<RowMatrixXf> all;
+  for (uint64_t u = 0; u < 3; ++u) {
+    all.push_back(testing::RandomMatrix(q, n, 40 + u).cwiseAbs());
+  }
+  EvaluationInput in;
+  in.num_queries = q;
+  in.num_places = n;
+  in.set_names = {"a", "b", "c"};
+  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
+  };
+  const GroundTruth truth = GroundTruth::FromFrameTolerance(q, n, 2);
+  const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
+  const testing::ScopedDistanceThreads threads(1);
+  const std::vector<MethodResults> one = EvaluateMethods(in, bsf, {}, truth, {}, 4);
+  threads.Set(2);
+  const std::vector<MethodResults> two = EvaluateMethods(in, bsf, {}, truth, {}, 4);
+  for (int k = 0; k < q; ++k) {
+    EXPECT_EQ(one[0].outcomes[static_cast<size_t>(k)].match,
+              two[0].outcomes[static_cast<size_t>(k)].match);
+    EXPECT_EQ(one[0].outcomes[static_cast<size_t>(k)].confidence,
+              two[0].outcomes[static_cast<size_t>(k)].confidence);
+  }
+}
+
+}  // namespace
+}  // namespace bsf_vpr

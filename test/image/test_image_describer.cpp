@@ -1,0 +1,168 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "bsf_vpr/image/image_describer.h"
+#include "bsf_vpr/io/npy.h"
+
+namespace bsf_vpr {
+namespace {
+
+const std::string kModels = std::string(BSF_SOURCE_DIR) + "/test/data/models/";
+const std::string kNordland = std::string(BSF_SOURCE_DIR) + "/data/nordland_64x32/";
+
+// Reads a serialised ONNX TensorProto (dims: field 1, data_type: field 2 = FLOAT,
+// raw_data: field 9, little-endian float32) into an N-d float cv::Mat.
+cv::Mat ReadTensorProto(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string b = ss.str();
+  size_t i = 0;
+  auto varint = [&]() {
+    uint64_t v = 0;
+    for (int shift = 0; i < b.size(); shift += 7) {
+      const uint8_t byte = static_cast<uint8_t>(b[i++]);
+      v |= static_cast<uint64_t>(byte & 0x7f) << shift;
+      if (!(byte & 0x80)) break;
+    }
+    return v;
+  };
+  std::vector<int> dims;
+  std::string raw;
+  while (i < b.size()) {
+    const uint64_t key = varint();
+    const int field = static_cast<int>(key >> 3), wire = static_cast<int>(key & 7);
+    if (wire == 0) {
+      const uint64_t v = varint();
+      if (field == 1) dims.push_back(static_cast<int>(v));
+    } else if (wire == 2) {
+      const size_t len = varint();
+      if (field == 1) {  // packed dims
+        const size_t end = i + len;
+        while (i < end) dims.push_back(static_cast<int>(varint()));
+      } else {
+        if (field == 9) raw = b.substr(i, len);
+        i += len;
+      }
+    } else if (wire == 5) {
+      i += 4;
+    } else if (wire == 1) {
+      i += 8;
+    } else {
+      throw std::runtime_error("unexpected wire type in " + path);
+    }
+  }
+  cv::Mat m(static_cast<int>(dims.size()), dims.data(), CV_32F);
+  if (raw.size() != m.total() * 4) throw std::runtime_error("size mismatch in " + path);
+  std::memcpy(m.ptr<float>(), raw.data(), raw.size());
+  return m;
+}
+
+TEST(Onnx, ConvAndMaxPoolReproduceTheirReferenceOutputs) {
+  for (const std::string model : {"conv2d", "maxpool2d"}) {
+    const cv::Mat input = ReadTensorProto(kModels + model + "/input_0.pb");
+    const cv::Mat expected = ReadTensorProto(kModels + model + "/output_0.pb");
+    const cv::Mat got = RunOnnxTensor(kModels + model + "/model.onnx", input);
+    ASSERT_EQ(got.total(), expected.total()) << model;
+    for (int d = 0; d < expected.dims; ++d) EXPECT_EQ(got.size[d], expected.size[d]) << model;
+    const cv::Mat g = got.reshape(1, 1), e = expected.reshape(1, 1);
+    EXPECT_LT(cv::norm(g, e, cv::NORM_INF), 1e-4) << model;
+  }
+}
+
+TEST(Onnx, CnnsDescribeRealImagesThroughThePreprocessingPath) {
+  const cv::Mat img = cv::imread(kNordland + "summer/images-01000.png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  for (const std::string model : {"resnet50_light", "squeezenet_light"}) {
+    ImageDescriberOptions o;
+    o.kind = ImageDescriberKind::kOnnx;
+    o.onnx.model_path = kModels + model + "/model.onnx";
+    const auto d = MakeImageDescriber(o);
+    EXPECT_EQ(d->dimension(), 1000) << model;  // [1,1000] and [1,1000,1,1] both flatten
+    const Eigen::VectorXf v = d->Describe(img);
+    ASSERT_EQ(v.size(), 1000);
+    EXPECT_TRUE(v.allFinite());
+    EXPECT_NEAR(v.norm(), 1.0f, 1e-4f);
+    EXPECT_EQ(d->descriptor_type(), "onnx_model_1000");  // named after the file
+  }
+}
+
+TEST(Onnx, PcaProjectsTheNetworkOutput) {
+  ImageDescriberOptions o;
+  o.kind = ImageDescriberKind::kOnnx;
+  o.onnx.model_path = kModels + "maxpool2d/model.onnx";
+  o.onnx.input_width_px = o.onnx.input_height_px = 7;
+  o.onnx.l2_normalize = false;
+  const cv::Mat img = cv::imread(kNordland + "winter/images-02000.png", cv::IMREAD_COLOR);
+  const Eigen::VectorXf raw = MakeImageDescriber(o)->Describe(img);
+  ASSERT_EQ(raw.size(), 3 * 4 * 4);
+  char tmpl[] = "/tmp/bsf_pca_XXXXXX";
+  const std::string dir = mkdtemp(tmpl);
+  RowMatrixXf pca = RowMatrixXf::Random(10, 48);
+  WriteNpyMatrix(dir + "/pca.npy", pca);
+  o.onnx.pca_path = dir + "/pca.npy";
+  const auto projected = MakeImageDescriber(o);
+  EXPECT_EQ(projected->dimension(), 10);
+  EXPECT_TRUE(projected->Describe(img).isApprox(pca * raw, 1e-4f));
+  WriteNpyMatrix(dir + "/bad.npy", RowMatrixXf::Random(10, 47));
+  o.onnx.pca_path = dir + "/bad.npy";
+  try {
+    MakeImageDescriber(o);
+    ADD_FAILURE() << "a PCA of the wrong width was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("10 x 47"), std::string::npos) << e.what();
+  }
+  std::remove((dir + "/pca.npy").c_str());
+  std::remove((dir + "/bad.npy").c_str());
+  rmdir(dir.c_str());
+}
+
+TEST(Onnx, AMissingOrBrokenModelFailsAtStartUpNamingTheFile) {
+  ImageDescriberOptions o;
+  o.kind = ImageDescriberKind::kOnnx;
+  o.onnx.model_path = "/nonexistent/netvlad.onnx";
+  try {
+    MakeImageDescriber(o);
+    ADD_FAILURE();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/netvlad.onnx"), std::string::npos);
+  }
+  o.onnx.model_path = kModels + "README.md";  // not a model
+  try {
+    MakeImageDescriber(o);
+    ADD_FAILURE();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("README.md"), std::string::npos) << e.what();
+  }
+  o.onnx.model_path = kModels + "conv2d/model.onnx";
+  o.onnx.mean = {0.5f};
+  EXPECT_THROW(MakeImageDescriber(o), std::invalid_argument);
+  EXPECT_THROW(ParseImageDescriberKind("netvlad"), std::invalid_argument);
+  for (const char* name : {"patchnorm", "hog", "onnx"}) {
+    EXPECT_EQ(ToString(ParseImageDescriberKind(name)), name);
+  }
+}
+
+TEST(Hog, DescribesImagesWithTheDocumentedDimension) {
+  ImageDescriberOptions o;
+  o.kind = ImageDescriberKind::kHog;
+  const auto d = MakeImageDescriber(o);
+  EXPECT_EQ(d->dimension(), 7 * 3 * 36);
+  const cv::Mat img = cv::imread(kNordland + "summer/images-01000.png", cv::IMREAD_COLOR);
+  const Eigen::VectorXf v = d->Describe(img);
+  ASSERT_EQ(v.size(), d->dimension());
+  EXPECT_TRUE(v.allFinite());
+  EXPECT_GT(v.norm(), 0);
+  EXPECT_EQ(d->Describe(cv::Mat::zeros(32, 64, CV_8UC1)).norm(), 0.0f);  // no gradients
+  o.hog.cell_px = 7;
+  EXPECT_THROW(MakeImageDescriber(o), std::invalid_argument);
+  EXPECT_EQ(d->descriptor_type(), "hog_64x32_c8_b9");
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,0 +1,235 @@
+// Reference sets in files (reference_set_io.h): the YAML sidecar and its .npy.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "bsf_vpr/io/file_util.h"
+#include "bsf_vpr/io/npy.h"
+#include "bsf_vpr/io/reference_set_io.h"
+#include "test/core/test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ReferenceSetIo : public testing::TempDirTest {};
+
+TEST_F(ReferenceSetIo, ReferenceSetYamlRoundTrips) {
+  ReferenceSet s;
+  s.name = "winter";
+  s.condition = "snow";
+  s.descriptor_type = "test_4";
+  s.distance = "cosine";
+  s.descriptors = testing::RandomMatrix(3, 4, 5);
+  s.place_ids = {4, 0, 7};
+  s.poses = {{1, 2, 3, 0.5}, {4, 5, 6, 0}, {7, 8, 9, -1}};
+  SaveReferenceSet(s, Path("winter.yaml"));
+  std::string npy;  // winter.<content hash>.npy, named by the YAML
+  for (const auto& e : fs::directory_iterator(dir_)) {
+    if (e.path().extension() == ".npy") npy = e.path().filename().string();
+  }
+  EXPECT_EQ(npy.rfind("winter.", 0), 0u) << npy;
+  EXPECT_EQ(npy.size(), std::string("winter.0123456789ab.npy").size()) << npy;
+  const ReferenceSet back = LoadReferenceSetFile(Path("winter.yaml"), "");
+  EXPECT_EQ(back.name, "winter");
+  EXPECT_EQ(back.condition, "snow");
+  EXPECT_EQ(back.distance, "cosine");
+  EXPECT_EQ(back.place_ids, s.place_ids);
+  ASSERT_EQ(back.poses.size(), 3u);
+  EXPECT_DOUBLE_EQ(back.poses[2].y_m, 8);
+  EXPECT_TRUE(back.descriptors.isApprox(s.descriptors));
+  EXPECT_EQ(LoadReferenceSetFile(Path(npy), "w2").name, "w2");
+}
+
+TEST_F(ReferenceSetIo, EmptyOrHugeShapesAreRefusedBeforeAllocatingAndNameTheFile) {
+  // Tiny files whose shapes would have allocated gigabytes of place ids.
+  for (const std::string shape : {"(1000000000, 0)", "(4294967296, 0)", "(0, 5)"}) {
+    WriteRaw("e.npy", Npy("{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }", 0));
+    try {
+      LoadReferenceSetNpy(Path("e.npy"), "e");
+      ADD_FAILURE() << shape;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("e.npy"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("no descriptors"), std::string::npos) << e.what();
+    }
+  }
+  // An empty matrix still round-trips through the generic reader and writer.
+  WriteNpyMatrix(Path("z.npy"), RowMatrixXf(0, 3));
+  EXPECT_EQ(ReadNpyMatrix(Path("z.npy")).cols(), 3);
+  // A missing file is called missing, whatever its extension.
+  try {
+    LoadReferenceSetFile(Path("missing.txt"), "m");
+    ADD_FAILURE();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(ReferenceSetIo, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"name: a\ndescriptors: d.npy\ncondtion: snow\n", "unknown key 'condtion'"},
+      {"descriptors: d.npy\n", "'name'"},
+      {"name: a\n", "'descriptors'"},
+      {"name: a\ndescriptors: d.npy\ndimension: 5\n", "dimension 5"},
+      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1]\n", "2 place_ids"},
+      {"name: a\ndescriptors: d.npy\nplace_ids: [0, 1, 1]\n", "two descriptors for place 1"},
+      {"name: a\ndescriptors: d.npy\nposes: [[0, 0, 0]]\n", "[x, y, z, yaw]"},
+      {"name: a\ndescriptors: d.npy\ndistance: hamming\n", "hamming"},
+      {"name: a\ndescriptors: gone.npy\n", "gone.npy"},
+      {"[1, 2", "bad.yaml"},
+  };
+  for (const auto& [text, expect] : bad) {
+    WriteRaw("bad.yaml", text);
+    try {
+      LoadReferenceSetFile(Path("bad.yaml"), "");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(LoadReferenceSetFile(Path("d.txt"), "x"), std::runtime_error);
+  EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
+}
+
+// A folder of image files (any content: only names and bytes matter here).
+void MakeImages(const std::string& folder, const std::vector<std::string>& names) {
+  fs::create_directories(folder);
+  for (const std::string& name : names) {
+    fs::create_directories(fs::path(folder + "/" + name).parent_path());
+    std::ofstream(folder + "/" + name) << "image " << name;
+  }
+}
+
+std::string Refusal(const std::string& yaml) {
+  try {
+    LoadReferenceSetFile(yaml, "");
+    return "accepted";
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+}
+
+TEST_F(ReferenceSetIo, ImagesNameTheFolderAndRowKIsItsKthImageByName) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  // Other files and folders, whatever their names, are not images of the set.
+  MakeImages(Path("imgs"), {"b.png", "a.jpg", "c.PNG", "notes.txt", "sub/x.png"});
+  fs::create_directory(Path("imgs/folder.png"));
+  for (const std::string& field :
+       {std::string("imgs"), std::string("imgs/"), std::string("./imgs/sub/.."), Path("imgs")}) {
+    WriteRaw("s.yaml", "name: s\ndescriptors: d.npy\nimages: " + field + "\n");
+    const ReferenceSet s = LoadReferenceSetFile(Path("s.yaml"), "");
+    EXPECT_EQ(s.images, Path("imgs")) << field;  // absolute, normalised
+    EXPECT_EQ(s.image_files, (std::vector<std::string>{"a.jpg", "b.png", "c.PNG"})) << field;
+  }
+  // A set without images has none.
+  WriteRaw("plain.yaml", "name: p\ndescriptors: d.npy\n");
+  const ReferenceSet plain = LoadReferenceSetFile(Path("plain.yaml"), "");
+  EXPECT_TRUE(plain.images.empty());
+  EXPECT_TRUE(plain.image_files.empty());
+  // image_files: any files below the folder, in the rows' order.
+  WriteRaw("l.yaml",
+           "name: l\ndescriptors: d.npy\nimages: imgs\n"
+           "image_files: [sub/x.png, notes.txt, a.jpg]\n");
+  const ReferenceSet listed = LoadReferenceSetFile(Path("l.yaml"), "");
+  EXPECT_EQ(listed.images, Path("imgs"));
+  EXPECT_EQ(listed.image_files, (std::vector<std::string>{"sub/x.png", "notes.txt", "a.jpg"}));
+}
+
+TEST_F(ReferenceSetIo, WrongImagesRefuseTheWholeSetNamingTheProblem) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  MakeImages(Path("imgs"), {"a.png", "b.png", "c.png", "d.png", "sub/x.png"});
+  MakeImages(Path("three"), {"a.png", "b.png", "c.png"});
+  MakeImages(Path("other"), {"a.png"});
+  WriteRaw("file.png", "");
+  const std::string head = "name: s\ndescriptors: d.npy\n";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"images: imgs\n",
+       "images: 'imgs' holds 4 image files for 3 descriptors; list each row's file with "
+       "image_files"},
+      {"images: nowhere\n", "images: '" + Path("nowhere") + "' is not a folder"},
+      {"images: file.png\n", "images: '" + Path("file.png") + "' is not a folder"},
+      {"images: ''\n", "'images' is empty"},
+      {"images: nowhere\nimage_files: [a.png, b.png, c.png]\n", "is not a folder"},
+      {"image_files: [a.png, b.png, c.png]\n", "'image_files' needs 'images'"},
+      {"images: imgs\nimage_files: [a.png, b.png]\n",
+       "images: 'image_files' lists 2 files for 3 descriptors"},
+      {"images: imgs\nimage_files: a.png\n", "'image_files' is not a list"},
+      {"images: imgs\nimage_files: [a.png, /etc/passwd, c.png]\n",
+       "image_files[1] '/etc/passwd' is absolute"},
+      {"images: imgs\nimage_files: [a.png, b.png, ../other/a.png]\n",
+       "image_files[2] '../other/a.png' has a '..' part"},
+      {"images: imgs\nimage_files: [a.png, sub/../../other/a.png, c.png]\n", "'..' part"},
+      {"images: imgs\nimage_files: [a.png, gone.png, c.png]\n",
+       "image_files[1] 'gone.png' is not a file in images 'imgs'"},
+      {"images: imgs\nimage_files: [a.png, b.png, nosub/x.png]\n",
+       "image_files[2] 'nosub/x.png' is not a file in images 'imgs'"},
+      {"images: imgs\nimage_files: [a.png, b.png, sub]\n", "image_files[2] 'sub' is not a file"},
+      {"images: imgs\nimage_files: [a.png, b.png, '']\n", "image_files[2] is empty"},
+  };
+  for (const auto& [text, fragment] : bad) {
+    WriteRaw("s.yaml", head + text);
+    const std::string why = Refusal(Path("s.yaml"));
+    EXPECT_NE(why.find("reference set file '" + Path("s.yaml") + "'"), std::string::npos) << why;
+    EXPECT_NE(why.find(fragment), std::string::npos) << text << "\n" << why;
+  }
+  // The same folder with the right count, or a list, is accepted.
+  WriteRaw("s.yaml", head + "images: three\n");
+  EXPECT_EQ(LoadReferenceSetFile(Path("s.yaml"), "").image_files.size(), 3u);
+  WriteRaw("s.yaml", head + "images: imgs\nimage_files: [d.png, sub/x.png, a.png]\n");
+  EXPECT_EQ(LoadReferenceSetFile(Path("s.yaml"), "").image_files[1], "sub/x.png");
+}
+
+// The `images:` line a saved YAML holds.
+std::string ImagesLine(const std::string& yaml) {
+  std::ifstream in(yaml);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("images:", 0) == 0) return line;
+  }
+  return "";
+}
+
+TEST_F(ReferenceSetIo, SavedImagesRoundTripRelativeBelowTheYamlElseAbsolute) {
+  MakeImages(Path("sets/imgs"), {"a.png", "b.png", "c d.png", "sub/e.png"});
+  MakeImages(Path("elsewhere"), {"a.png", "b.png", "c d.png", "sub/e.png"});
+  ReferenceSet s = MakeReferenceSet("s", testing::RandomMatrix(3, 4, 5));
+  const std::vector<std::string> files = {"c d.png", "sub/e.png", "a.png"};  // not in order
+  const struct {
+    std::string images, loaded, line;
+    std::vector<std::string> files;
+  } cases[] = {
+      {Path("sets/imgs"), Path("sets/imgs"), "images: imgs", files},
+      {Path("sets/./x/../imgs/"), Path("sets/imgs"), "images: imgs", files},
+      {Path("elsewhere"), Path("elsewhere"), "images: " + Path("elsewhere"), files},
+      // The YAML's own folder.
+      {Path("sets"), Path("sets"), "images: .", {"imgs/c d.png", "imgs/sub/e.png", "imgs/a.png"}},
+  };
+  for (const auto& c : cases) {
+    s.images = c.images;
+    s.image_files = c.files;
+    SaveReferenceSet(s, Path("sets/s.yaml"));
+    EXPECT_EQ(ImagesLine(Path("sets/s.yaml")), c.line) << c.images;
+    const ReferenceSet back = LoadReferenceSetFile(Path("sets/s.yaml"), "");
+    EXPECT_EQ(back.images, c.loaded) << c.images;
+    EXPECT_EQ(back.image_files, c.files) << c.images;
+    EXPECT_EQ(back.place_ids, s.place_ids);
+  }
+  // image_files are written explicitly, as a flow list.
+  s.images = Path("sets/imgs");
+  s.image_files = {"a.png", "b.png", "c d.png"};  // the folder's order: still listed
+  SaveReferenceSet(s, Path("sets/s.yaml"));
+  const std::string text = ReadFile(Path("sets/s.yaml"));
+  EXPECT_NE(text.find("image_files: [a.png, b.png, c d.png]"), std::string::npos) << text;
+  // A set without images writes neither key.
+  SaveReferenceSet(MakeReferenceSet("p", testing::RandomMatrix(3, 4, 5)), Path("sets/p.yaml"));
+  EXPECT_EQ(ReadFile(Path("sets/p.yaml")).find("image"), std::string::npos);
+  // An invalid set is not saved.
+  s.image_files.pop_back();
+  EXPECT_THROW(SaveReferenceSet(s, Path("sets/bad.yaml")), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(Path("sets/bad.yaml")));
+}
+
+}  // namespace
+}  // namespace bsf_vpr

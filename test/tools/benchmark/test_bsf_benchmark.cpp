@@ -1,0 +1,99 @@
+// Smoke test of bsf_benchmark, built with the benchmark part (when FAISS and OpenBLAS are
+// found): every section runs on tiny shapes; no timing is asserted.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "test/tools/tool_test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+using testing::Result;
+using testing::RunCommand;
+
+TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
+  const Result r = RunCommand(std::string(BSF_BENCHMARK_PATH) + " --quick --repeats 1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* fragment : {"fusion  M=3 N=300",
+                               "faster",
+                               "the memory limit",
+                               "FAISS's time",
+                               "of the GEMM throughput",
+                               "scaling     1000",
+                               "int8",
+                               "float32's time",
+                               "NumPy + OpenBLAS",
+                               "cores busy",
+                               "bsf_evaluate's phases: load",
+                               "describe  10 images of 256x144",
+                               "cv::imdecode",
+                               "patchnorm_64x32_p8       input 64x32, D=2048",
+                               "hog_64x32_c8_b9          input 64x32",
+                               "onnx resnet50_light      input 224x224, D=1000",
+                               "onnx squeezenet_light",
+                               "x the resize",
+                               "large   M=10 N=1000 D=4096 int8",
+                               "vs pca first stage (d'=256",
+                               "pca ms/query   speed-up"}) {
+    EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
+  }
+  EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("RESULTS DIFFER"), std::string::npos) << r.output;
+  EXPECT_EQ(RunCommand(std::string(BSF_BENCHMARK_PATH) + " --sections warp").exit_code, 2);
+  const Result no_images = RunCommand(std::string(BSF_BENCHMARK_PATH) +
+                                      " --quick --sections describe --images /nonexistent");
+  EXPECT_EQ(no_images.exit_code, 2) << no_images.output;
+  EXPECT_NE(no_images.output.find("/nonexistent"), std::string::npos) << no_images.output;
+  const Result int8 = RunCommand(std::string(BSF_BENCHMARK_PATH) +
+                                 " --quick --repeats 1 --sections scaling --storage int8");
+  ASSERT_EQ(int8.exit_code, 0) << int8.output;
+  EXPECT_NE(int8.output.find("scaling (int8 storage;"), std::string::npos) << int8.output;
+}
+
+// The NumPy baseline is the same method: on real data (Gardens Point HDC-DELF, night
+// against day, cosine, +-8 places) it gives bsf_evaluate's table, and the same matches.
+TEST(BenchmarkTool, NumPyBaselineGivesBsfEvaluatesResultsOnRealData) {
+  const std::string data = std::string(BSF_SOURCE_DIR) + "/data/gardens_point_hdc_delf/";
+  const std::string inputs = " --reference day=" + data + "day_left.npy --query " + data +
+                             "night_right.npy --tolerance 8 --distance cosine";
+  const std::string dir = ::testing::TempDir() + "numpy_bsf_check";
+  const Result ours = RunCommand(std::string(BSF_EVALUATE_PATH) + inputs +
+                                 " --methods bsf --no-progress --out " + dir + "/ours");
+  ASSERT_EQ(ours.exit_code, 0) << ours.output;
+  const Result numpy =
+      RunCommand("PATH=/usr/bin:$PATH /usr/bin/python3 " + std::string(BSF_SOURCE_DIR) +
+                 "/scripts/numpy_bsf" + inputs + " --out " + dir + "/numpy");
+  ASSERT_EQ(numpy.exit_code, 0) << numpy.output;
+  const auto table_row = [](const std::string& out) {
+    const size_t at = out.find("\nbsf ");
+    return at == std::string::npos ? std::string()
+                                   : out.substr(at + 1, out.find('\n', at + 1) - at - 1);
+  };
+  const auto numbers = [](std::string row) {
+    std::stringstream in(row.substr(3));
+    std::vector<double> v;
+    for (double x; in >> x;) v.push_back(x);
+    return v;
+  };
+  const std::vector<double> a = numbers(table_row(ours.output)),
+                            b = numbers(table_row(numpy.output));
+  ASSERT_EQ(a.size(), 6u) << ours.output;
+  ASSERT_EQ(b.size(), 6u) << numpy.output;
+  for (size_t k = 0; k < a.size(); ++k)
+    EXPECT_NEAR(a[k], b[k], 1e-9) << ours.output << numpy.output;
+  EXPECT_GT(a[2], 0.5) << "R@1 on Gardens Point: " << ours.output;
+  const auto matches = [](const std::string& path) {
+    std::ifstream in(path);
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);) out.push_back(line.substr(0, line.rfind(',')));
+    return out;
+  };
+  EXPECT_EQ(matches(dir + "/ours/matches/bsf.csv"), matches(dir + "/numpy/matches/bsf.csv"));
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -1,6 +1,8 @@
-// The online place recogniser: M reference sets in memory and one method, which may carry
-// state from one query to the next (+filter: the previous posterior; +seq: the last L cost
-// vectors). This is what the fusion node wraps.
+// The online place recogniser of one process: M reference sets in memory (ReferenceMap),
+// their distances to a query (DistanceStage) and the decision (PlaceDecider), which may
+// carry state from one query to the next (+filter: the previous posterior; +seq: the last L
+// cost vectors). The offline tools and the tests use it; the fusion node holds the same
+// parts behind its map backend (local or sharded, docs/architecture.md).
 //
 // Not thread-safe: callers serialise access (the fusion node holds a mutex).
 #pragma once
@@ -13,6 +15,8 @@
 
 #include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/method_runner.h"
+#include "bsf_vpr/core/place_decider.h"
+#include "bsf_vpr/core/query_distances.h"
 #include "bsf_vpr/core/reference_set.h"
 
 namespace bsf_vpr {
@@ -33,16 +37,6 @@ struct RecognizerOptions {
 // loaded sets' own, chosen by whoever loads them).
 const OptionTable<RecognizerOptions>& RecognizerOptionsTable();
 
-struct Recognition {
-  PlaceBelief belief;
-  // Among the sets the method used, the one whose descriptor of the matched place is closest
-  // to the query (-1 if none of them covers the match).
-  int closest_set = -1;
-  // The sets whose distances were missing (RecognizeDistances: a shard that did not
-  // answer), ascending: the belief was decided without them.
-  std::vector<int> missing_sets;
-};
-
 class PlaceRecognizer {
  public:
   explicit PlaceRecognizer(RecognizerOptions options = {});
@@ -54,7 +48,7 @@ class PlaceRecognizer {
   // the filter's step options apply from the next query on.
   void SetOptions(const RecognizerOptions& options);
   const RecognizerOptions& options() const { return options_; }
-  const Method& method() const { return method_; }
+  const Method& method() const { return decider_.method(); }
 
   // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
   void SetStoragePrecision(StoragePrecision precision) { map_.SetStoragePrecision(precision); }
@@ -80,18 +74,20 @@ class PlaceRecognizer {
   Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state,
                         std::optional<double> step_places = std::nullopt);
 
-  // The same from the query's distances to every set, computed elsewhere: `distances[u]` is
-  // 1 x N_u for set u of map() (in its order), as ComputeDistances gives them. A process that
+  // The same from the query's distances to the sets of map(), computed elsewhere
+  // (PlaceDecider::Decide on map().layout(): an absent set is left out).
+  Recognition Decide(const QueryDistances& distances, bool update_state,
+                     std::optional<double> step_places = std::nullopt);
+
+  // Decide with `distances[u]` 1 x N_u for set u of map() (in its order), as
+  // ComputeDistances gives them, and 0 x 0 for an absent set. A process that
   // holds some of the sets (a shard of a sharded map) computes them for its sets alone:
   // ComputeDistances gives each set's distances in the same bits whatever other sets share
   // its map, so the recognition is bitwise Recognize's. Throws std::invalid_argument (the
   // state untouched) for the wrong number of sets, a wrong size, or a value that is
   // negative, NaN or infinite.
   //
-  // An empty matrix (0 x 0) stands for a set whose distances are missing (its shard did not
-  // answer): the method decides on the others (MethodRunner::Step's `available`) and
-  // Recognition::missing_sets names it. Throws when every set is missing or the method is
-  // nn:/bayes: of a missing one.
+  // Throws when every set is absent or the method is nn:/bayes: of an absent one.
   Recognition RecognizeDistances(const std::vector<RowMatrixXf>& distances, bool update_state,
                                  std::optional<double> step_places = std::nullopt);
 
@@ -109,17 +105,10 @@ class PlaceRecognizer {
   const DistanceStage& distance_stage() const { return distances_; }
 
  private:
-  MethodRunner& Runner();  // built on demand against the current sets
-  // Fusion, state and the closest set from checked distances (Recognize, RecognizeDistances).
-  // `available` null: every set.
-  Recognition Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
-                     std::optional<double> step_places, const std::vector<bool>* available);
-
   RecognizerOptions options_;
-  Method method_;
   ReferenceMap map_;
-  std::unique_ptr<MethodRunner> runner_;  // null: to be rebuilt
   DistanceStage distances_;
+  PlaceDecider decider_;
 };
 
 }  // namespace bsf_vpr

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/stored_reference_set.h"
 #include "bsf_vpr/core/types.h"
 
@@ -66,8 +67,9 @@ std::string ImageFileProblem(const std::string& file);
 ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
                               std::string condition = "");
 
-// M reference sets sharing one descriptor dimension and one place index. M and N are
-// run-time values; N grows to cover the largest place id of any set.
+// M reference sets sharing one descriptor dimension and one place index: their stored
+// descriptors and their place layout (layout()). M and N are run-time values; N grows to
+// cover the largest place id of any set.
 class ReferenceMap {
  public:
   // Precision at which sets added from now on are held (default float32). A set held at
@@ -76,8 +78,8 @@ class ReferenceMap {
   StoragePrecision storage_precision() const { return storage_; }
   // Two sets that put one place more than this far apart (metres, planar) do not share a
   // place index: Add refuses the second. Default 25 m; +infinity turns the check off.
-  void SetPlacePoseTolerance(double metres) { place_pose_tolerance_m_ = metres; }
-  double place_pose_tolerance_m() const { return place_pose_tolerance_m_; }
+  void SetPlacePoseTolerance(double metres) { layout_.SetPlacePoseTolerance(metres); }
+  double place_pose_tolerance_m() const { return layout_.place_pose_tolerance_m(); }
   // Throws std::invalid_argument naming the place and the distance when `set` puts a place
   // farther than place_pose_tolerance_m() from the pose the map has for it.
   void CheckPlacePoses(const ReferenceSet& set) const;
@@ -93,35 +95,33 @@ class ReferenceMap {
   bool Remove(const std::string& name);
 
   int num_sets() const { return static_cast<int>(sets_.size()); }
-  int num_places() const { return num_places_; }
-  int dimension() const { return dimension_; }  // 0 while empty
+  int num_places() const { return layout_.num_places(); }
+  int dimension() const { return layout_.dimension(); }  // 0 while empty
   const std::vector<StoredReferenceSet>& sets() const { return sets_; }
   const StoredReferenceSet& set(int u) const { return sets_.at(static_cast<size_t>(u)); }
+  // The sets' places and poses, set u of it describing set(u) (what a belief is decided
+  // and shown on; see place_layout.h).
+  const PlaceLayout& layout() const { return layout_; }
   // Index of the named set, or -1.
-  int IndexOf(const std::string& name) const;
-  std::vector<std::string> SetNames() const;
+  int IndexOf(const std::string& name) const { return layout_.IndexOf(name); }
+  std::vector<std::string> SetNames() const { return layout_.SetNames(); }
   // The pose of a place from the first set that has one for it (O(1): an index kept by
   // Add and Remove).
-  std::optional<PlacePose> PoseOf(int place) const;
+  std::optional<PlacePose> PoseOf(int place) const { return layout_.PoseOf(place); }
   // PoseOf of every place: num_places() entries.
-  const std::vector<std::optional<PlacePose>>& place_poses() const { return place_poses_; }
+  const std::vector<std::optional<PlacePose>>& place_poses() const { return layout_.place_poses(); }
   // Median distance (metres) between consecutive places that both have poses; nullopt if
   // no two consecutive places do. O(1): kept up to date by Add and Remove.
-  std::optional<double> MedianPlaceSpacing() const { return median_spacing_; }
-  // The same of any per-place poses (nullopt where a place has none).
-  static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses);
+  std::optional<double> MedianPlaceSpacing() const { return layout_.MedianPlaceSpacing(); }
+  // The same of any per-place poses (PlaceLayout::MedianSpacing).
+  static std::optional<double> MedianSpacing(const std::vector<std::optional<PlacePose>>& poses) {
+    return PlaceLayout::MedianSpacing(poses);
+  }
 
  private:
-  static void IndexPoses(const StoredReferenceSet& set,
-                         std::vector<std::optional<PlacePose>>* poses);
-
   std::vector<StoredReferenceSet> sets_;
-  std::vector<std::optional<PlacePose>> place_poses_;  // num_places_ entries
-  std::optional<double> median_spacing_;
-  int num_places_ = 0;
-  int dimension_ = 0;
+  PlaceLayout layout_;  // set u of it is sets_[u]'s
   StoragePrecision storage_ = StoragePrecision::kFloat32;
-  double place_pose_tolerance_m_ = 25;
 };
 
 }  // namespace bsf_vpr

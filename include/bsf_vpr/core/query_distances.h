@@ -1,0 +1,36 @@
+// One query's distances to the sets of a place layout, set by set in its order, as the
+// distance stage gives them: set u is present (1 x N_u distances, row k's at column k) or
+// absent (the stage could not give them: the shard of a sharded map that holds the set did
+// not answer). The decision (PlaceDecider) runs on the present sets.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "bsf_vpr/core/types.h"
+
+namespace bsf_vpr {
+
+class QueryDistances {
+ public:
+  QueryDistances() = default;
+  explicit QueryDistances(int num_sets) : sets_(static_cast<size_t>(num_sets)) {}  // all absent
+  // Every set present: distances[u] for set u.
+  static QueryDistances AllPresent(std::vector<RowMatrixXf> distances);
+
+  int num_sets() const { return static_cast<int>(sets_.size()); }
+  bool present(int u) const { return sets_.at(static_cast<size_t>(u)).has_value(); }
+  // Set u's distances; throws std::logic_error when it is absent.
+  const RowMatrixXf& of(int u) const;
+  void Set(int u, RowMatrixXf distances) {
+    sets_.at(static_cast<size_t>(u)) = std::move(distances);
+  }
+  // The absent sets, ascending.
+  std::vector<int> Absent() const;
+  int num_present() const;
+
+ private:
+  std::vector<std::optional<RowMatrixXf>> sets_;
+};
+
+}  // namespace bsf_vpr

@@ -1,0 +1,113 @@
+#include "bsf_vpr/core/place_decider.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace bsf_vpr {
+
+PlaceDecider::PlaceDecider(std::string method, MethodOptions options)
+    : method_name_(std::move(method)), options_(std::move(options)) {
+  options_.Validate();
+}
+
+void PlaceDecider::SetMethod(const std::string& method, const MethodOptions& options,
+                             const PlaceLayout& layout) {
+  options.Validate();
+  Method resolved = ParseMethod(method, layout.SetNames());
+  const bool restart = method != method_name_;
+  method_name_ = method;
+  options_ = options;
+  method_ = std::move(resolved);
+  unresolved_.clear();
+  if (restart || !runner_) {
+    runner_.reset();  // rebuilt, with no history, at the next query
+  } else {
+    runner_->SetOptions(options_);  // keeps what the change leaves valid
+  }
+}
+
+void PlaceDecider::OnLayoutChanged(const PlaceLayout& layout) {
+  runner_.reset();
+  try {
+    method_ = ParseMethod(method_name_, layout.SetNames());  // sets are named by index
+    unresolved_.clear();
+  } catch (const std::exception& e) {
+    unresolved_ = e.what();
+  }
+}
+
+void PlaceDecider::CheckRemovable(const std::string& name) const {
+  const bool single =
+      method_.kind == MethodKind::kNearestNeighbour || method_.kind == MethodKind::kBayesSingle;
+  if (unresolved_.empty() && single && method_.set_name == name) {
+    throw std::invalid_argument("reference set '" + name + "' is used by method '" + method_name_ +
+                                "'; change the method first");
+  }
+}
+
+void PlaceDecider::Reset() { runner_.reset(); }
+
+Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances& distances,
+                                 bool update_state, std::optional<double> step_places) {
+  if (layout.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
+  if (distances.num_sets() != layout.num_sets()) {
+    throw std::invalid_argument("distances for " + std::to_string(distances.num_sets()) +
+                                " set(s), the map holds " + std::to_string(layout.num_sets()));
+  }
+  std::vector<bool> available(static_cast<size_t>(layout.num_sets()), true);
+  std::vector<SetDistances> views(static_cast<size_t>(layout.num_sets()));
+  for (int u = 0; u < layout.num_sets(); ++u) {
+    const SetLayout& set = layout.set(u);
+    if (!distances.present(u)) {
+      available[static_cast<size_t>(u)] = false;  // count 0: never read
+      continue;
+    }
+    const RowMatrixXf& d = distances.of(u);
+    if (d.rows() != 1 || d.cols() != set.size()) {
+      throw std::invalid_argument("distances to set '" + set.name + "' are " +
+                                  std::to_string(d.rows()) + " x " + std::to_string(d.cols()) +
+                                  ", expected 1 x " + std::to_string(set.size()));
+    }
+    // A distance is finite and not negative (NaN compares false): anything else would
+    // silently corrupt the belief.
+    if (!(d.array() >= 0.0f && d.array() <= std::numeric_limits<float>::max()).all()) {
+      throw std::invalid_argument("distances to set '" + set.name +
+                                  "' hold a negative, NaN or infinite value");
+    }
+    SetDistances& view = views[static_cast<size_t>(u)];
+    view.values = d.data();
+    view.count = static_cast<int>(d.cols());
+    view.place_ids = set.place_ids.data();
+  }
+  if (!unresolved_.empty()) throw std::invalid_argument(unresolved_);
+  if (!runner_) runner_ = std::make_unique<MethodRunner>(method_, options_);
+
+  Recognition out;
+  const bool all = distances.num_present() == layout.num_sets();
+  out.belief = runner_->Step(views, layout.num_places(), nullptr, step_places, update_state,
+                             all ? nullptr : &available);
+  out.missing_sets = distances.Absent();
+
+  // The set that supplied the match: the closest image of the match among the sets the
+  // method relied on (a mixture's used sets of weight below 1 only when also selected).
+  const std::vector<int>& selected = out.belief.selection.selected;
+  float best = INFINITY;
+  for (int u : out.belief.used_sets) {
+    if (out.belief.set_weights.at(static_cast<size_t>(u)) < 1 &&
+        !std::binary_search(selected.begin(), selected.end(), u)) {
+      continue;
+    }
+    const SetDistances& d = views[static_cast<size_t>(u)];
+    for (int k = 0; k < d.count; ++k) {
+      if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {
+        best = d.values[k];
+        out.closest_set = u;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace bsf_vpr

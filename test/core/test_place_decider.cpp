@@ -1,0 +1,135 @@
+// The decision from a place layout and explicit distances, with no descriptors in the
+// process: the combiner of a sharded map decides this way.
+#include <gtest/gtest.h>
+
+#include "bsf_vpr/core/place_decider.h"
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/evaluation/synthetic.h"
+
+namespace bsf_vpr {
+namespace {
+
+SyntheticData Data() {
+  SyntheticOptions opt;
+  opt.num_places = 90;
+  opt.dimension = 12;
+  opt.set_noise = {0.3, 0.35, 0.3};
+  opt.condition_strength = 0.5;
+  opt.query_noise = 0.3;
+  return GenerateMultiConditionData(opt);
+}
+
+// The layout of `map` rebuilt from its sets' places alone, as a combiner builds it.
+PlaceLayout LayoutAlone(const ReferenceMap& map) {
+  PlaceLayout layout;
+  for (const SetLayout& s : map.layout().sets()) layout.Add(s);
+  return layout;
+}
+
+TEST(PlaceDecider, DecidesBitwiseAsTheRecognizerHoldingTheDescriptors) {
+  const SyntheticData data = Data();
+  for (const std::string method : {"bsf", "bsf+filter+seq", "bayes_full", "med"}) {
+    RecognizerOptions options;
+    options.method = method;
+    PlaceRecognizer whole;
+    for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
+    whole.SetOptions(options);
+    const PlaceLayout layout = LayoutAlone(whole.map());
+    PlaceDecider decider(method, options.method_options);
+    decider.OnLayoutChanged(layout);
+    for (int q = 0; q < 25; ++q) {
+      const Eigen::VectorXf query = data.queries.row(q).transpose();
+      const QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
+      const Recognition a = whole.Recognize(query, true);
+      const Recognition b = decider.Decide(layout, d, true);
+      ASSERT_EQ(a.belief.match, b.belief.match) << method << " query " << q;
+      ASSERT_EQ(a.belief.confidence, b.belief.confidence) << method << " query " << q;
+      ASSERT_EQ(a.closest_set, b.closest_set);
+      EXPECT_TRUE(b.missing_sets.empty());
+    }
+  }
+}
+
+TEST(PlaceDecider, AnAbsentSetIsLeftOutAndNamed) {
+  const SyntheticData data = Data();
+  PlaceRecognizer whole;
+  for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
+  PlaceDecider decider;
+  decider.OnLayoutChanged(whole.map().layout());
+  const Eigen::VectorXf query = data.queries.row(3).transpose();
+  QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
+  QueryDistances without(d.num_sets());
+  without.Set(0, d.of(0));
+  without.Set(2, d.of(2));
+  EXPECT_EQ(without.Absent(), std::vector<int>{1});
+  EXPECT_THROW(without.of(1), std::logic_error);
+  const Recognition r = decider.Decide(whole.map().layout(), without, false);
+  EXPECT_EQ(r.missing_sets, std::vector<int>{1});
+  EXPECT_EQ(r.belief.set_weights.at(1), 0.0);
+  EXPECT_THROW(decider.Decide(whole.map().layout(), QueryDistances(3), false),
+               std::invalid_argument);  // every set absent
+  EXPECT_THROW(decider.Decide(whole.map().layout(), QueryDistances(2), false),
+               std::invalid_argument);  // not the layout's sets
+  QueryDistances bad = d;
+  RowMatrixXf nan = d.of(0);
+  nan(0, 4) = NAN;
+  bad.Set(0, nan);
+  EXPECT_THROW(decider.Decide(whole.map().layout(), bad, true), std::invalid_argument);
+}
+
+TEST(PlaceDecider, AMethodNamingASetIsResolvedAgainstEachLayout) {
+  const SyntheticData data = Data();
+  PlaceLayout layout = LayoutAlone(data.map);
+  PlaceDecider decider("nn:" + data.map.set(2).name());
+  decider.OnLayoutChanged(layout);
+  EXPECT_EQ(decider.method().set_index, 2);
+  EXPECT_THROW(decider.CheckRemovable(data.map.set(2).name()), std::invalid_argument);
+  EXPECT_NO_THROW(decider.CheckRemovable(data.map.set(0).name()));
+  layout.Remove(data.map.set(0).name());
+  decider.OnLayoutChanged(layout);
+  EXPECT_EQ(decider.method().set_index, 1);
+  layout.Remove(data.map.set(2).name());
+  decider.OnLayoutChanged(layout);  // never throws; the next decision says why
+  QueryDistances d(1);
+  d.Set(0, RowMatrixXf::Ones(1, layout.set(0).size()));
+  EXPECT_THROW(decider.Decide(layout, d, false), std::invalid_argument);
+  EXPECT_THROW(decider.SetMethod("nn:gone", {}, layout), std::invalid_argument);
+}
+
+TEST(PlaceLayout, RefusesWhatCannotShareThePlaceIndexAndStaysAsItWas) {
+  PlaceLayout layout;
+  SetLayout a;
+  a.name = "a";
+  a.place_ids = {0, 1, 2};
+  a.poses = {{0, 0, 0, 0}, {10, 0, 0, 0}, {20, 0, 0, 0}};
+  a.dimension = 8;
+  layout.Add(a);
+  EXPECT_EQ(layout.num_places(), 3);
+  ASSERT_TRUE(layout.MedianPlaceSpacing());
+  EXPECT_DOUBLE_EQ(*layout.MedianPlaceSpacing(), 10.0);
+  SetLayout b = a;
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // name taken
+  b.name = "b";
+  b.dimension = 9;
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // dimension
+  b.dimension = 8;
+  b.poses[1].x_m = 200;
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // place 1 is elsewhere
+  b.poses[1].x_m = 10;
+  b.place_ids = {0, 0, 5};
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // two rows for place 0
+  EXPECT_EQ(layout.num_sets(), 1);
+  EXPECT_EQ(layout.num_places(), 3);
+  b.place_ids = {3, 4, 5};
+  b.poses.clear();
+  layout.Add(b);
+  EXPECT_EQ(layout.num_places(), 6);
+  EXPECT_FALSE(layout.PoseOf(4));
+  EXPECT_TRUE(layout.Remove("a"));
+  EXPECT_EQ(layout.num_places(), 6);
+  EXPECT_FALSE(layout.PoseOf(0));
+  EXPECT_FALSE(layout.Remove("a"));
+}
+
+}  // namespace
+}  // namespace bsf_vpr

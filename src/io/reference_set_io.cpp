@@ -382,14 +382,19 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   }
 }
 
-std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir) {
-  const std::string who = "reference set " + QuotedForMessage(set.name());
-  if (set.image_files().empty()) throw std::invalid_argument(who + " names no images");
-  if (row < 0 || row >= set.size()) {
-    throw std::invalid_argument(who + " has rows 0.." + std::to_string(set.size() - 1) + ", not " +
+namespace {
+
+std::string ReadImageOfRow(const std::string& name, const std::string& images,
+                           const std::vector<std::string>& image_files, int row,
+                           const DataDirectory* dir) {
+  const std::string who = "reference set " + QuotedForMessage(name);
+  if (image_files.empty()) throw std::invalid_argument(who + " names no images");
+  const int size = static_cast<int>(image_files.size());
+  if (row < 0 || row >= size) {
+    throw std::invalid_argument(who + " has rows 0.." + std::to_string(size - 1) + ", not " +
                                 std::to_string(row));
   }
-  const std::string path = set.images() + "/" + set.image_files()[static_cast<size_t>(row)];
+  const std::string path = images + "/" + image_files[static_cast<size_t>(row)];
   try {
     if (dir != nullptr) {
       const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
@@ -399,6 +404,16 @@ std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const Dat
   } catch (const std::exception& e) {
     throw std::runtime_error(who + " row " + std::to_string(row) + ": " + e.what());
   }
+}
+
+}  // namespace
+
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir) {
+  return ReadImageOfRow(set.name(), set.images(), set.image_files(), row, dir);
+}
+
+std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir) {
+  return ReadImageOfRow(set.name, set.images, set.image_files, row, dir);
 }
 
 }  // namespace bsf_vpr

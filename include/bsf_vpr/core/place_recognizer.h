@@ -103,6 +103,7 @@ class PlaceRecognizer {
   // index, seconds for a large map) rather than at the next query.
   void PrepareFirstStage() { distances_.Prepare(map_); }
   const DistanceStage& distance_stage() const { return distances_; }
+  const PlaceDecider& decider() const { return decider_; }
 
  private:
   RecognizerOptions options_;

@@ -102,6 +102,8 @@ class ReferenceMap {
   // The sets' places and poses, set u of it describing set(u) (what a belief is decided
   // and shown on; see place_layout.h).
   const PlaceLayout& layout() const { return layout_; }
+  // A map is seen as its layout wherever only places are needed.
+  operator const PlaceLayout&() const { return layout_; }  // NOLINT(google-explicit-constructor)
   // Index of the named set, or -1.
   int IndexOf(const std::string& name) const { return layout_.IndexOf(name); }
   std::vector<std::string> SetNames() const { return layout_.SetNames(); }

@@ -58,6 +58,7 @@ ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& r
 // std::invalid_argument for a set without images or a row outside 0..size()-1, and
 // std::runtime_error naming the set, the row and the file when it cannot be read.
 std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir);
+std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir);
 
 // Writes `set` as `yaml_path` plus its descriptors (float32) as `<stem>.<content hash>.npy`
 // beside it, which the YAML names. The pair is replaced as one: the .npy is written first

@@ -8,10 +8,14 @@ namespace bsf_vpr {
 
 void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
                  Belief* out) {
+  ToBeliefMsg(r, recognizer.map().layout(), recognizer.decider(), belief_top_k, out);
+}
+
+void ToBeliefMsg(const Recognition& r, const PlaceLayout& map, const PlaceDecider& decider,
+                 int belief_top_k, Belief* out) {
   const PlaceBelief& b = r.belief;
-  const ReferenceMap& map = recognizer.map();
-  out->method = recognizer.options().method;
-  out->gamma = recognizer.options().method_options.selection.gamma_fraction;
+  out->method = decider.method_name();
+  out->gamma = decider.method_options().selection.gamma_fraction;
   out->num_places = map.num_places();
   out->place_ids.clear();
   out->posterior.clear();
@@ -35,16 +39,16 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   out->set_names.clear();
   out->set_min_distances.clear();
   for (int u = 0; u < map.num_sets(); ++u) {
-    out->set_names.push_back(map.set(u).name());
+    out->set_names.push_back(map.set(u).name);
     out->set_min_distances.push_back(b.selection.set_stats.at(static_cast<size_t>(u)).min);
   }
   out->selected_sets.clear();
-  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name());
+  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name);
   out->used_sets.clear();
-  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name());
+  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name);
   out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
   out->missing_sets.clear();
-  for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name());
+  for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name);
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;
@@ -60,10 +64,10 @@ geometry_msgs::Pose ToPoseMsg(const PlacePose& pose) {
   return p;
 }
 
-void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out) {
+void ToMatchMsg(const Recognition& r, const PlaceLayout& map, Match* out) {
   out->place_id = r.belief.match;
   out->confidence = r.belief.confidence;
-  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name() : "";
+  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name : "";
   const std::optional<PlacePose> pose = map.PoseOf(r.belief.match);
   out->has_pose = pose.has_value();
   out->pose = pose ? ToPoseMsg(*pose) : geometry_msgs::Pose();
@@ -125,8 +129,8 @@ ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {
   return m;
 }
 
-ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg) {
-  ReferenceSet set;
+SetLayout LayoutFromShardSetMsg(const ShardSet& msg) {
+  SetLayout set;
   set.name = msg.name;
   set.condition = msg.condition;
   set.descriptor_type = msg.descriptor_type;
@@ -145,7 +149,8 @@ ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg) {
   }
   set.images = msg.images;
   set.image_files = msg.image_files;
-  return LayoutOnlySet(std::move(set));
+  set.dimension = msg.dimension;
+  return set;
 }
 
 }  // namespace bsf_vpr

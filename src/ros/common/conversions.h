@@ -27,11 +27,14 @@ inline Eigen::Map<const Eigen::VectorXf> DescriptorView(const Descriptor& msg) {
 
 // Fills `out` (header left to the caller) from a recognition. belief_top_k 0 lists every
 // place; otherwise the K most probable, best first.
+// `decider` found `r` on `layout`.
+void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDecider& decider,
+                 int belief_top_k, Belief* out);
 void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
                  Belief* out);
 
 // Fills `out` (header left to the caller) for the match of `r`.
-void ToMatchMsg(const Recognition& r, const ReferenceMap& map, Match* out);
+void ToMatchMsg(const Recognition& r, const PlaceLayout& layout, Match* out);
 
 geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
 
@@ -49,8 +52,8 @@ ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set);
 
 // A shard's set for the combiner: its layout and fingerprint (SetFingerprint), no rows.
 ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint);
-// The layout-only set (LayoutOnlySet) the combiner holds for `msg`. Throws
-// std::invalid_argument naming the set when its poses are not 4 per place or it is invalid.
-ReferenceSet LayoutFromShardSetMsg(const ShardSet& msg);
+// The set's layout as the combiner holds it (no descriptors). Throws std::invalid_argument
+// naming the set when its poses are not 4 per place.
+SetLayout LayoutFromShardSetMsg(const ShardSet& msg);
 
 }  // namespace bsf_vpr

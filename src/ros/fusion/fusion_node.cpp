@@ -11,6 +11,7 @@
 #include "src/ros/common/image_problem.h"
 #include "src/ros/common/service_queue.h"
 #include "src/ros/fusion/reconfigure_options.h"
+#include "src/ros/map/make_map.h"
 #include "src/ros/map/set_loading.h"
 
 namespace bsf_vpr {
@@ -27,6 +28,8 @@ FusionNode::~FusionNode() {
   diagnostics_timer_.stop();
   services_.clear();
   if (load_spinner_) load_spinner_->stop();
+  if (query_spinner_) query_spinner_->stop();
+  map_.reset();  // its threads call back into the node
 }
 
 void FusionNode::Start() {
@@ -40,24 +43,27 @@ void FusionNode::Start() {
     }
   }
   recording_ = std::make_unique<Recording>(data_dir_.get());
-  if (!params_.shards.empty()) {
-    if (!params_.reference_sets.empty()) {
-      throw std::invalid_argument(
-          "a fusion node with shards fuses the shards' sets and holds none of its own: give "
-          "reference_sets to the shards (docs/sharding.md)");
-    }
-    if (params_.recognizer.first_stage.kind != "exact") {
-      ROS_WARN(
-          "bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
-          "distances",
-          params_.recognizer.first_stage.kind.c_str());
-      params_.recognizer.first_stage.kind = "exact";
-    }
+  decider_ = PlaceDecider(params_.recognizer.method, params_.recognizer.method_options);
+  {
+    // A map that learns of queries by itself calls back from now on: what it calls exists
+    // before the first descriptor can arrive.
+    MapBackend::Callbacks callbacks;
+    callbacks.query = [this](MapBackend::Query& query) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      DecideAndPublish(query);
+    };
+    callbacks.reject = [this](const std::string& why) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      RejectMessage(why);
+    };
+    std::lock_guard<std::mutex> lock(mutex_);  // until the publisher exists
+    map_ = MakeMap(nh_, params_, data_dir_.get(), std::move(callbacks));
+    layout_ = map_->layout();
+    decider_.OnLayoutChanged(*layout_);
+    // Checks the method against the sets.
+    decider_.SetMethod(params_.recognizer.method, params_.recognizer.method_options, *layout_);
   }
-  LoadConfiguredSets(&params_, &recognizer_);
-  recognizer_.SetOptions(params_.recognizer);  // checks the method against the sets
-  PrepareFirstStage();
-  const Method& method = recognizer_.method();
+  const Method& method = decider_.method();
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
     ROS_WARN(
@@ -84,38 +90,25 @@ void FusionNode::Start() {
   pose_options.map_frame = params_.map_frame;
   pose_options.base_frame = params_.base_frame;
   robot_pose_ = std::make_unique<RobotPoseSource>(nh_, pose_options);
-  // Sharded map: the combiner exists before any service can ask for it (and decides
-  // queries from now on: what it calls exists).
-  if (!params_.shards.empty()) {
-    ShardCombiner::Callbacks callbacks;
-    callbacks.layout = [this](std::vector<ReferenceSet> sets, DistanceMetric metric,
-                              const std::string& why) {
-      OnShardLayout(std::move(sets), metric, why);
-    };
-    callbacks.query = [this](ShardCombiner::Query& query) { OnShardQuery(query); };
-    callbacks.reject = [this](const std::string& why) { RejectMessage(why); };
-    std::lock_guard<std::mutex> lock(mutex_);  // its callbacks take it
-    combiner_ = std::make_unique<ShardCombiner>(nh_, params_.shards, params_.shard_timeout,
-                                                params_.queue_size, &mutex_, std::move(callbacks));
-  }
   services_.push_back(
       nh_.advertiseService(names::kListReferenceSetsService, &FusionNode::OnList, this));
   {
     // Its own queue and thread: reading a large set must not hold up the descriptors.
     services_.push_back(AdvertiseOnQueue<LoadReferenceSet>(
         nh_, names::kLoadReferenceSetService, &FusionNode::OnLoad, this, &load_queue_));
-    // On the same thread: with a sharded map both wait for the shard's new shard_info,
-    // which arrives on the node's own queue.
+    // On the same thread: a sharded map's waits for the shard's new shard_info, which
+    // arrives on the node's own queue.
     services_.push_back(AdvertiseOnQueue<UnloadReferenceSet>(
         nh_, names::kUnloadReferenceSetService, &FusionNode::OnUnload, this, &load_queue_));
     load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
     load_spinner_->start();
   }
-  // A combiner's query_place calls every shard: on the load queue's thread, so that a shard
-  // that does not answer holds up no descriptor (a single node's answers at once).
+  // query_place on a queue and thread of its own: a sharded map's calls every shard, and a
+  // shard that does not answer must hold up neither the descriptors nor a load.
   services_.push_back(AdvertiseOnQueue<QueryPlace>(nh_, names::kQueryPlaceService,
-                                                   &FusionNode::OnQuery, this,
-                                                   combiner_ ? &load_queue_ : nullptr));
+                                                   &FusionNode::OnQuery, this, &query_queue_));
+  query_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &query_queue_);
+  query_spinner_->start();
   services_.push_back(
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
   services_.push_back(
@@ -135,20 +128,19 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
-  if (combiner_) {
-    ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
-             params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
-    return;
-  }
   format_sub_ =
       nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
   // Always subscribed: the belief is state that must follow every query.
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
                     &FusionNode::OnDescriptor, this);
-  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
-           params_.recognizer.method.c_str(), recognizer_.map().num_sets(),
-           recognizer_.map().num_places());
+  if (params_.shards.empty()) {
+    ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
+             params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
+  } else {
+    ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
+             params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
+  }
 }
 
 void FusionNode::RejectMessage(const std::string& why) {
@@ -164,14 +156,14 @@ void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
 }
 
 void FusionNode::CheckDescriptorFormat() {
-  const ReferenceMap& map = recognizer_.map();
+  const PlaceLayout& map = *layout_;
   std::string problem;
   if (format_ && format_->dimension > 0 && map.num_sets() > 0 &&
       map.dimension() != format_->dimension) {
     std::string types;
-    for (const StoredReferenceSet& s : map.sets()) {
-      if (!s.descriptor_type().empty() && types.find(s.descriptor_type()) == std::string::npos) {
-        types += (types.empty() ? "" : ", ") + s.descriptor_type();
+    for (const SetLayout& s : map.sets()) {
+      if (!s.descriptor_type.empty() && types.find(s.descriptor_type) == std::string::npos) {
+        types += (types.empty() ? "" : ", ") + s.descriptor_type;
       }
     }
     problem =
@@ -217,7 +209,7 @@ void FusionNode::OnRecordingImage(const sensor_msgs::ImageConstPtr& msg) {
 }
 
 void FusionNode::CheckDescriptorType(const std::string& type) {
-  const std::string mismatch = DescriptorTypeMismatch(type, recognizer_.map());
+  const std::string mismatch = TypeMismatch(type, *layout_);
   if (mismatch.empty()) return;
   type_mismatch_ = mismatch;
   ROS_WARN_THROTTLE(5.0, "bsf_vpr: %s: the distances compare unlike descriptors",
@@ -242,7 +234,6 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
                                places == RecordingPlaces::kPose ? params_.pose_wait_s : 0.0);
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto start = std::chrono::steady_clock::now();
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
   // Recording by localisation waits for the match; the other modes record every descriptor.
   const bool localized =
@@ -268,97 +259,77 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
       }
     }
   }
-  if (recognizer_.map().num_sets() == 0) {
-    if (!recording_->recording()) RejectMessage("no reference set is loaded");
-    return;
-  }
   CheckDescriptorType(msg->descriptor_type);
-  Recognition r;
+  // A map holding the sets answers now; a sharded map's query comes back through
+  // DecideAndPublish once the shards answered.
+  std::optional<MapBackend::Query> query;
   try {
-    r = recognizer_.Recognize(d, true, OdometryStep(msg->header.stamp));
+    query = map_->Hear(*msg);
   } catch (const std::exception& e) {
-    RejectMessage(e.what());
+    // Without sets a recording still takes the descriptors.
+    if (!(recording_->recording() && layout_->num_sets() == 0)) RejectMessage(e.what());
     return;
   }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  ++processed_;
-  processing_s_sum_ += seconds;
-  processing_s_max_ = std::max(processing_s_max_, seconds);
-  if (localized && r.belief.accepted) {
+  if (!query) return;
+  const std::optional<Recognition> r = DecideAndPublish(*query);
+  if (r && localized && r->belief.accepted) {
     try {
       recording_->Add(d, msg->descriptor_type, std::nullopt,
-                      LocalizedPlace{r.belief.match, r.belief.confidence},
+                      LocalizedPlace{r->belief.match, r->belief.confidence},
                       msg->header.stamp.toSec());
     } catch (const std::exception& e) {
       RejectMessage(std::string("recording: ") + e.what());
     }
   }
-  counters_.Count(r, recognizer_.map());
-  publisher_->Publish(msg->header, r, recognizer_, seconds);
 }
 
-void FusionNode::OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric,
-                               const std::string& why) {
-  // A new map from the shards' layouts, in their order; refused (thrown) as a load would be
-  // (poses that contradict, a method naming a set no shard holds is only logged).
-  RecognizerOptions options = recognizer_.options();
-  if (!sets.empty() && params_.distance_given() && metric != params_.recognizer.metric) {
-    throw std::invalid_argument("the shards use " + ToString(metric) + " distance, this node " +
-                                ToString(params_.recognizer.metric));
-  }
-  options.metric = metric;
-  PlaceRecognizer fresh(options);
-  fresh.SetPlacePoseTolerance(params_.place_pose_tolerance_m);
-  for (ReferenceSet& set : sets) fresh.AddReferenceSet(std::move(set));
-  try {
-    fresh.SetOptions(options);
-  } catch (const std::exception& e) {
-    ROS_ERROR("bsf_vpr: %s", e.what());  // every query says so until the method is changed
-  }
-  recognizer_ = std::move(fresh);
-  params_.recognizer.metric = metric;
-  ROS_INFO(
-      "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
-      "afresh",
-      why.c_str(), recognizer_.map().num_sets(), recognizer_.map().num_places());
+void FusionNode::AdoptLayout(MapBackend::Layout layout) {
+  if (layout == layout_) return;
+  layout_ = std::move(layout);
+  decider_.OnLayoutChanged(*layout_);
+  CheckDescriptorFormat();
 }
 
-void FusionNode::OnShardQuery(ShardCombiner::Query& query) {
+std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query) {
+  AdoptLayout(query.layout);
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
-    r = recognizer_.RecognizeDistances(query.distances, true, OdometryStep(query.header.stamp));
+    r = decider_.Decide(*layout_, query.distances, true, OdometryStep(query.header.stamp));
   } catch (const std::exception& e) {
     RejectMessage(e.what());
-    return;
+    return std::nullopt;
   }
-  // The core's own time: the slowest shard's distances and the fusion here.
+  // The core's own time: the map's distances and the decision here.
   const double seconds =
-      query.shard_seconds +
+      query.seconds +
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ++processed_;
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
-  counters_.Count(r, recognizer_.map());
-  publisher_->Publish(query.header, r, recognizer_, seconds);
+  counters_.Count(r, *layout_);
+  publisher_->Publish(query.header, r, *layout_, decider_, seconds);
+  return r;
 }
 
 std::optional<double> FusionNode::OdometryStep(const ros::Time& stamp) {
-  const double spacing = params_.place_spacing_m > 0
-                             ? params_.place_spacing_m
-                             : recognizer_.map().MedianPlaceSpacing().value_or(0.0);
+  const double spacing = params_.place_spacing_m > 0 ? params_.place_spacing_m
+                                                     : layout_->MedianPlaceSpacing().value_or(0.0);
   return odometry_->StepPlaces(stamp, spacing);
-}
-
-void FusionNode::PrepareFirstStage() {
-  PrepareFirstStageOrFallBack(&recognizer_, &params_, &first_stage_error_);
 }
 
 double FusionNode::PlaceSpacing() const {
   if (params_.place_spacing_m > 0) return params_.place_spacing_m;
-  const double median = recognizer_.map().MedianPlaceSpacing().value_or(1.0);
+  const double median = layout_->MedianPlaceSpacing().value_or(1.0);
   return median > 0 ? median : 1.0;
+}
+
+RecognizerOptions FusionNode::OptionsInForce() const {
+  RecognizerOptions o = params_.recognizer;
+  o.method = decider_.method_name();
+  o.method_options = decider_.method_options();
+  o.metric = map_->metric();
+  return o;
 }
 
 void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
@@ -367,12 +338,13 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   dynamic_reconfigure::Config request;
   config.__toMessage__(request);
   MapOptionSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
-  RecognizerOptions o = recognizer_.options();
+  const RecognizerOptions in_force = OptionsInForce();
+  RecognizerOptions o = in_force;
   try {
     table.Apply(source, &o, /*live_only=*/true);  // refuses values out of the table's bounds
     // threshold_kind switched alone: the same threshold in the other kind's units.
     Threshold& h = o.method_options.threshold;
-    const Threshold& before = recognizer_.options().method_options.threshold;
+    const Threshold& before = in_force.method_options.threshold;
     if (h.kind != before.kind && h.value == before.value) {
       h = before.As(h.kind);
       if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
@@ -384,7 +356,8 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
       ROS_INFO("bsf_vpr: threshold %g (%s) is %g as %s", before.value,
                ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
     }
-    recognizer_.SetOptions(o);
+    o.Validate();
+    decider_.SetMethod(o.method, o.method_options, *layout_);
     last_reconfigure_refusal_.clear();
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
              o.method.c_str(), o.method_options.selection.gamma_fraction,
@@ -395,7 +368,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
     ROS_ERROR("bsf_vpr: reconfiguration refused, keeping the previous settings: %s", e.what());
   }
   // Report what is in force (the previous values where the request was refused).
-  dynamic_reconfigure::Config now = ConfigFromValues(table.Values(recognizer_.options(), true));
+  dynamic_reconfigure::Config now = ConfigFromValues(table.Values(OptionsInForce(), true));
   config.__fromMessage__(now);
 }
 
@@ -403,7 +376,8 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
-  const ReferenceMap& map = recognizer_.map();
+  const PlaceLayout& map = *layout_;
+  const std::string map_problem = map_->Problem();
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
   } else if (rejected_ > 0 && processed_ == 0) {
@@ -416,14 +390,10 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "recording '" + recording_->name() +
                        "' is pending after a failed stop: " + recording_->pending_reason());
-  } else if (combiner_ && !combiner_->MissingSummary().empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "deciding without shard(s) " + combiner_->MissingSummary());
+  } else if (!map_problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, map_problem);
   } else if (map.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
-  } else if (!first_stage_error_.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "first stage pca failed, exact search instead: " + first_stage_error_);
   } else if (!type_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
   } else {
@@ -437,24 +407,21 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
   status.add("max processing time (ms)", 1e3 * processing_s_max_);
   status.add("dropped descriptors", rejected_);
-  status.add("method", recognizer_.options().method);
+  status.add("method", decider_.method_name());
   if (!last_reconfigure_refusal_.empty()) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);
   }
-  status.add("distance", ToString(recognizer_.options().metric));
-  status.add("first stage", first_stage_error_.empty()
-                                ? recognizer_.distance_stage().Summary()
-                                : "exact: pca failed: " + first_stage_error_);
+  status.add("distance", ToString(map_->metric()));
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
-  for (const StoredReferenceSet& s : map.sets()) {
-    const ReferenceSetUsage usage = counters_.Usage(s.name());
-    status.addf("selected: " + s.name(), "%.1f%% of %ld queries, mean weight %.3f",
+  for (const SetLayout& s : map.sets()) {
+    const ReferenceSetUsage usage = counters_.Usage(s.name);
+    status.addf("selected: " + s.name, "%.1f%% of %ld queries, mean weight %.3f",
                 100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);
   }
+  map_->Diagnose(status);  // the first stage; a sharded map's shards
   recording_->Diagnose(status);
-  if (combiner_) combiner_->Diagnose(status);
   for (const auto& [cause, n] : pose_losses_) {
     status.add("descriptors not recorded, no pose: " + cause, n);
   }

@@ -1,23 +1,27 @@
-// The fusion node: holds the M reference sets in memory, recognises the place of every
-// descriptor that arrives, and publishes the belief, the accepted matches, a tf frame for
-// the matched place, rviz markers and diagnostics. Services list, load and unload reference
-// sets, answer what-if queries, and record a new set from the incoming descriptors.
+// The fusion node: recognises the place of every descriptor that arrives and publishes the
+// belief, the accepted matches, a tf frame for the matched place, the robot's pose, rviz
+// markers and diagnostics. Services list, load and unload reference sets, answer what-if
+// queries, and record a new set from the incoming descriptors.
 //
-// FusionNode wires the parts beside it: RecognitionPublisher (the messages and tf of each
-// query), Recording (start_recording / stop_recording), OdometryTracker and
+// The sets and each query's distances to them are the map's (MapBackend: the node's own
+// sets, LocalMap, or a sharded map's, ShardedMap; make_map.h picks one from the
+// parameters); the node decides (PlaceDecider) on the map's layout and publishes. It wires
+// the parts beside it: RecognitionPublisher (the messages and tf of each query), Recording
+// (start_recording / stop_recording), OdometryTracker, RobotPoseSource and
 // SelectionCounters; the service handlers are in fusion_services.cpp.
 //
 // Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
-// Every callback takes mutex_: services and reconfiguration may run while descriptors
-// stream in, from any thread. load_reference_set runs on a queue and thread of its own and
-// reads its files without the lock, so a large load never stops recognition.
+// Every callback takes mutex_ for the decision and the node's state: services and
+// reconfiguration may run while descriptors stream in, from any thread. The map's own work
+// (distances, files, shards) runs without it. load_reference_set and
+// unload_reference_set run on a queue and thread of their own, query_place on another, so
+// that neither a large load nor a slow shard stops recognition.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/DescriptorFormat.h>
 #include <bsf_vpr/FusionConfig.h>
 #include <bsf_vpr/GetSelectionStatistics.h>
-#include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/QueryPlace.h>
@@ -38,7 +42,7 @@
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/fusion/odometry_tracker.h"
@@ -46,7 +50,7 @@
 #include "src/ros/fusion/recording.h"
 #include "src/ros/fusion/robot_pose.h"
 #include "src/ros/fusion/selection_counters.h"
-#include "src/ros/map/shard_combiner.h"
+#include "src/ros/map/map_backend.h"
 
 namespace bsf_vpr {
 
@@ -61,26 +65,22 @@ class FusionNode {
 
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
-  // Sharded map (parameter shards): the combiner's callbacks, with mutex_ held.
-  void OnShardLayout(std::vector<ReferenceSet> sets, DistanceMetric metric, const std::string& why);
-  void OnShardQuery(ShardCombiner::Query& query);
-  // load_reference_set / unload_reference_set on a combiner: the request goes to the shard
-  // (`shard`), and the answer comes once the shard's new shard_info is in the map. Called
-  // without mutex_.
-  template <typename Service>
-  bool RouteToShard(int shard, const std::string& service, Service* srv, std::string* message);
-  void QueryShards(QueryPlace::Request& req, QueryPlace::Response& res);
+  // Decides `query` and publishes the belief; the recognition, or nullopt when it was
+  // dropped (reported). Adopts the query's layout first if the map's changed. Caller holds
+  // mutex_.
+  std::optional<Recognition> DecideAndPublish(MapBackend::Query& query);
+  // Makes `layout` the one decided on: the method is resolved against its sets and the
+  // belief starts afresh. Caller holds mutex_.
+  void AdoptLayout(MapBackend::Layout layout);
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
   // The distance between places in metres: place_spacing_m, or the median spacing of the
   // loaded place poses, or 1. Caller holds mutex_.
   double PlaceSpacing() const;
-  // The first stage's index for the current sets (first_stage pca), built now and logged, so
-  // that the next descriptor does not wait for it (descriptors wait meanwhile: the map is
-  // under mutex_, which the caller holds). Never throws: a failed build (memory) falls back
-  // to exact search, logged and in diagnostics, the sets as they are.
-  void PrepareFirstStage();
+  // The recognizer's options as they are in force (the parameters, with the live ones the
+  // decider holds). Caller holds mutex_.
+  RecognizerOptions OptionsInForce() const;
   void OnReconfigure(FusionConfig& config, uint32_t level);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void RejectMessage(const std::string& why);
@@ -108,14 +108,16 @@ class FusionNode {
   void FollowRecordingImages();
 
   ros::NodeHandle nh_, pnh_;
-  FusionParams params_;
+  FusionParams params_;  // as read at start; what changes later is the decider's or the map's
   std::mutex mutex_;
-  PlaceRecognizer recognizer_;
   std::unique_ptr<DataDirectory> data_dir_;  // null: the file services are off
-  std::unique_ptr<Recording> recording_;     // over data_dir_
-  // load_reference_set's own queue and thread.
-  ros::CallbackQueue load_queue_;
-  std::unique_ptr<ros::AsyncSpinner> load_spinner_;
+  std::unique_ptr<MapBackend> map_;          // over data_dir_
+  MapBackend::Layout layout_;                // the map's layout the decider is on
+  PlaceDecider decider_;
+  std::unique_ptr<Recording> recording_;  // over data_dir_
+  // load_reference_set's and unload_reference_set's queue and thread, and query_place's.
+  ros::CallbackQueue load_queue_, query_queue_;
+  std::unique_ptr<ros::AsyncSpinner> load_spinner_, query_spinner_;
 
   ros::Subscriber descriptor_sub_;
   ros::Subscriber format_sub_;
@@ -125,7 +127,6 @@ class FusionNode {
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<OdometryTracker> odometry_;
   std::unique_ptr<RobotPoseSource> robot_pose_;  // for recording by pose
-  std::unique_ptr<ShardCombiner> combiner_;      // sharded map: null on a node with its sets
   std::unique_ptr<dynamic_reconfigure::Server<FusionConfig>> reconfigure_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
@@ -137,7 +138,6 @@ class FusionNode {
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
   std::string format_mismatch_;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
-  std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
   std::string last_rejection_;
   std::string last_reconfigure_refusal_;  // "" since the last reconfiguration taken
   std::string type_mismatch_;             // the last descriptor_type that differs from the sets'

@@ -24,39 +24,39 @@ RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle&
 }
 
 void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recognition& r,
-                                   const PlaceRecognizer& recognizer, double seconds) {
+                                   const PlaceLayout& layout, const PlaceDecider& decider,
+                                   double seconds) {
   auto belief = boost::make_shared<Belief>();
   belief->header = header;
-  ToBeliefMsg(r, recognizer, options_.belief_top_k, belief.get());
+  ToBeliefMsg(r, layout, decider, options_.belief_top_k, belief.get());
   belief->processing_time = seconds;
   belief_pub_.publish(belief);
   if (r.belief.accepted) {
     auto match = boost::make_shared<Match>();
     match->header = header;
     match->header.frame_id = options_.map_frame;
-    ToMatchMsg(r, recognizer.map(), match.get());
+    ToMatchMsg(r, layout, match.get());
     match_pub_.publish(match);
     if (tf_ && match->has_pose) {
       const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
       tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
     }
-    if (options_.publish_pose) PublishPose(header, r, recognizer);
+    if (options_.publish_pose) PublishPose(header, r, layout, decider);
   }
-  view_.Show(*belief, r, recognizer);
+  view_.Show(*belief, r, layout, decider);
 }
 
 void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Recognition& r,
-                                       const PlaceRecognizer& recognizer) {
+                                       const PlaceLayout& layout, const PlaceDecider& decider) {
   PoseEstimateOptions o;
-  const double spacing = recognizer.map().MedianPlaceSpacing().value_or(0.0);
+  const double spacing = layout.MedianPlaceSpacing().value_or(0.0);
   o.min_std_m = options_.pose_min_std_m > 0 ? options_.pose_min_std_m : 0.5 * spacing;
   if (!(o.min_std_m > 0)) o.min_std_m = 1.0;
-  const Method& method = recognizer.method();
+  const Method& method = decider.method();
   // A +seq match is the sequence's end, and a distance method has no posterior: the pose is
   // the match's, with the posterior's spread about it.
   const bool centred = method.sequence || !method.IsBayesian();
-  const std::optional<PoseEstimate> e =
-      EstimatePose(r.belief, recognizer.map().place_poses(), centred, o);
+  const std::optional<PoseEstimate> e = EstimatePose(r.belief, layout.place_poses(), centred, o);
   if (!e) return;  // no pose at the match, or nothing finite
   auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
   msg->header = header;

@@ -16,7 +16,8 @@
 #include <memory>
 #include <string>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/place_decider.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/view/belief_view.h"
 
@@ -43,14 +44,14 @@ class RecognitionPublisher {
   RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle& pnh,
                        RecognitionPublisherOptions options, const DataDirectory* data_dir);
 
-  // Publishes what `r` found for the descriptor whose header is `header`. `recognizer` is
-  // the one that found it (method, gamma, sets and place poses); `seconds` the time spent.
-  void Publish(const std_msgs::Header& header, const Recognition& r,
-               const PlaceRecognizer& recognizer, double seconds);
+  // Publishes what `r` found for the descriptor whose header is `header`: `decider` found it
+  // on `layout` (method, gamma, sets and place poses); `seconds` the time spent.
+  void Publish(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
+               const PlaceDecider& decider, double seconds);
 
  private:
-  void PublishPose(const std_msgs::Header& header, const Recognition& r,
-                   const PlaceRecognizer& recognizer);
+  void PublishPose(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
+                   const PlaceDecider& decider);
 
   RecognitionPublisherOptions options_;
   ros::Publisher belief_pub_, match_pub_, pose_pub_;

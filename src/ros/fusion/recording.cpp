@@ -34,7 +34,7 @@ void CheckRecording(const ReferenceRecorder& recorder) {
 }  // namespace
 
 void Recording::Start(const std::string& name, const std::string& condition, bool overwrite,
-                      const ReferenceMap& loaded, RecordingPlaces places, bool save_images) {
+                      const PlaceLayout& loaded, RecordingPlaces places, bool save_images) {
   if (!data_dir_) {
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
@@ -166,7 +166,7 @@ std::string Recording::Summary() const {
   return s;
 }
 
-Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* loaded,
+Recording::Saved Recording::Save(DistanceMetric distance, const PlaceLayout* loaded,
                                  const PlaceIndexOptions& options) {
   CheckRecording(recorder_);
   if (recorder_.count() == 0) {
@@ -191,7 +191,7 @@ Recording::Saved Recording::Save(DistanceMetric distance, const ReferenceMap* lo
   try {
     saved.set = recorder_.Build(descriptor_type_, map, &source);
     saved.set.distance = ToString(distance);
-    if (loaded) loaded->CheckPlacePoses(saved.set);
+    if (loaded) loaded->CheckPlacePoses(saved.set.name, saved.set.place_ids, saved.set.poses);
   } catch (const std::exception& e) {
     throw std::invalid_argument(keep(std::string("the recording cannot be saved: ") + e.what()));
   }

@@ -44,7 +44,7 @@ class Recording {
   // loaded set to localise against. With `save_images`, each descriptor's camera image
   // (AddImage) is saved beside the set (folder NAME_images), so that the match image shows it.
   void Start(const std::string& name, const std::string& condition, bool overwrite,
-             const ReferenceMap& loaded, RecordingPlaces places = RecordingPlaces::kSequential,
+             const PlaceLayout& loaded, RecordingPlaces places = RecordingPlaces::kSequential,
              bool save_images = false);
   RecordingPlaces places() const { return recorder_.places(); }
   bool saves_images() const { return save_images_; }
@@ -90,9 +90,13 @@ class Recording {
   // contradict the map), and std::runtime_error if writing fails; in those two cases the
   // recording is kept, closed to new descriptors, until a later Save succeeds or Discard.
   // With `loaded`, places by pose are associated with its places (`options`), and a set
-  // whose poses contradict them (ReferenceMap::CheckPlacePoses) is refused before saving.
-  Saved Save(DistanceMetric distance, const ReferenceMap* loaded = nullptr,
+  // whose poses contradict them (PlaceLayout::CheckPlacePoses) is refused before saving.
+  Saved Save(DistanceMetric distance, const PlaceLayout* loaded = nullptr,
              const PlaceIndexOptions& options = {});
+  Saved Save(DistanceMetric distance, const ReferenceMap* loaded,
+             const PlaceIndexOptions& options = {}) {
+    return Save(distance, loaded ? &loaded->layout() : nullptr, options);
+  }
 
   // Ends the recording and drops what it holds. Throws std::invalid_argument if no
   // recording runs.

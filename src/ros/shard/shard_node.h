@@ -8,11 +8,12 @@
 // It reads the fusion node's parameters and uses those of the sets: reference_sets,
 // data_directory, distance, storage, place_pose_tolerance_m, first_stage* (a pca first
 // stage is per shard and no longer bitwise the single node's), queue_size and
-// diagnostic_period. What it holds is latched on ~shard_info (bsf_vpr/ShardInfo) and
-// published again on every change; ~list_reference_sets, ~load_reference_set,
-// ~unload_reference_set and ~get_distances serve the combiner (and operators).
+// diagnostic_period. Its sets are a LocalMap, as a fusion node's own. What it holds is latched on
+// ~shard_info (bsf_vpr/ShardInfo) and published again on every change; ~list_reference_sets,
+// ~load_reference_set, ~unload_reference_set and ~get_distances serve the combiner (and operators).
 //
-// Every callback takes mutex_; load_reference_set reads its files on a thread of its own.
+// The map has its own lock; mutex_ guards the shard's counters and what it publishes.
+// load_reference_set reads its files on a thread of its own.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
@@ -32,9 +33,9 @@
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/fusion/fusion_params.h"
+#include "src/ros/map/local_map.h"
 
 namespace bsf_vpr {
 
@@ -49,14 +50,8 @@ class ShardNode {
 
  private:
   void OnDescriptor(const Descriptor::ConstPtr& msg);
-  // The query's distances to every set held, or the refusal in out->error. Caller holds
-  // mutex_.
-  void ComputeFor(const Descriptor& descriptor, ShardDistances* out);
   // Publishes what the shard holds now (latched). Caller holds mutex_.
   void PublishInfo();
-  // The first stage (first_stage pca) for the current sets; exact search if it fails.
-  // Caller holds mutex_.
-  void PrepareFirstStage();
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
@@ -67,9 +62,8 @@ class ShardNode {
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;
   std::mutex mutex_;
-  PlaceRecognizer sets_;                // the shard's sets and their distances; decides nothing
-  std::vector<uint64_t> fingerprints_;  // SetFingerprint of each set of sets_.map()
   std::unique_ptr<DataDirectory> data_dir_;  // null: load_reference_set is off
+  std::unique_ptr<LocalMap> map_;            // the shard's sets; it decides nothing
   ros::CallbackQueue load_queue_;
   std::unique_ptr<ros::AsyncSpinner> load_spinner_;
 
@@ -83,7 +77,6 @@ class ShardNode {
   int processed_ = 0, rejected_ = 0;
   double processing_s_sum_ = 0;
   std::string last_rejection_;
-  std::string first_stage_error_;
   std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
   ros::WallTime last_diagnostics_;
 };

@@ -107,7 +107,7 @@ std::string Joined(const std::vector<std::string>& items, size_t max_chars) {
 
 }  // namespace
 
-RouteLayout MakeRouteLayout(const ReferenceMap& map, const BeliefViewOptions& options) {
+RouteLayout MakeRouteLayout(const PlaceLayout& map, const BeliefViewOptions& options) {
   RouteLayout layout;
   const int n = map.num_places();
   const auto& poses = map.place_poses();

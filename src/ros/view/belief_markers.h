@@ -45,7 +45,7 @@ struct RouteLayout {
   bool fits_view = true;                             // extent_m <= view_size_m
 };
 
-RouteLayout MakeRouteLayout(const ReferenceMap& map, const BeliefViewOptions& options);
+RouteLayout MakeRouteLayout(const PlaceLayout& map, const BeliefViewOptions& options);
 
 // Marker sizes in metres, each a fixed fraction of layout.scale_m (the bar width also
 // follows the spacing of the places, within bounds).

@@ -120,20 +120,20 @@ sensor_msgs::ImageConstPtr BeliefView::QueryImage(const ros::Time& stamp) const 
 }
 
 cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
-                                   const ReferenceMap& map, std::string* note) const {
+                                   const PlaceLayout& map, std::string* note) const {
   if (r.closest_set < 0) {
     *note = "no set the method used covers place " + std::to_string(belief.match);
     return cv::Mat();
   }
-  const StoredReferenceSet& set = map.set(r.closest_set);
-  const auto& ids = set.place_ids();
+  const SetLayout& set = map.set(r.closest_set);
+  const auto& ids = set.place_ids;
   const auto row = std::find(ids.begin(), ids.end(), belief.match) - ids.begin();
   if (row == static_cast<long>(ids.size())) {
-    *note = "set '" + set.name() + "' does not cover place " + std::to_string(belief.match);
+    *note = "set '" + set.name + "' does not cover place " + std::to_string(belief.match);
     return cv::Mat();
   }
-  if (set.image_files().empty()) {
-    *note = "set '" + set.name() +
+  if (set.image_files.empty()) {
+    *note = "set '" + set.name +
             "' has no images: recorded without images, or its YAML names none (images:; "
             "by service only below the data directory)";
     return cv::Mat();
@@ -144,7 +144,7 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
         cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),
         cv::IMREAD_COLOR);
     if (image.empty()) throw std::runtime_error("not a readable image");
-    *note = set.name() + ", place " + std::to_string(belief.match);
+    *note = set.name + ", place " + std::to_string(belief.match);
     return image;
   } catch (const std::exception& e) {
     ROS_WARN_THROTTLE(5.0, "bsf_vpr: match image: %s", e.what());
@@ -154,7 +154,7 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
 }
 
 void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
-                                   const ReferenceMap& map, const std::vector<int>& truth,
+                                   const PlaceLayout& map, const std::vector<int>& truth,
                                    bool probabilistic) {
   PendingImage next;
   next.header = belief.header;
@@ -185,29 +185,29 @@ void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
   // Else the image is still on its way (the descriptor can overtake it): OnImage publishes.
 }
 
-void BeliefView::Show(const Belief& belief, const Recognition& r,
-                      const PlaceRecognizer& recognizer) {
+void BeliefView::Show(const Belief& belief, const Recognition& r, const PlaceLayout& layout,
+                      const PlaceDecider& decider) {
   const bool markers = marker_pub_.getNumSubscribers() > 0;
   const bool image = match_image_pub_.getNumSubscribers() > 0;
   if (!markers && !image) return;
   const std::vector<int> truth = TruePlaces(belief.header.stamp);
-  const Method& method = recognizer.method();
+  const Method& method = decider.method();
   const bool probabilistic = method.IsBayesian() || method.sequence;  // confidence: log-odds
   if (markers) {
-    RouteLayout layout = MakeRouteLayout(recognizer.map(), options_);
+    RouteLayout route = MakeRouteLayout(layout, options_);
     geometry_msgs::TransformStamped view;
     view.header.stamp = belief.header.stamp.isZero() ? ros::Time::now() : belief.header.stamp;
     view.header.frame_id = options_.map_frame;
     view.child_frame_id = options_.view_frame;
-    const Eigen::Vector3d focus = ViewFocus(layout, belief.match);
+    const Eigen::Vector3d focus = ViewFocus(route, belief.match);
     view.transform.translation.x = focus.x();
     view.transform.translation.y = focus.y();
     view.transform.translation.z = focus.z();
     view.transform.rotation.w = 1;
     tf_.sendTransform(view);
-    marker_pub_.publish(MakeBeliefMarkers(layout, belief, truth, probabilistic, options_));
+    marker_pub_.publish(MakeBeliefMarkers(route, belief, truth, probabilistic, options_));
     std::lock_guard<std::mutex> lock(mutex_);
-    drawn_layout_ = std::move(layout);
+    drawn_layout_ = std::move(route);
     drawn_header_ = belief.header;
     drawn_has_truth_ = !truth.empty();
     if (!drawn_has_truth_) {  // arrived since TruePlaces() looked?
@@ -215,7 +215,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r,
     }
   }
   if (image) {
-    PublishMatchImage(belief, r, recognizer.map(), truth, probabilistic);
+    PublishMatchImage(belief, r, layout, truth, probabilistic);
   }
 }
 

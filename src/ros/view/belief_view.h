@@ -31,7 +31,8 @@
 #include <utility>
 #include <vector>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/place_decider.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/view/belief_markers.h"
 #include "src/ros/view/match_image.h"
@@ -46,8 +47,9 @@ class BeliefView {
   BeliefView(ros::NodeHandle& nh, ros::NodeHandle& pnh, BeliefViewOptions options,
              const std::string& ground_truth_topic, const DataDirectory* data_dir);
 
-  // Draws `belief` (the message published for `r`, found by `recognizer`).
-  void Show(const Belief& belief, const Recognition& r, const PlaceRecognizer& recognizer);
+  // Draws `belief` (the message published for `r`, found by `decider` on `layout`).
+  void Show(const Belief& belief, const Recognition& r, const PlaceLayout& layout,
+            const PlaceDecider& decider);
 
  private:
   void OnImage(const sensor_msgs::ImageConstPtr& image);
@@ -68,10 +70,10 @@ class BeliefView {
   void PublishPending();
   // The image of the matched place in the set that supplied it, or empty with `note` saying
   // why; `note` names the set and place otherwise.
-  cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const ReferenceMap& map,
+  cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
                          std::string* note) const;
   // `probabilistic`: the belief's confidence is a log-odds (BeliefLabelLines).
-  void PublishMatchImage(const Belief& belief, const Recognition& r, const ReferenceMap& map,
+  void PublishMatchImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
                          const std::vector<int>& truth, bool probabilistic);
 
   BeliefViewOptions options_;

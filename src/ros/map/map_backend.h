@@ -1,0 +1,85 @@
+// What the fusion node asks of the map it decides on: the place layout, each query's
+// distances to the sets, and the services that change the sets. Two implementations:
+// LocalMap holds the sets in this process; ShardedMap fuses the distances that fusion
+// shards compute for the sets they hold (docs/sharding.md). FusionNode is written against
+// this interface alone, as cartographer_ros's Node is against MapBuilderInterface.
+//
+// Every member is thread-safe and may block (reading files, calling shards); none is
+// called with the node's own lock held except layout(), metric() and the diagnostics.
+#pragma once
+
+#include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/ListReferenceSets.h>
+#include <bsf_vpr/LoadReferenceSet.h>
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
+#include <std_msgs/Header.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/place_layout.h"
+#include "bsf_vpr/core/query_distances.h"
+#include "bsf_vpr/core/reference_set.h"
+
+namespace bsf_vpr {
+
+class MapBackend {
+ public:
+  // A layout never changes once made: a change of sets makes a new one.
+  using Layout = std::shared_ptr<const PlaceLayout>;
+
+  // One query's distances, and the layout they are for.
+  struct Query {
+    std_msgs::Header header;  // the descriptor's
+    Layout layout;
+    QueryDistances distances;                 // set by set of *layout
+    std::vector<std::string> missing_shards;  // shards whose sets are absent from it
+    double seconds = 0;                       // time spent on the distances (slowest shard)
+  };
+  // A map that learns of queries by itself (the sharded map: its shards hear the
+  // descriptors) hands them on here, in stamp order, each once, from its own threads;
+  // `reject` says why a query cannot be decided.
+  struct Callbacks {
+    std::function<void(Query& query)> query;
+    std::function<void(const std::string& why)> reject;
+  };
+
+  virtual ~MapBackend() = default;
+
+  // The layout now (never null: empty before any set).
+  virtual Layout layout() const = 0;
+  // The distance the sets are compared with.
+  virtual DistanceMetric metric() const = 0;
+
+  // A descriptor the node heard. A map holding the sets returns its query now; a sharded
+  // map returns nullopt (its query comes through Callbacks::query once the shards
+  // answered). Throws std::invalid_argument naming what is wrong with the descriptor.
+  virtual std::optional<Query> Hear(const Descriptor& descriptor) = 0;
+  // The query of one descriptor now, whoever holds the sets (query_place). Throws
+  // std::invalid_argument when it cannot be answered.
+  virtual Query Ask(const Descriptor& descriptor) = 0;
+
+  // load_reference_set and unload_reference_set: the message of success, or throws
+  // std::invalid_argument with the refusal (the sets unchanged). `check` (may be empty)
+  // sees the name of a set read in this process before it joins, and throws to refuse it;
+  // it is called with no lock of the map held.
+  using SetCheck = std::function<void(const std::string& name)>;
+  virtual std::string Load(const LoadReferenceSet::Request& request, const SetCheck& check) = 0;
+  virtual std::string Unload(const std::string& name) = 0;
+  // A set recorded by the node, added as it was saved (from `where`). Throws as Load.
+  virtual std::string Add(ReferenceSet set, const std::string& where) = 0;
+  // Why this map cannot take a set the node records ("" if it can).
+  virtual std::string CannotRecord() const = 0;
+  virtual void List(ListReferenceSets::Response* response) const = 0;
+
+  // Why the map works short of what it was asked ("" if it does not): shards missing, a
+  // first stage that fell back to exact search. A warning in the node's diagnostics.
+  virtual std::string Problem() const = 0;
+  virtual void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const = 0;
+};
+
+}  // namespace bsf_vpr

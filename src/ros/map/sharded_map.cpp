@@ -1,0 +1,566 @@
+#include "src/ros/map/sharded_map.h"
+
+#include <bsf_vpr/GetShardDistances.h>
+#include <bsf_vpr/UnloadReferenceSet.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/ros/names.h"
+#include "src/ros/common/conversions.h"
+#include "src/ros/map/set_loading.h"
+
+namespace bsf_vpr {
+namespace {
+
+// How long a routed load or unload waits for the shard's new shard_info.
+constexpr double kShardInfoWaitS = 10.0;
+
+double NowS() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string SetList(const ShardInfo* info) {
+  if (!info || info->sets.empty()) return "no sets";
+  std::string out;
+  for (const ShardSet& s : info->sets) out += (out.empty() ? "" : ", ") + s.name;
+  return out;
+}
+
+bool SameSets(const ShardInfo* a, const ShardInfo* b) {
+  if (!a || !b || a->sets.size() != b->sets.size() || a->distance != b->distance) return false;
+  for (size_t i = 0; i < a->sets.size(); ++i) {
+    if (a->sets[i].name != b->sets[i].name || a->sets[i].fingerprint != b->sets[i].fingerprint) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks callbacks)
+    : nh_(std::move(nh)),
+      options_(std::move(options)),
+      callbacks_(std::move(callbacks)),
+      shards_(options_.shards.size()),
+      join_(
+          static_cast<int>(options_.shards.size()), options_.timeout_s,
+          static_cast<size_t>(std::max(1, options_.queue_size)),
+          [this](int k) { return CanAnswer(k); },
+          [this](Join::Level level, int k, const std::string& what) {
+            const std::string& name = shards_[static_cast<size_t>(k)].name;
+            if (level == Join::Level::kWarn) {
+              ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
+            } else {
+              ROS_INFO("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
+            }
+          }),
+      layout_(std::make_shared<PlaceLayout>()),
+      metric_(options_.metric.value_or(DistanceMetric::kEuclidean)) {
+  std::lock_guard<std::mutex> lock(mutex_);  // the subscriptions' callbacks take it
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    Shard& s = shards_[k];
+    s.name = nh_.resolveName(options_.shards[k]);
+    const int index = static_cast<int>(k);
+    s.info_sub =
+        nh_.subscribe<ShardInfo>(s.name + "/" + names::kShardInfoTopic, 1,
+                                 [this, index](const ShardInfo::ConstPtr& m) { OnInfo(index, m); });
+    s.distances_sub = nh_.subscribe<ShardDistances>(
+        s.name + "/" + names::kShardDistancesTopic,
+        static_cast<uint32_t>(std::max(1, options_.queue_size)),
+        [this, index](const ShardDistances::ConstPtr& m) { OnDistances(index, m); });
+  }
+  // Decides the queries whose missing answers time out (every answer may have arrived).
+  timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.timeout_s / 5)),
+                               [this](const ros::WallTimerEvent&) {
+                                 {
+                                   std::lock_guard<std::mutex> guard(mutex_);
+                                   Queue(join_.Tick(NowS()));
+                                 }
+                                 Deliver();
+                               });
+}
+
+ShardedMap::~ShardedMap() {
+  timer_.stop();
+  for (Shard& s : shards_) {
+    s.info_sub.shutdown();
+    s.distances_sub.shutdown();
+  }
+}
+
+MapBackend::Layout ShardedMap::layout() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return layout_;
+}
+
+DistanceMetric ShardedMap::metric() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return metric_;
+}
+
+bool ShardedMap::CanAnswer(int k) const {
+  const Shard& shard = shards_[static_cast<size_t>(k)];
+  return shard.info && shard.distances_sub.getNumPublishers() > 0;
+}
+
+int ShardedMap::OwnerOf(const std::string& set) const {
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    if (!shards_[k].info) continue;
+    for (const ShardSet& s : shards_[k].info->sets) {
+      if (s.name == set) return static_cast<int>(k);
+    }
+  }
+  return -1;
+}
+
+int ShardedMap::LeastLoaded() const {
+  int best = -1;
+  size_t fewest = 0;
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    if (!shards_[k].info || join_.counts(static_cast<int>(k)).missing) continue;
+    size_t places = 0;
+    for (const ShardSet& s : shards_[k].info->sets) places += s.place_ids.size();
+    if (best < 0 || places < fewest) {
+      best = static_cast<int>(k);
+      fewest = places;
+    }
+  }
+  return best;
+}
+
+void ShardedMap::OnInfo(int k, const ShardInfo::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Shard& shard = shards_[static_cast<size_t>(k)];
+  // What the shard holds now supersedes a layout of it refused before (a load that was
+  // refused and unloaded again, a restart).
+  shard.refused.clear();
+  shard.refused_info.reset();
+  if (SameSets(shard.info.get(), msg.get())) {
+    // Restarted (or republished) with the sets it had: nothing to rebuild.
+    shard.info = msg;
+    ++shard.info_count;
+    shard.change_expected = false;
+    if (join_.counts(k).missing) ROS_INFO("bsf_vpr: shard %s is back", shard.name.c_str());
+    infos_changed_.notify_all();
+    return;
+  }
+  if (TakeInfo(k, msg)) {
+    // Another shard's layout refused earlier may fit now (the clash it had may be gone).
+    for (size_t j = 0; j < shards_.size(); ++j) {
+      if (static_cast<int>(j) != k && shards_[j].refused_info) {
+        TakeInfo(static_cast<int>(j), shards_[j].refused_info);
+      }
+    }
+  }
+  infos_changed_.notify_all();
+}
+
+PlaceLayout ShardedMap::LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const {
+  // Every shard's info, shard k's replaced by `info`.
+  std::vector<const ShardInfo*> infos;
+  for (size_t j = 0; j < shards_.size(); ++j) {
+    infos.push_back(static_cast<int>(j) == k ? &info : shards_[j].info.get());
+  }
+  // The distance of the map: that of the shards holding sets (one without sets has its
+  // configured or default distance, which does not matter).
+  std::string distance;
+  PlaceLayout layout;
+  layout.SetPlacePoseTolerance(options_.place_pose_tolerance_m);
+  for (size_t j = 0; j < infos.size(); ++j) {
+    if (!infos[j] || infos[j]->sets.empty()) continue;
+    if (distance.empty()) distance = infos[j]->distance;
+    if (infos[j]->distance != distance) {
+      throw std::invalid_argument("the shards' sets are meant for different distances (" +
+                                  distance + ", and " + infos[j]->distance + " on shard " +
+                                  shards_[j].name + ")");
+    }
+    for (const ShardSet& s : infos[j]->sets) {
+      if (layout.IndexOf(s.name) >= 0) {
+        throw std::invalid_argument("set '" + s.name + "' is held by two shards");
+      }
+      if (layout.dimension() != 0 && s.dimension != layout.dimension()) {
+        throw std::invalid_argument("set '" + s.name + "' has dimension " +
+                                    std::to_string(s.dimension) + ", the map " +
+                                    std::to_string(layout.dimension()));
+      }
+      layout.Add(LayoutFromShardSetMsg(s));
+    }
+  }
+  *metric = ParseDistanceMetric(distance.empty() ? info.distance : distance);
+  if (layout.num_sets() > 0 && options_.metric && *metric != *options_.metric) {
+    throw std::invalid_argument("the shards use " + ToString(*metric) + " distance, this node " +
+                                ToString(*options_.metric));
+  }
+  return layout;
+}
+
+bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
+  Shard& shard = shards_[static_cast<size_t>(k)];
+  try {
+    DistanceMetric metric;
+    PlaceLayout layout = LayoutWith(k, *msg, &metric);
+    const std::string why = "shard " + shard.name + " holds " + SetList(msg.get()) +
+                            (shard.info ? " (was " + SetList(shard.info.get()) + ")" : "");
+    ROS_INFO(
+        "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
+        "afresh",
+        why.c_str(), layout.num_sets(), layout.num_places());
+    layout_ = std::make_shared<PlaceLayout>(std::move(layout));
+    metric_ = metric;
+    // Sets gone without a load or unload routed here: the shard restarted with its
+    // configured sets only (sets loaded at run time live as long as its process), or
+    // someone called the shard's own services. Said loudly: the map shrank.
+    std::string lost;
+    if (shard.info && !shard.change_expected) {
+      for (const ShardSet& held : shard.info->sets) {
+        bool kept = false;
+        for (const ShardSet& now : msg->sets) kept = kept || now.name == held.name;
+        if (!kept) lost += (lost.empty() ? "" : ", ") + held.name;
+      }
+    }
+    if (!lost.empty()) {
+      ROS_WARN(
+          "bsf_vpr: shard %s no longer holds %s (restarted? sets loaded at run time are "
+          "not reloaded: list them in the shard's reference_sets)",
+          shard.name.c_str(), lost.c_str());
+    }
+    shard.lost = lost;
+    shard.change_expected = false;
+    shard.info = msg;
+    shard.refused.clear();
+    shard.refused_info.reset();
+    ++shard.info_count;
+    ++layouts_;
+    return true;
+  } catch (const std::exception& e) {
+    if (shard.refused != e.what()) {
+      ROS_ERROR("bsf_vpr: shard %s's sets are refused, the map keeps its previous layout: %s",
+                shard.name.c_str(), e.what());
+    }
+    shard.refused = e.what();
+    shard.refused_info = msg;
+    ++shard.refusals;
+    return false;
+  }
+}
+
+void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (msg->header.stamp.isZero()) {
+      // Every shard answers it: said once, by the first shard that answers queries.
+      for (int j = 0; j < k; ++j) {
+        if (join_.Expected(j)) return;
+      }
+      outbox_.push_back(Outgoing{std::nullopt,
+                                 "a descriptor without a stamp: a sharded map pairs the shards' "
+                                 "answers by header.stamp (shard " +
+                                     shards_[static_cast<size_t>(k)].name + ")"});
+    } else {
+      Queue(join_.Answer(k, static_cast<int64_t>(msg->header.stamp.toNSec()), msg, NowS()));
+    }
+  }
+  Deliver();
+}
+
+void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
+  for (Join::Decision& d : decisions) {
+    std::vector<const ShardDistances*> answers;
+    std_msgs::Header header;
+    for (const ShardDistances::ConstPtr& a : d.answers) {
+      answers.push_back(a.get());
+      if (a) header = a->header;
+    }
+    try {
+      Query query = Assemble(header, answers);
+      ++decided_;
+      if (!query.missing_shards.empty()) ++decided_partial_;
+      outbox_.push_back(Outgoing{std::move(query), ""});
+    } catch (const std::exception& e) {
+      outbox_.push_back(Outgoing{std::nullopt, e.what()});
+    }
+  }
+}
+
+void ShardedMap::Deliver() {
+  std::lock_guard<std::mutex> order(deliver_);
+  for (;;) {
+    Outgoing next;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (outbox_.empty()) return;
+      next = std::move(outbox_.front());
+      outbox_.pop_front();
+    }
+    if (next.query) {
+      callbacks_.query(*next.query);
+    } else {
+      callbacks_.reject(next.rejection);
+    }
+  }
+}
+
+MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header,
+                                       const std::vector<const ShardDistances*>& answers) const {
+  Query query;
+  query.header = header;
+  query.layout = layout_;
+  query.distances = QueryDistances(layout_->num_sets());
+  std::string refusals;  // of the shards that refused the descriptor
+  bool any = false;      // a shard's distances are in
+  int u = 0;             // the layout's index of the shard's first set
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    const Shard& shard = shards_[k];
+    if (!shard.info) {
+      query.missing_shards.push_back(shard.name);  // no sets known yet
+      continue;
+    }
+    const ShardDistances* a = answers.at(k);
+    const std::vector<ShardSet>& sets = shard.info->sets;
+    if (a && !a->error.empty() && !sets.empty()) {
+      refusals += (refusals.empty() ? "" : "; ") + ("shard " + shard.name + ": " + a->error);
+    }
+    // An answer for other sets than the layout's (a shard whose new shard_info has not
+    // arrived, or was refused), a refusal, or a malformed one counts as none.
+    bool usable = a && a->error.empty() && a->set_names.size() == sets.size() &&
+                  a->fingerprints.size() == sets.size() && a->counts.size() == sets.size();
+    size_t total = 0;
+    for (size_t i = 0; usable && i < sets.size(); ++i) {
+      usable = a->set_names[i] == sets[i].name && a->fingerprints[i] == sets[i].fingerprint &&
+               a->counts[i] == static_cast<int32_t>(sets[i].place_ids.size());
+      total += sets[i].place_ids.size();
+    }
+    usable = usable && a->distances.size() == total;
+    if (!usable) {
+      if (!sets.empty()) query.missing_shards.push_back(shard.name);
+      u += static_cast<int>(sets.size());  // absent
+      continue;
+    }
+    any = any || !sets.empty();
+    query.seconds = std::max(query.seconds, a->processing_time);
+    size_t offset = 0;
+    for (size_t i = 0; i < sets.size(); ++i, ++u) {
+      const Eigen::Index n = a->counts[i];
+      query.distances.Set(u, Eigen::Map<const RowMatrixXf>(a->distances.data() + offset, 1, n));
+      offset += static_cast<size_t>(n);
+    }
+  }
+  // A descriptor every shard with distances refused is refused (its dimension, a NaN: the
+  // same reason on each); one shard's refusal alone makes that shard missing.
+  if (!any && !refusals.empty()) throw std::invalid_argument(refusals);
+  return query;
+}
+
+MapBackend::Query ShardedMap::Ask(const Descriptor& descriptor) {
+  // Each shard's distances through its get_distances service (without the lock: the shards
+  // answer while descriptors stream in).
+  std::vector<std::string> names;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const Shard& s : shards_) names.push_back(s.name);
+  }
+  std::vector<GetShardDistances> calls(names.size());
+  std::vector<const ShardDistances*> answers(names.size(), nullptr);
+  for (size_t k = 0; k < names.size(); ++k) {
+    calls[k].request.descriptor = descriptor;
+    if (ros::service::call(names[k] + "/" + names::kShardDistancesService, calls[k])) {
+      answers[k] = &calls[k].response.distances;
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  return Assemble(descriptor.header, answers);
+}
+
+template <typename Service>
+std::string ShardedMap::Route(int k, const std::string& service, Service* srv) {
+  std::string name;
+  uint64_t infos = 0, refusals = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    Shard& shard = shards_.at(static_cast<size_t>(k));
+    name = shard.name;
+    infos = shard.info_count;
+    refusals = shard.refusals;
+    shard.change_expected = true;  // its next change of sets is not warned about as lost
+  }
+  if (!ros::service::call(name + "/" + service, *srv)) {
+    throw std::invalid_argument("shard " + name + " did not answer " + service);
+  }
+  if (!srv->response.success) {
+    throw std::invalid_argument("shard " + name + ": " + srv->response.message);
+  }
+  const Shard& shard = shards_[static_cast<size_t>(k)];
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(kShardInfoWaitS);
+  const auto taken = [&] { return shard.info_count > infos; };
+  std::unique_lock<std::mutex> lock(mutex_);
+  // The shard published its new sets before answering: wait for the map to take them, or
+  // to refuse them (a set that cannot share the map with the other shards' sets).
+  if (!infos_changed_.wait_until(lock, deadline,
+                                 [&] { return taken() || shard.refusals > refusals; })) {
+    throw std::invalid_argument(
+        srv->response.message + ", but its new shard_info has not reached this node in " +
+        std::to_string(static_cast<int>(kShardInfoWaitS)) + " s (see diagnostics)");
+  }
+  if (taken()) return srv->response.message;
+  // Take the shard back to the sets the map holds (without the lock: a call), and answer
+  // once they are back in the map (nothing refused).
+  std::vector<std::string> added;
+  if (shard.refused_info) {
+    for (const ShardSet& s : shard.refused_info->sets) {
+      bool held = false;
+      if (shard.info) {
+        for (const ShardSet& t : shard.info->sets) held = held || t.name == s.name;
+      }
+      if (!held) added.push_back(s.name);
+    }
+  }
+  const std::string refusal = shard.refused;
+  lock.unlock();
+  for (const std::string& set : added) {
+    UnloadReferenceSet undo;
+    undo.request.name = set;
+    ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
+  }
+  if (!added.empty()) {
+    lock.lock();
+    infos_changed_.wait_until(lock, deadline, taken);
+  }
+  throw std::invalid_argument("the map refused shard " + name + "'s new sets (" + refusal + ")" +
+                              (added.empty() ? "" : "; unloaded again from the shard"));
+}
+
+std::string ShardedMap::Load(const LoadReferenceSet::Request& request, const SetCheck&) {
+  // Routed to the shard asked for, or the one holding the fewest places; the path is below
+  // that shard's data directory.
+  int shard = -1;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (size_t k = 0; k < shards_.size(); ++k) {
+      const std::string& name = shards_[k].name;
+      if (!request.shard.empty() &&
+          (name == request.shard || name == nh_.resolveName(request.shard))) {
+        shard = static_cast<int>(k);
+      }
+    }
+    if (request.shard.empty()) shard = LeastLoaded();
+    if (!request.name.empty() && OwnerOf(request.name) >= 0) {
+      throw std::invalid_argument("a reference set named " + QuotedForMessage(request.name) +
+                                  " is already loaded, on shard " +
+                                  shards_[static_cast<size_t>(OwnerOf(request.name))].name);
+    }
+  }
+  if (shard < 0) {
+    throw std::invalid_argument(request.shard.empty()
+                                    ? "no shard has published its sets yet"
+                                    : "no shard named " + QuotedForMessage(request.shard) +
+                                          " (parameter shards)");
+  }
+  LoadReferenceSet forward;
+  forward.request = request;
+  forward.request.shard.clear();
+  return Route(shard, names::kLoadReferenceSetService, &forward);
+}
+
+std::string ShardedMap::Unload(const std::string& name) {
+  int shard = -1;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    shard = OwnerOf(name);
+  }
+  if (shard < 0) {
+    throw std::invalid_argument("no shard holds a reference set named " + QuotedForMessage(name));
+  }
+  UnloadReferenceSet forward;
+  forward.request.name = name;
+  return Route(shard, names::kUnloadReferenceSetService, &forward);
+}
+
+std::string ShardedMap::CannotRecord() const {
+  return "this node fuses shards and sees no descriptors: record with a fusion node of its "
+         "own sets, then load the recorded set on a shard (load_reference_set with shard)";
+}
+
+std::string ShardedMap::Add(ReferenceSet, const std::string&) {
+  throw std::invalid_argument(CannotRecord());
+}
+
+void ShardedMap::List(ListReferenceSets::Response* response) const {
+  // The combiner holds the layout; the shard, the rows.
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const Shard& shard : shards_) {
+    if (!shard.info) continue;
+    for (const ShardSet& s : shard.info->sets) {
+      if (layout_->IndexOf(s.name) < 0) continue;  // refused: not in the map
+      ReferenceSetInfo info;
+      info.name = s.name;
+      info.condition = s.condition;
+      info.descriptor_type = s.descriptor_type;
+      info.num_places = static_cast<int32_t>(s.place_ids.size());
+      info.dimension = s.dimension;
+      info.memory_bytes = s.memory_bytes;
+      info.storage = s.storage;
+      info.shard = shard.name;
+      response->sets.push_back(info);
+    }
+  }
+  response->num_places = layout_->num_places();
+}
+
+std::string ShardedMap::MissingSummaryLocked() const {
+  std::string out;
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    const Shard& shard = shards_[k];
+    std::string why;
+    if (!shard.info) {
+      why = "no shard_info yet";
+    } else if (!shard.refused.empty()) {
+      why = "its sets refused: " + shard.refused;
+    } else if (!shard.info->sets.empty() && (join_.counts(static_cast<int>(k)).missing ||
+                                             shard.distances_sub.getNumPublishers() == 0)) {
+      why = SetList(shard.info.get());
+    }
+    if (!why.empty()) out += (out.empty() ? "" : "; ") + shard.name + " (" + why + ")";
+  }
+  return out;
+}
+
+std::string ShardedMap::Problem() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string missing = MissingSummaryLocked();
+  return missing.empty() ? "" : "deciding without shard(s) " + missing;
+}
+
+void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status.add("first stage", "exact");  // the shards' own: the combiner computes no distances
+  status.add("shards", static_cast<int>(shards_.size()));
+  status.add("map layouts taken", layouts_);
+  status.add("queries decided", decided_);
+  status.add("decided without some shard", decided_partial_);
+  for (size_t k = 0; k < shards_.size(); ++k) {
+    const Shard& shard = shards_[k];
+    const Join::ShardCounts& counts = join_.counts(static_cast<int>(k));
+    std::string state;
+    if (!shard.refused.empty()) state = "sets refused: " + shard.refused + "; ";
+    if (!shard.info) {
+      state += "no shard_info yet";
+    } else if (shard.distances_sub.getNumPublishers() == 0) {
+      state += "not publishing (" + SetList(shard.info.get()) + " missing)";
+    } else if (counts.missing) {
+      state += "missing for " + std::to_string(static_cast<int>(NowS() - counts.missing_since_s)) +
+               " s (" + SetList(shard.info.get()) + ")";
+    } else {
+      state += "answering: " + SetList(shard.info.get());
+    }
+    if (!shard.lost.empty()) state += "; lost at its last change: " + shard.lost;
+    status.addf("shard " + shard.name, "%s; %ld answers, %ld missed, %ld late", state.c_str(),
+                static_cast<long>(counts.answered), static_cast<long>(counts.missed),
+                static_cast<long>(counts.late));
+  }
+}
+
+}  // namespace bsf_vpr

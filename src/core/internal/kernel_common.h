@@ -1,0 +1,88 @@
+// The parts every distance kernel shares (distance_kernels.cpp, kernels_*.h): the eight
+// lanes and their fixed reduction tree, the tile's arguments, the int8 rules. Included by
+// distance_kernels.cpp alone, which dispatches among the kernels: the whole of them is one
+// translation unit, compiled with -ffp-contract=off.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
+#if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
+#include <immintrin.h>
+#define BSF_VPR_HAVE_AVX2_KERNEL 1
+#define BSF_VPR_AVX2 __attribute__((target("avx2,fma,f16c")))
+#define BSF_VPR_AVX512 __attribute__((target("avx512f,avx512dq,avx2,fma,f16c")))
+#endif
+
+#include "src/core/internal/distance_kernels.h"
+
+namespace bsf_vpr {
+namespace kernels {
+namespace {
+
+constexpr int kLanes = 8;
+
+// The fixed reduction tree of the eight lanes.
+inline float ReduceLanes(const float* l) {
+  return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7]));
+}
+
+inline float Decode(float v) { return v; }
+inline float Decode(uint16_t v) { return HalfToFloat(v); }
+
+// The last, partial block of a row, zero-padded to eight lanes.
+template <class T>
+inline void PadTail(const T* row, int from, int n, float* lanes) {
+  for (int k = 0; k < kLanes; ++k) lanes[k] = from + k < n ? Decode(row[from + k]) : 0.0f;
+}
+
+// A tile: NQ queries x NR rows over the elements [i0, i1) of a row. `first`: the lanes start
+// at zero, else they continue from `lanes` (pair (j, k) at lanes + j * lanes_stride + k * 8).
+// At the row's end (i1 == d) the lanes are reduced into out[j * out_stride + k]; before it
+// they are stored back to `lanes`. Splitting a row into such passes keeps every lane's
+// additions in the same order, so chunked and whole-row tiles give the same bits.
+struct TileArgs {
+  const float* q = nullptr;
+  int q_stride = 0;
+  int i0 = 0, i1 = 0, d = 0;
+  bool first = true;
+  float* lanes = nullptr;
+  int lanes_stride = 0;
+  float* out = nullptr;
+  int out_stride = 0;
+  // int8 rows only: the queries rounded to int16 (query j at q16 + j * q_stride), the scale
+  // of each (q_scales[j]) and the rows' scale.
+  float scale = 1.0f;
+  const int16_t* q16 = nullptr;
+  const float* q_scales = nullptr;
+  // AVX-512 pair tiles only: queries 2p and 2p + 1 interleaved in blocks of eight elements
+  // (pair p at pairs + p * pairs_stride; see Queries::pairs).
+  const float* pairs = nullptr;
+  int pairs_stride = 0;
+};
+
+// ---- int8 rows: integer inner products -----------------------------------------------
+// The query is rounded to int16 with its own scale and each pair's products are summed
+// exactly in integers (int32 lanes that cannot overflow, see QueryLevels), so the value
+// does not depend on any order: both kernels and every tile give the same bits.
+
+inline float Int8Result(int64_t sum, float row_scale, float query_scale) {
+  return static_cast<float>(static_cast<double>(sum) *
+                            (static_cast<double>(row_scale) * static_cast<double>(query_scale)));
+}
+
+// Largest |int16 level| of a query such that an int32 lane (d / 8 products of at most
+// 127 x level) cannot overflow.
+int QueryLevels(int d) {
+  const int64_t bound = (int64_t{2147483647} * 8) / (int64_t{127} * std::max(d, 8));
+  return static_cast<int>(std::min<int64_t>(32767, bound));
+}
+
+}  // namespace
+}  // namespace kernels
+}  // namespace bsf_vpr

@@ -1,0 +1,79 @@
+// The AVX-512 kernel (AVX-512 F and DQ): two queries' eight lanes in one __m512, float32
+// batches only; CpuHasAvx512(). Included by distance_kernels.cpp alone.
+#pragma once
+
+#include "src/core/internal/kernels_avx2.h"
+
+namespace bsf_vpr {
+namespace kernels {
+namespace {
+
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+// ---- AVX-512 kernel: two queries' eight lanes in one __m512 -----------------------------
+// The same eight lanes, order and FMA as the AVX2 kernel, so the bits are the same: the low
+// half of a register holds query 2p's lanes for a row and the high half query 2p + 1's, the
+// row's eight elements broadcast to both halves. A 4-pair x 6-row tile keeps 24 registers of
+// sums (384 pairs' lanes) busy for 10 loads per eight elements, where the AVX2 tile of 4 x 3
+// keeps 12 for 7 loads. Float32 rows in batches only; the rest is the AVX2 kernel's.
+
+// GCC 12's _mm512_broadcast_f32x8 starts from an undefined register, which it then warns of.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+template <int NP, int NR>
+BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_stride) {
+  __m512 acc[NP][NR];
+  // Pair p's lanes for row k: 16 floats at a.lanes + p * a.lanes_stride + k * 16.
+  for (int p = 0; p < NP; ++p) {
+    for (int k = 0; k < NR; ++k) {
+      acc[p][k] = a.first ? _mm512_setzero_ps()
+                          : _mm512_loadu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes);
+    }
+  }
+  const int full = a.i1 - (a.i1 - a.i0) % kLanes;  // a pass ends on a block unless at d
+  for (int i = a.i0; i < full; i += kLanes) {
+    __m512 qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * i);
+    for (int k = 0; k < NR; ++k) {
+      const __m512 rv = _mm512_broadcast_f32x8(_mm256_loadu_ps(r + k * r_stride + i));
+      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
+    }
+  }
+  if (a.i1 < a.d) {
+    for (int p = 0; p < NP; ++p) {
+      for (int k = 0; k < NR; ++k) {
+        _mm512_storeu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes, acc[p][k]);
+      }
+    }
+    return;
+  }
+  if (full < a.d) {  // the zero-padded tail: the pairs are padded already
+    alignas(32) float pad[kLanes];
+    __m512 qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * full);
+    for (int k = 0; k < NR; ++k) {
+      PadTail(r + k * r_stride, full, a.d, pad);
+      const __m512 rv = _mm512_broadcast_f32x8(_mm256_load_ps(pad));
+      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
+    }
+  }
+  alignas(64) float lanes[2 * kLanes];
+  for (int p = 0; p < NP; ++p) {
+    for (int k = 0; k < NR; ++k) {
+      _mm512_store_ps(lanes, acc[p][k]);
+      a.out[(2 * p) * a.out_stride + k] = ReduceLanes(lanes);
+      a.out[(2 * p + 1) * a.out_stride + k] = ReduceLanes(lanes + kLanes);
+    }
+  }
+}
+#pragma GCC diagnostic pop
+
+bool CpuHasAvx512() {
+  return CpuHasAvx2() && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+}
+#else
+bool CpuHasAvx512() { return false; }
+#endif
+
+}  // namespace
+}  // namespace kernels
+}  // namespace bsf_vpr

@@ -258,9 +258,11 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
   out.set_weights.assign(sets.size(), 0.0);
   for (int u : use) out.set_weights.at(static_cast<size_t>(u)) = 1.0;
   if (method.IsBayesian()) {
-    // The statistics selection computed for every set are the likelihood's too.
+    // The statistics selection computed for every set are the likelihood's too: an input,
+    // taken aside rather than read out of the belief FuseBayes fills.
+    const std::vector<DistanceStats> set_stats = out.selection.set_stats;
     FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
-              options.top_k, &out, &out.selection.set_stats);
+              options.top_k, &out, &set_stats);
   } else {
     FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k, &out);
   }

@@ -89,17 +89,4 @@ std::vector<RowMatrixXf> PlaceRecognizer::Distances(
   return distances_.Distances(options_.metric, query, map_);
 }
 
-Recognition PlaceRecognizer::RecognizeDistances(const std::vector<RowMatrixXf>& distances,
-                                                bool update_state,
-                                                std::optional<double> step_places) {
-  if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
-  QueryDistances query(static_cast<int>(distances.size()));
-  for (size_t u = 0; u < distances.size(); ++u) {
-    const RowMatrixXf& d = distances[u];
-    if (d.size() == 0 && d.rows() == 0) continue;  // absent (a set is never empty)
-    query.Set(static_cast<int>(u), d);
-  }
-  return Decide(query, update_state, step_places);
-}
-
 }  // namespace bsf_vpr

@@ -52,10 +52,4 @@ uint64_t SetFingerprint(const StoredReferenceSet& set) {
   return h.value();
 }
 
-ReferenceSet LayoutOnlySet(ReferenceSet set) {
-  set.descriptors = RowMatrixXf::Zero(static_cast<Eigen::Index>(set.place_ids.size()), 1);
-  set.Validate();
-  return set;
-}
-
 }  // namespace bsf_vpr

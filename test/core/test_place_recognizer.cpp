@@ -180,7 +180,7 @@ TEST(PlaceRecognizer, PcaFirstStageFollowsTheMapAndIsExactWhenEveryRowIsReRanked
 }
 
 // A sharded map: each shard holds some of the sets and computes their distances alone; a
-// recognizer over the whole map's sets fuses them (RecognizeDistances) and gives bitwise
+// decider on the whole map's layout (no descriptors) fuses them and gives bitwise
 // the single recognizer's beliefs, for every method with +filter and +seq, with 2 and 3
 // shards, both metrics, float32 and int8 storage.
 TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
@@ -201,16 +201,16 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
           RecognizerOptions o;
           o.method = method;
           o.metric = metric;
-          PlaceRecognizer single, combiner;
+          PlaceRecognizer single;
           std::vector<PlaceRecognizer> holders(shards.size());
           single.SetStoragePrecision(precision);
-          for (const StoredReferenceSet& s : data.map.sets()) {
+          for (const StoredReferenceSet& s : data.map.sets())
             single.AddReferenceSet(s.ToReferenceSet());
-            // The combiner holds the sets' layout alone, as the fusion node's combiner does.
-            combiner.AddReferenceSet(LayoutOnlySet(s.ToReferenceSet()));
-          }
           single.SetOptions(o);
-          combiner.SetOptions(o);
+          // The combiner holds the sets' layout alone, as the fusion node's sharded map does.
+          const PlaceLayout layout = data.map.layout();
+          PlaceDecider combiner(o.method, o.method_options);
+          combiner.OnLayoutChanged(layout);
           for (size_t k = 0; k < shards.size(); ++k) {
             holders[k].SetStoragePrecision(precision);
             RecognizerOptions metric_only;  // a shard computes distances, it decides nothing
@@ -222,13 +222,13 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
                                    ", " + std::to_string(shards.size()) + " shards";
           for (int q = 0; q < 25; ++q) {
             const Eigen::VectorXf query = data.queries.row(q).transpose();
-            std::vector<RowMatrixXf> distances(3);
+            QueryDistances distances(3);
             for (size_t k = 0; k < shards.size(); ++k) {
               const std::vector<RowMatrixXf> own = holders[k].Distances(query);
-              for (size_t i = 0; i < shards[k].size(); ++i) distances[shards[k][i]] = own[i];
+              for (size_t i = 0; i < shards[k].size(); ++i) distances.Set(shards[k][i], own[i]);
             }
             const Recognition a = single.Recognize(query, true);
-            const Recognition b = combiner.RecognizeDistances(distances, true);
+            const Recognition b = combiner.Decide(layout, distances, true);
             ASSERT_EQ(a.belief.match, b.belief.match) << what << ", query " << q;
             ASSERT_EQ(std::memcmp(&a.belief.confidence, &b.belief.confidence, sizeof(double)), 0)
                 << what << ", query " << q;
@@ -251,25 +251,25 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
 }
 
 // What a shard sends is checked: the count of sets, each one's size, and its values.
-TEST(PlaceRecognizer, RecognizeDistancesRefusesWhatCannotBeTheSetsDistances) {
+TEST(PlaceRecognizer, DecideRefusesWhatCannotBeTheSetsDistances) {
   const SyntheticData data = Data();
   PlaceRecognizer r = Loaded(data);
   const std::vector<RowMatrixXf> good =
       ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), r.map());
-  EXPECT_NO_THROW(r.RecognizeDistances(good, false));
-  EXPECT_THROW(r.RecognizeDistances({good[0]}, true), std::invalid_argument);
+  EXPECT_NO_THROW(r.Decide(QueryDistances::AllPresent(good), false));
+  EXPECT_THROW(r.Decide(QueryDistances::AllPresent({good[0]}), true), std::invalid_argument);
   std::vector<RowMatrixXf> bad = good;
   bad[1] = good[1].leftCols(5);
-  EXPECT_THROW(r.RecognizeDistances(bad, true), std::invalid_argument);
+  EXPECT_THROW(r.Decide(QueryDistances::AllPresent(bad), true), std::invalid_argument);
   for (const float value : {-1.0f, NAN, INFINITY}) {
     bad = good;
     bad[0](0, 3) = value;
-    EXPECT_THROW(r.RecognizeDistances(bad, true), std::invalid_argument) << value;
+    EXPECT_THROW(r.Decide(QueryDistances::AllPresent(bad), true), std::invalid_argument) << value;
   }
   PlaceRecognizer empty;
-  EXPECT_THROW(empty.RecognizeDistances({}, true), std::invalid_argument);
-  // Every set missing: nothing to decide on.
-  EXPECT_THROW(r.RecognizeDistances(std::vector<RowMatrixXf>(good.size()), true),
+  EXPECT_THROW(empty.Decide(QueryDistances(), true), std::invalid_argument);
+  // Every set absent: nothing to decide on.
+  EXPECT_THROW(r.Decide(QueryDistances(static_cast<int>(good.size())), true),
                std::invalid_argument);
 }
 
@@ -289,19 +289,23 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
                                    "med_selective", "nn:c0", "nn:c2+seq", "bayes:c2+filter"}) {
     RecognizerOptions o;
     o.method = method;
-    PlaceRecognizer combiner, without_c1;
+    PlaceRecognizer without_c1;
     for (const StoredReferenceSet& s : data.map.sets()) {
-      combiner.AddReferenceSet(LayoutOnlySet(s.ToReferenceSet()));
       if (s.name() != "c1") without_c1.AddReferenceSet(s.ToReferenceSet());
     }
-    combiner.SetOptions(o);
     without_c1.SetOptions(o);
+    const PlaceLayout layout = data.map.layout();  // the combiner's: no descriptors
+    PlaceDecider combiner(o.method, o.method_options);
+    combiner.OnLayoutChanged(layout);
     for (int q = 0; q < 12; ++q) {
       const RowMatrixXf query = data.queries.row(q);
-      std::vector<RowMatrixXf> d = ComputeDistances(DistanceMetric::kEuclidean, query, data.map);
-      d[1].resize(0, 0);  // c1's shard did not answer
+      const std::vector<RowMatrixXf> all =
+          ComputeDistances(DistanceMetric::kEuclidean, query, data.map);
+      QueryDistances d(3);
+      d.Set(0, all[0]);
+      d.Set(2, all[2]);  // c1's shard did not answer
       const Recognition a = without_c1.Recognize(query.row(0).transpose(), true);
-      const Recognition b = combiner.RecognizeDistances(d, true);
+      const Recognition b = combiner.Decide(layout, d, true);
       ASSERT_EQ(b.missing_sets, std::vector<int>{1}) << method;
       ASSERT_EQ(a.belief.match, b.belief.match) << method << ", query " << q;
       ASSERT_EQ(a.belief.confidence, b.belief.confidence) << method << ", query " << q;
@@ -322,8 +326,10 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
     }
     // c1 answers again: every set is fused, and nothing is missing.
     const RowMatrixXf query = data.queries.row(12);
-    const Recognition back = combiner.RecognizeDistances(
-        ComputeDistances(DistanceMetric::kEuclidean, query, data.map), true);
+    const Recognition back = combiner.Decide(
+        layout,
+        QueryDistances::AllPresent(ComputeDistances(DistanceMetric::kEuclidean, query, data.map)),
+        true);
     EXPECT_TRUE(back.missing_sets.empty());
     EXPECT_EQ(back.belief.set_weights.size(), 3u);
     EXPECT_FALSE(std::isnan(back.belief.selection.set_stats.at(1).min));
@@ -333,10 +339,12 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
   o.method = "nn:c1";
   PlaceRecognizer r = Loaded(data);
   r.SetOptions(o);
-  std::vector<RowMatrixXf> d =
+  const std::vector<RowMatrixXf> all =
       ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), data.map);
-  d[1].resize(0, 0);
-  EXPECT_THROW(r.RecognizeDistances(d, true), std::invalid_argument);
+  QueryDistances d(3);
+  d.Set(0, all[0]);
+  d.Set(2, all[2]);
+  EXPECT_THROW(r.Decide(d, true), std::invalid_argument);
 }
 
 // The fingerprint tells sets apart by what distances read: same file, same fingerprint;
@@ -366,12 +374,11 @@ TEST(Sharding, SetFingerprintFollowsWhatTheSetHolds) {
   changed = c0;
   changed.poses.assign(c0.place_ids.size(), PlacePose{});
   EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
-  // A layout-only set keeps the layout, not the descriptors.
-  const ReferenceSet layout = LayoutOnlySet(c0);
+  // The map's layout of a set keeps its places, not its descriptors.
+  const SetLayout& layout = data.map.layout().set(0);
   EXPECT_EQ(layout.place_ids, c0.place_ids);
   EXPECT_EQ(layout.size(), c0.size());
-  EXPECT_EQ(layout.dimension(), 1);
-  EXPECT_EQ(layout.descriptors.squaredNorm(), 0.0f);
+  EXPECT_EQ(layout.dimension, c0.dimension());
 }
 
 }  // namespace

@@ -75,21 +75,12 @@ class PlaceRecognizer {
                         std::optional<double> step_places = std::nullopt);
 
   // The same from the query's distances to the sets of map(), computed elsewhere
-  // (PlaceDecider::Decide on map().layout(): an absent set is left out).
-  Recognition Decide(const QueryDistances& distances, bool update_state,
-                     std::optional<double> step_places = std::nullopt);
-
-  // Decide with `distances[u]` 1 x N_u for set u of map() (in its order), as
-  // ComputeDistances gives them, and 0 x 0 for an absent set. A process that
+  // (PlaceDecider::Decide on map().layout(): an absent set is left out). A process that
   // holds some of the sets (a shard of a sharded map) computes them for its sets alone:
   // ComputeDistances gives each set's distances in the same bits whatever other sets share
-  // its map, so the recognition is bitwise Recognize's. Throws std::invalid_argument (the
-  // state untouched) for the wrong number of sets, a wrong size, or a value that is
-  // negative, NaN or infinite.
-  //
-  // Throws when every set is absent or the method is nn:/bayes: of an absent one.
-  Recognition RecognizeDistances(const std::vector<RowMatrixXf>& distances, bool update_state,
-                                 std::optional<double> step_places = std::nullopt);
+  // its map, so the decision is bitwise Recognize's.
+  Recognition Decide(const QueryDistances& distances, bool update_state,
+                     std::optional<double> step_places = std::nullopt);
 
   // The query's distances to every set of map() (1 x N_u each), as Recognize decides from
   // them: what a shard of a sharded map publishes. Throws std::invalid_argument as

@@ -1,6 +1,6 @@
-// What a sharded map needs of the core besides PlaceRecognizer::Distances and
-// RecognizeDistances: a fingerprint that tells one loaded set from another, and the
-// layout-only sets the combiner holds.
+// What a sharded map needs of the core besides the distances (PlaceRecognizer::Distances),
+// the place layout (place_layout.h) and the decision (place_decider.h): a fingerprint that
+// tells one loaded set from another.
 //
 // A sharded map keeps its reference sets on several shards (processes, possibly computers).
 // Each shard computes the query's distances to its own sets; a combiner that holds every
@@ -21,11 +21,5 @@ namespace bsf_vpr {
 // rows (the bytes the distances read). Equal for the same file loaded at the same storage
 // precision; a set reloaded from a changed file, or at another precision, differs.
 uint64_t SetFingerprint(const StoredReferenceSet& set);
-
-// A set with the given layout and nothing to compare: one zero column per place, so that a
-// ReferenceMap holds it (names, place index, poses, images) without its descriptors. The
-// combiner of a sharded map holds these and never computes a distance to them; `set`'s
-// descriptors are replaced. Throws std::invalid_argument as ReferenceSet::Validate.
-ReferenceSet LayoutOnlySet(ReferenceSet set);
 
 }  // namespace bsf_vpr

@@ -60,7 +60,7 @@ struct FusionParams {
   PlaceIndexOptions places;
   double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
   double diagnostic_period = 1.0;      // seconds (diagnostic_updater reads it too)
-  // Sharded map (shard_combiner.h): the shards whose distances this node fuses, instead of
+  // Sharded map (sharded_map.h): the shards whose distances this node fuses, instead of
   // holding sets of its own; a query waits shard_timeout for the shards that have not
   // answered after the first did.
   std::vector<std::string> shards;

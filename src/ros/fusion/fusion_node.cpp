@@ -134,13 +134,8 @@ void FusionNode::Start() {
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
                     &FusionNode::OnDescriptor, this);
-  if (params_.shards.empty()) {
-    ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
-             params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
-  } else {
-    ROS_INFO("bsf_vpr: fusion ready: method %s over %zu shard(s), waiting %.2f s for each",
-             params_.recognizer.method.c_str(), params_.shards.size(), params_.shard_timeout);
-  }
+  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
+           params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
 }
 
 void FusionNode::RejectMessage(const std::string& why) {

@@ -72,6 +72,10 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks 
         static_cast<uint32_t>(std::max(1, options_.queue_size)),
         [this, index](const ShardDistances::ConstPtr& m) { OnDistances(index, m); });
   }
+  ROS_INFO(
+      "bsf_vpr: sharded map over %zu shard(s), waiting %.2f s for each; its sets come "
+      "with the shards' shard_info",
+      shards_.size(), options_.timeout_s);
   // Decides the queries whose missing answers time out (every answer may have arrived).
   timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.timeout_s / 5)),
                                [this](const ros::WallTimerEvent&) {

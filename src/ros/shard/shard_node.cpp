@@ -111,33 +111,32 @@ bool ShardNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response&
   return true;
 }
 
-bool ShardNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
+template <typename Response>
+void ShardNode::Change(const std::string& service, const std::function<std::string()>& change,
+                       Response* res) {
   try {
-    res.message = map_->Load(req, nullptr);
-    res.success = true;
+    res->message = change();
+    res->success = true;
     std::lock_guard<std::mutex> lock(mutex_);
-    PublishInfo();
-    ROS_INFO("bsf_vpr: %s", res.message.c_str());
+    PublishInfo();  // the combiner takes the new sets from it
+    ROS_INFO("bsf_vpr: %s", res->message.c_str());
   } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-    ROS_WARN("bsf_vpr: shard %s: load_reference_set refused: %s", pnh_.getNamespace().c_str(),
+    res->success = false;
+    res->message = e.what();
+    ROS_WARN("bsf_vpr: shard %s: %s refused: %s", pnh_.getNamespace().c_str(), service.c_str(),
              e.what());
   }
+}
+
+bool ShardNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
+  Change(
+      names::kLoadReferenceSetService, [&] { return map_->Load(req, nullptr); }, &res);
   return true;
 }
 
 bool ShardNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
-  try {
-    res.message = map_->Unload(req.name);
-    res.success = true;
-    std::lock_guard<std::mutex> lock(mutex_);
-    PublishInfo();
-    ROS_INFO("bsf_vpr: %s", res.message.c_str());
-  } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-  }
+  Change(
+      names::kUnloadReferenceSetService, [&] { return map_->Unload(req.name); }, &res);
   return true;
 }
 

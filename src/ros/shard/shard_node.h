@@ -28,6 +28,7 @@
 #include <ros/spinner.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -52,6 +53,11 @@ class ShardNode {
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Publishes what the shard holds now (latched). Caller holds mutex_.
   void PublishInfo();
+  // A load or unload: `change` runs on the map (its message answers), then what the shard
+  // holds is published; a refusal answers with its reason. Without mutex_.
+  template <typename Response>
+  void Change(const std::string& service, const std::function<std::string()>& change,
+              Response* res);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);

@@ -45,7 +45,8 @@ struct SequenceOptions {
 // P = Phi(z)^m, and the result is log(P / (1 - P)). So a threshold h given as a probability
 // means "P(the best sequence is no accident) > h" for every base method, under an idealised
 // null: real routes alias along their length and consecutive queries are correlated, so the
-// nominal P is optimistic there (README gives the precision measured at several h).
+// nominal P is optimistic there (docs/method.md, "Confidence and acceptance", gives the
+// precision measured at several h).
 // -infinity for an impossible best place; 0 with fewer than two candidate places.
 double SequenceMatchLogOdds(const Eigen::VectorXd& sequence_costs, int best,
                             int hypotheses_per_place = 1);

@@ -77,14 +77,7 @@ Recognition PlaceRecognizer::Decide(const QueryDistances& distances, bool update
 
 std::vector<RowMatrixXf> PlaceRecognizer::Distances(
     const Eigen::Ref<const Eigen::VectorXf>& descriptor) {
-  if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
-  if (descriptor.size() != map_.dimension()) {
-    throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
-                                ", the reference sets have dimension " +
-                                std::to_string(map_.dimension()));
-  }
-  const std::string problem = DescriptorProblem(descriptor.transpose());
-  if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
+  map_.CheckQuery(descriptor);
   const RowMatrixXf query = descriptor.transpose();
   return distances_.Distances(options_.metric, query, map_);
 }

@@ -108,6 +108,17 @@ void ReferenceMap::CheckPlacePoses(const ReferenceSet& set) const {
   layout_.CheckPlacePoses(set.name, set.place_ids, set.poses);
 }
 
+void ReferenceMap::CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descriptor) const {
+  if (num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
+  if (descriptor.size() != dimension()) {
+    throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
+                                ", the reference sets have dimension " +
+                                std::to_string(dimension()));
+  }
+  const std::string problem = DescriptorProblem(descriptor.transpose());
+  if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
+}
+
 bool ReferenceMap::Remove(const std::string& name) {
   const int u = IndexOf(name);
   if (u < 0) return false;

@@ -93,6 +93,9 @@ class ReferenceMap {
   void Add(ReferenceSet set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);
+  // Throws std::invalid_argument naming the problem when `descriptor` cannot be compared
+  // with the sets: none is loaded, it has another dimension, or DescriptorProblem refuses it.
+  void CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descriptor) const;
 
   int num_sets() const { return static_cast<int>(sets_.size()); }
   int num_places() const { return layout_.num_places(); }

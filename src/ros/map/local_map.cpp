@@ -86,14 +86,7 @@ DistanceMetric LocalMap::metric() const {
 
 RowMatrixXf LocalMap::QueryRow(const Descriptor& descriptor) const {
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(descriptor);
-  if (map_.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
-  if (d.size() != map_.dimension()) {
-    throw std::invalid_argument("descriptor has dimension " + std::to_string(d.size()) +
-                                ", the reference sets have dimension " +
-                                std::to_string(map_.dimension()));
-  }
-  const std::string problem = DescriptorProblem(d.transpose());
-  if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
+  map_.CheckQuery(d);
   return d.transpose();
 }
 

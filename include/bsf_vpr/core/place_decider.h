@@ -46,6 +46,8 @@ class PlaceDecider {
   const MethodOptions& method_options() const { return options_; }
   // The method as resolved against the layout last given.
   const Method& method() const { return method_; }
+  // Why the method could not be resolved against the layout last given ("" if it was).
+  const std::string& problem() const { return unresolved_; }
 
   // The layout's sets changed (added, removed, reordered): the method is resolved against
   // them again and the carried state starts afresh. Never throws: a method naming a set

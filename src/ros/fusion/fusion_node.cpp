@@ -44,25 +44,11 @@ void FusionNode::Start() {
   }
   recording_ = std::make_unique<Recording>(data_dir_.get());
   decider_ = PlaceDecider(params_.recognizer.method, params_.recognizer.method_options);
-  {
-    // A map that learns of queries by itself calls back from now on: what it calls exists
-    // before the first descriptor can arrive.
-    MapBackend::Callbacks callbacks;
-    callbacks.query = [this](MapBackend::Query& query) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      DecideAndPublish(query);
-    };
-    callbacks.reject = [this](const std::string& why) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      RejectMessage(why);
-    };
-    std::lock_guard<std::mutex> lock(mutex_);  // until the publisher exists
-    map_ = MakeMap(nh_, params_, data_dir_.get(), std::move(callbacks));
-    layout_ = map_->layout();
-    decider_.OnLayoutChanged(*layout_);
-    // Checks the method against the sets.
-    decider_.SetMethod(params_.recognizer.method, params_.recognizer.method_options, *layout_);
-  }
+  map_ = MakeMap(nh_, params_, data_dir_.get());  // calls back only once started, below
+  layout_ = map_->layout();
+  decider_.OnLayoutChanged(*layout_);
+  // Checks the method against the sets.
+  decider_.SetMethod(params_.recognizer.method, params_.recognizer.method_options, *layout_);
   const Method& method = decider_.method();
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
@@ -128,12 +114,29 @@ void FusionNode::Start() {
   });
   last_diagnostics_ = ros::WallTime::now();
 
-  format_sub_ =
-      nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
-  // Always subscribed: the belief is state that must follow every query.
-  descriptor_sub_ =
-      nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
-                    &FusionNode::OnDescriptor, this);
+  // Last: everything the map's callbacks and the descriptors use exists.
+  MapBackend::Callbacks callbacks;
+  callbacks.query = [this](MapBackend::Query& query) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    DecideAndPublish(query);
+  };
+  callbacks.reject = [this](const std::string& why) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RejectMessage(why);
+  };
+  callbacks.layout = [this](MapBackend::Layout layout) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    AdoptLayout(std::move(layout));
+  };
+  map_->Start(std::move(callbacks));
+  if (map_->NeedsDescriptors()) {
+    format_sub_ =
+        nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
+    // Always subscribed: the belief is state that must follow every query.
+    descriptor_sub_ =
+        nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
+                      &FusionNode::OnDescriptor, this);
+  }
   ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
            params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
 }
@@ -278,15 +281,22 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   }
 }
 
-void FusionNode::AdoptLayout(MapBackend::Layout layout) {
-  if (layout == layout_) return;
+bool FusionNode::AdoptLayout(MapBackend::Layout layout) {
+  if (layout->generation < layout_->generation) return false;  // superseded
+  if (layout->generation == layout_->generation) return true;
   layout_ = std::move(layout);
   decider_.OnLayoutChanged(*layout_);
+  if (!decider_.problem().empty()) {
+    ROS_ERROR("bsf_vpr: the map's sets changed: %s", decider_.problem().c_str());
+  }
   CheckDescriptorFormat();
+  return true;
 }
 
 std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query) {
-  AdoptLayout(query.layout);
+  // A query on a layout the map has changed since (a sharded map's answers queued while a
+  // load went through) is not decided: its sets are not the ones the belief now follows.
+  if (!AdoptLayout(query.layout)) return std::nullopt;
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
@@ -352,6 +362,11 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
                ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
     }
     o.Validate();
+    for (const std::string& name : unloading_) {
+      if (ParseMethod(o.method, layout_->SetNames()).set_name == name) {
+        throw std::invalid_argument("reference set '" + name + "' is being unloaded");
+      }
+    }
     decider_.SetMethod(o.method, o.method_options, *layout_);
     last_reconfigure_refusal_.clear();
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
@@ -407,6 +422,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);
   }
   status.add("distance", ToString(map_->metric()));
+  map_->Diagnose(status);  // the first stage; a sharded map's shards
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());
@@ -415,7 +431,6 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.addf("selected: " + s.name, "%.1f%% of %ld queries, mean weight %.3f",
                 100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);
   }
-  map_->Diagnose(status);  // the first stage; a sharded map's shards
   recording_->Diagnose(status);
   for (const auto& [cause, n] : pose_losses_) {
     status.add("descriptors not recorded, no pose: " + cause, n);

@@ -12,8 +12,8 @@
 //
 // Used by the fusion nodelet and by the plain fusion node (fusion_node_main.cpp).
 // Every callback takes mutex_ for the decision and the node's state: services and
-// reconfiguration may run while descriptors stream in, from any thread. The map's own work
-// (distances, files, shards) runs without it. load_reference_set and
+// reconfiguration may run while descriptors stream in, from any thread. The map's slow work
+// (files, shards) runs without it; a local map's distances under it. load_reference_set and
 // unload_reference_set run on a queue and thread of their own, query_place on another, so
 // that neither a large load nor a slow shard stops recognition.
 #pragma once
@@ -39,6 +39,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -69,9 +70,10 @@ class FusionNode {
   // dropped (reported). Adopts the query's layout first if the map's changed. Caller holds
   // mutex_.
   std::optional<Recognition> DecideAndPublish(MapBackend::Query& query);
-  // Makes `layout` the one decided on: the method is resolved against its sets and the
-  // belief starts afresh. Caller holds mutex_.
-  void AdoptLayout(MapBackend::Layout layout);
+  // Makes `layout` the one decided on if it is newer than the one in use: the method is
+  // resolved against its sets and the belief starts afresh. False when it is older (a
+  // superseded layout). Caller holds mutex_.
+  bool AdoptLayout(MapBackend::Layout layout);
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
@@ -137,6 +139,9 @@ class FusionNode {
   std::map<std::string, long> pose_losses_;
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
   std::string format_mismatch_;
+  // Sets being loaded (read, not yet in the map) and unloaded, so that a recording or a
+  // method cannot take their names meanwhile.
+  std::set<std::string> loading_, unloading_;
   double processing_s_sum_ = 0, processing_s_max_ = 0;
   std::string last_rejection_;
   std::string last_reconfigure_refusal_;  // "" since the last reconfiguration taken

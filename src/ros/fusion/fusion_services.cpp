@@ -18,14 +18,29 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
   // Runs on the load queue's own thread: the map reads the files (or the shard does)
   // without the node's lock, so descriptors keep flowing meanwhile.
   try {
-    const MapBackend::SetCheck not_recorded = [this](const std::string& name) {
+    std::string name;  // once read: not to be recorded until it is in the map
+    const MapBackend::SetCheck not_recorded = [this, &name](const std::string& set) {
       std::lock_guard<std::mutex> lock(mutex_);
-      recording_->CheckNotRecording(name);
+      recording_->CheckNotRecording(set);
+      if (loading_.count(set)) {
+        throw std::invalid_argument("a reference set named '" + set + "' is being loaded");
+      }
+      loading_.insert(set);
+      name = set;
     };
-    res.message = map_->Load(req, not_recorded);
+    const auto loaded = [this, &name] {
+      std::lock_guard<std::mutex> lock(mutex_);
+      loading_.erase(name);
+      AdoptLayout(map_->layout());
+    };
+    try {
+      res.message = map_->Load(req, not_recorded);
+    } catch (...) {
+      loaded();
+      throw;
+    }
+    loaded();
     res.success = true;
-    std::lock_guard<std::mutex> lock(mutex_);
-    AdoptLayout(map_->layout());
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
@@ -40,12 +55,22 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
     {
       std::lock_guard<std::mutex> lock(mutex_);
       decider_.CheckRemovable(req.name);  // e.g. the method nn:<set> needs it
+      unloading_.insert(req.name);        // no method may take it up meanwhile
     }
-    res.message = map_->Unload(req.name);
+    const auto finish = [this, &req](bool unloaded) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (unloaded) counters_.Forget(req.name);
+      unloading_.erase(req.name);
+      AdoptLayout(map_->layout());
+    };
+    try {
+      res.message = map_->Unload(req.name);
+    } catch (...) {
+      finish(false);
+      throw;
+    }
+    finish(true);
     res.success = true;
-    std::lock_guard<std::mutex> lock(mutex_);
-    counters_.Forget(req.name);
-    AdoptLayout(map_->layout());
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
@@ -61,7 +86,9 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
     const auto start = std::chrono::steady_clock::now();
     MapBackend::Query query = map_->Ask(req.descriptor);
     std::lock_guard<std::mutex> lock(mutex_);
-    AdoptLayout(query.layout);
+    if (!AdoptLayout(query.layout)) {
+      throw std::invalid_argument("the map's sets changed while the query was answered; ask again");
+    }
     const Recognition r = decider_.Decide(*layout_, query.distances, false);
     res.belief.header = req.descriptor.header;
     ToBeliefMsg(r, *layout_, decider_, params_.belief_top_k, &res.belief);
@@ -89,6 +116,9 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
   try {
     const std::string cannot = map_->CannotRecord();
     if (!cannot.empty()) throw std::invalid_argument(cannot);
+    if (loading_.count(req.name)) {
+      throw std::invalid_argument("a reference set named '" + req.name + "' is being loaded");
+    }
     const RecordingPlaces places =
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
     if (places == RecordingPlaces::kPose && params_.pose_source == PoseSource::kNone) {

@@ -33,7 +33,7 @@ LocalMap::LocalMap(LocalMapOptions options, const DataDirectory* data_dir, std::
       data_dir_(data_dir),
       shard_(std::move(shard)),
       metric_(options_.metric.value_or(DistanceMetric::kEuclidean)),
-      layout_(std::make_shared<PlaceLayout>()) {
+      layout_(std::make_shared<MapLayout>(PlaceLayout(), 0)) {
   map_.SetStoragePrecision(options_.storage);
   map_.SetPlacePoseTolerance(options_.place_pose_tolerance_m);
   stage_.SetOptions(options_.first_stage);
@@ -128,6 +128,7 @@ std::string LocalMap::AddLocked(ReferenceSet set, const std::string& where) {
   const std::string name = set.name;
   const int places = set.size();
   const std::string declared = set.distance;
+  fingerprints_.reserve(fingerprints_.size() + 1);  // no throw once the set is in
   map_.Add(std::move(set));
   if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(map_.sets().back()));
   if (metric != metric_) {
@@ -154,7 +155,7 @@ std::string LocalMap::Unload(const std::string& name) {
 }
 
 void LocalMap::Changed() {
-  layout_ = std::make_shared<PlaceLayout>(map_.layout());
+  layout_ = std::make_shared<MapLayout>(map_.layout(), ++generations_);
   stage_.Invalidate();
   if (stage_.options().kind == "exact" || map_.num_sets() == 0) return;
   const ros::WallTime start = ros::WallTime::now();

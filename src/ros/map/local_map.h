@@ -44,9 +44,11 @@ class LocalMap : public MapBackend {
 
   // The configured sets (start-up): paths relative to `base`, absolute, or
   // package://PACKAGE/PATH (set_loading.h). Throws std::exception naming the file or the
-  // sets' disagreeing distances; nothing is added then.
+  // sets' disagreeing distances; a node that cannot start then discards the map.
   void LoadConfigured(const std::vector<ReferenceSetEntry>& entries, const std::string& base);
 
+  void Start(Callbacks) override {}  // it learns of nothing by itself
+  bool NeedsDescriptors() const override { return true; }
   Layout layout() const override;
   DistanceMetric metric() const override;
   std::optional<Query> Hear(const Descriptor& descriptor) override { return Ask(descriptor); }
@@ -88,6 +90,7 @@ class LocalMap : public MapBackend {
   DistanceMetric metric_;
   std::vector<uint64_t> fingerprints_;  // SetFingerprint of each set of map_
   Layout layout_;
+  uint64_t generations_ = 0;       // layouts made
   std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
 };
 

@@ -8,8 +8,7 @@
 namespace bsf_vpr {
 
 std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParams& params,
-                                    const DataDirectory* data_dir,
-                                    MapBackend::Callbacks callbacks) {
+                                    const DataDirectory* data_dir) {
   if (params.shards.empty()) {
     auto map = std::make_unique<LocalMap>(LocalMapOptions::From(params), data_dir);
     map->LoadConfigured(params.reference_sets,
@@ -31,7 +30,7 @@ std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParam
   options.queue_size = params.queue_size;
   if (params.distance_given()) options.metric = params.recognizer.metric;
   options.place_pose_tolerance_m = params.place_pose_tolerance_m;
-  return std::make_unique<ShardedMap>(nh, std::move(options), std::move(callbacks));
+  return std::make_unique<ShardedMap>(nh, std::move(options));
 }
 
 }  // namespace bsf_vpr

@@ -14,9 +14,9 @@
 namespace bsf_vpr {
 
 // Throws std::exception naming the problem (a configured set that cannot be read, sets
-// given beside shards). `data_dir` (may be null) outlives the map; `callbacks` receive the
-// queries of a map that learns of them by itself.
+// given beside shards). `data_dir` (may be null) outlives the map, which calls back only
+// once started (MapBackend::Start).
 std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParams& params,
-                                    const DataDirectory* data_dir, MapBackend::Callbacks callbacks);
+                                    const DataDirectory* data_dir);
 
 }  // namespace bsf_vpr

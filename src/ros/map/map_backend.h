@@ -4,8 +4,9 @@
 // shards compute for the sets they hold (docs/sharding.md). FusionNode is written against
 // this interface alone, as cartographer_ros's Node is against MapBuilderInterface.
 //
-// Every member is thread-safe and may block (reading files, calling shards); none is
-// called with the node's own lock held except layout(), metric() and the diagnostics.
+// Every member is thread-safe. Those that may block for long (Load, Unload, Ask: files,
+// shards) are called without the node's own lock; the others (layout, metric, Hear, Add,
+// the diagnostics) with it, so a map never takes the node's lock from them.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>
@@ -27,10 +28,17 @@
 
 namespace bsf_vpr {
 
+// A layout as a map made it. It never changes once made: a change of sets makes a new one,
+// numbered after the last, so that a query decided on an older one is told apart.
+struct MapLayout : PlaceLayout {
+  MapLayout(PlaceLayout places, uint64_t generation)
+      : PlaceLayout(std::move(places)), generation(generation) {}
+  uint64_t generation;
+};
+
 class MapBackend {
  public:
-  // A layout never changes once made: a change of sets makes a new one.
-  using Layout = std::shared_ptr<const PlaceLayout>;
+  using Layout = std::shared_ptr<const MapLayout>;
 
   // One query's distances, and the layout they are for.
   struct Query {
@@ -40,15 +48,24 @@ class MapBackend {
     std::vector<std::string> missing_shards;  // shards whose sets are absent from it
     double seconds = 0;                       // time spent on the distances (slowest shard)
   };
-  // A map that learns of queries by itself (the sharded map: its shards hear the
-  // descriptors) hands them on here, in stamp order, each once, from its own threads;
-  // `reject` says why a query cannot be decided.
+  // A map that learns of queries and changes by itself (the sharded map: its shards hear
+  // the descriptors and publish their sets) hands them on here, from its own threads, one
+  // call at a time and in order: each query once, in stamp order; `reject` says why a query
+  // cannot be decided; `layout` gives each new layout as it is made.
   struct Callbacks {
     std::function<void(Query& query)> query;
     std::function<void(const std::string& why)> reject;
+    std::function<void(Layout layout)> layout;
   };
 
   virtual ~MapBackend() = default;
+
+  // From now on the map may call `callbacks` (a map that learns of nothing by itself never
+  // does). Called once, when everything the callbacks use exists.
+  virtual void Start(Callbacks callbacks) = 0;
+  // Whether the map needs the descriptors the node hears (Hear): a sharded map's shards
+  // hear them themselves.
+  virtual bool NeedsDescriptors() const = 0;
 
   // The layout now (never null: empty before any set).
   virtual Layout layout() const = 0;

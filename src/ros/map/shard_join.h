@@ -32,7 +32,8 @@ namespace bsf_vpr {
 template <class AnswerPtr>
 class ShardJoin {
  public:
-  enum class Level { kInfo, kWarn };
+  // kWarnRepeated: a warning that may come with every query (the owner throttles it).
+  enum class Level { kInfo, kWarn, kWarnRepeated };
   struct Decision {
     int64_t stamp_ns = 0;
     std::vector<AnswerPtr> answers;  // one per shard, null where none came
@@ -65,7 +66,7 @@ class ShardJoin {
       p.first_s = now_s;
     }
     if (p.answers[static_cast<size_t>(k)]) {
-      log_(Level::kWarn, k,
+      log_(Level::kWarnRepeated, k,
            "answered twice for stamp " + std::to_string(stamp_ns * 1e-9) +
                ": a sharded map tells queries apart by header.stamp (the second answer is "
                "dropped)");

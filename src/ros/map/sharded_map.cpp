@@ -40,10 +40,9 @@ bool SameSets(const ShardInfo* a, const ShardInfo* b) {
 
 }  // namespace
 
-ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks callbacks)
+ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options)
     : nh_(std::move(nh)),
       options_(std::move(options)),
-      callbacks_(std::move(callbacks)),
       shards_(options_.shards.size()),
       join_(
           static_cast<int>(options_.shards.size()), options_.timeout_s,
@@ -53,16 +52,22 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks 
             const std::string& name = shards_[static_cast<size_t>(k)].name;
             if (level == Join::Level::kWarn) {
               ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
+            } else if (level == Join::Level::kWarnRepeated) {
+              ROS_WARN_THROTTLE(5.0, "bsf_vpr: shard %s %s", name.c_str(), what.c_str());
             } else {
               ROS_INFO("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
             }
           }),
-      layout_(std::make_shared<PlaceLayout>()),
+      layout_(std::make_shared<MapLayout>(PlaceLayout(), 0)),
       metric_(options_.metric.value_or(DistanceMetric::kEuclidean)) {
+  for (size_t k = 0; k < shards_.size(); ++k) shards_[k].name = nh_.resolveName(options_.shards[k]);
+}
+
+void ShardedMap::Start(Callbacks callbacks) {
+  callbacks_ = std::move(callbacks);
   std::lock_guard<std::mutex> lock(mutex_);  // the subscriptions' callbacks take it
   for (size_t k = 0; k < shards_.size(); ++k) {
     Shard& s = shards_[k];
-    s.name = nh_.resolveName(options_.shards[k]);
     const int index = static_cast<int>(k);
     s.info_sub =
         nh_.subscribe<ShardInfo>(s.name + "/" + names::kShardInfoTopic, 1,
@@ -88,11 +93,18 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks 
 }
 
 ShardedMap::~ShardedMap() {
-  timer_.stop();
-  for (Shard& s : shards_) {
-    s.info_sub.shutdown();
-    s.distances_sub.shutdown();
+  // Taken out under the lock (a callback still running reads them through CanAnswer), shut
+  // down without it (shutdown waits for a running callback, which takes the lock).
+  std::vector<ros::Subscriber> subscribers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (Shard& s : shards_) {
+      subscribers.push_back(std::move(s.info_sub));
+      subscribers.push_back(std::move(s.distances_sub));
+    }
   }
+  timer_.stop();
+  for (ros::Subscriber& s : subscribers) s.shutdown();
 }
 
 MapBackend::Layout ShardedMap::layout() const {
@@ -107,7 +119,7 @@ DistanceMetric ShardedMap::metric() const {
 
 bool ShardedMap::CanAnswer(int k) const {
   const Shard& shard = shards_[static_cast<size_t>(k)];
-  return shard.info && shard.distances_sub.getNumPublishers() > 0;
+  return shard.info && shard.distances_sub && shard.distances_sub.getNumPublishers() > 0;
 }
 
 int ShardedMap::OwnerOf(const std::string& set) const {
@@ -136,6 +148,11 @@ int ShardedMap::LeastLoaded() const {
 }
 
 void ShardedMap::OnInfo(int k, const ShardInfo::ConstPtr& msg) {
+  TakeShardInfo(k, msg);
+  Deliver();  // the new layout, if any
+}
+
+void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   Shard& shard = shards_[static_cast<size_t>(k)];
   // What the shard holds now supersedes a layout of it refused before (a load that was
@@ -212,7 +229,8 @@ bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
         "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
         "afresh",
         why.c_str(), layout.num_sets(), layout.num_places());
-    layout_ = std::make_shared<PlaceLayout>(std::move(layout));
+    layout_ = std::make_shared<MapLayout>(std::move(layout), ++generations_);
+    outbox_.push_back(Outgoing{std::nullopt, "", layout_});
     metric_ = metric;
     // Sets gone without a load or unload routed here: the shard restarted with its
     // configured sets only (sets loaded at run time live as long as its process), or
@@ -262,7 +280,8 @@ void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
       outbox_.push_back(Outgoing{std::nullopt,
                                  "a descriptor without a stamp: a sharded map pairs the shards' "
                                  "answers by header.stamp (shard " +
-                                     shards_[static_cast<size_t>(k)].name + ")"});
+                                     shards_[static_cast<size_t>(k)].name + ")",
+                                 nullptr});
     } else {
       Queue(join_.Answer(k, static_cast<int64_t>(msg->header.stamp.toNSec()), msg, NowS()));
     }
@@ -282,9 +301,9 @@ void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
       Query query = Assemble(header, answers);
       ++decided_;
       if (!query.missing_shards.empty()) ++decided_partial_;
-      outbox_.push_back(Outgoing{std::move(query), ""});
+      outbox_.push_back(Outgoing{std::move(query), "", nullptr});
     } catch (const std::exception& e) {
-      outbox_.push_back(Outgoing{std::nullopt, e.what()});
+      outbox_.push_back(Outgoing{std::nullopt, e.what(), nullptr});
     }
   }
 }
@@ -301,6 +320,8 @@ void ShardedMap::Deliver() {
     }
     if (next.query) {
       callbacks_.query(*next.query);
+    } else if (next.layout) {
+      callbacks_.layout(next.layout);
     } else {
       callbacks_.reject(next.rejection);
     }
@@ -493,12 +514,12 @@ std::string ShardedMap::Add(ReferenceSet, const std::string&) {
 }
 
 void ShardedMap::List(ListReferenceSets::Response* response) const {
-  // The combiner holds the layout; the shard, the rows.
+  // This map holds the layout; the shard, the rows (a shard's refused sets are in its
+  // refused_info, not in info).
   std::lock_guard<std::mutex> lock(mutex_);
   for (const Shard& shard : shards_) {
     if (!shard.info) continue;
     for (const ShardSet& s : shard.info->sets) {
-      if (layout_->IndexOf(s.name) < 0) continue;  // refused: not in the map
       ReferenceSetInfo info;
       info.name = s.name;
       info.condition = s.condition;
@@ -540,7 +561,7 @@ std::string ShardedMap::Problem() const {
 
 void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  status.add("first stage", "exact");  // the shards' own: the combiner computes no distances
+  status.add("first stage", "exact");  // the shards' own: this map computes no distances
   status.add("shards", static_cast<int>(shards_.size()));
   status.add("map layouts taken", layouts_);
   status.add("queries decided", decided_);

@@ -42,10 +42,12 @@ struct ShardedMapOptions {
 
 class ShardedMap : public MapBackend {
  public:
-  // Subscribes to the shards. Queries are handed on through `callbacks` from then on.
-  ShardedMap(ros::NodeHandle nh, ShardedMapOptions options, Callbacks callbacks);
+  ShardedMap(ros::NodeHandle nh, ShardedMapOptions options);
   ~ShardedMap() override;
 
+  // Subscribes to the shards; queries and layouts are handed on from then on.
+  void Start(Callbacks callbacks) override;
+  bool NeedsDescriptors() const override { return false; }
   Layout layout() const override;
   DistanceMetric metric() const override;
   std::optional<Query> Hear(const Descriptor&) override { return std::nullopt; }
@@ -71,13 +73,16 @@ class ShardedMap : public MapBackend {
     std::string lost;              // sets its last change dropped without one
   };
   using Join = ShardJoin<ShardDistances::ConstPtr>;
-  // What the callbacks are to be told, in order.
+  // What the callbacks are to be told, in order: a query, a rejection or a layout.
   struct Outgoing {
     std::optional<Query> query;
     std::string rejection;
+    Layout layout;
   };
 
   void OnInfo(int k, const ShardInfo::ConstPtr& msg);
+  // OnInfo's work under mutex_ (a new layout is queued for the callbacks).
+  void TakeShardInfo(int k, const ShardInfo::ConstPtr& msg);
   void OnDistances(int k, const ShardDistances::ConstPtr& msg);
   // Makes `msg` shard k's layout if it fits the others'; else keeps it as refused. Caller
   // holds mutex_.
@@ -105,12 +110,13 @@ class ShardedMap : public MapBackend {
 
   ros::NodeHandle nh_;
   const ShardedMapOptions options_;
-  const Callbacks callbacks_;
+  Callbacks callbacks_;  // set once by Start, before any subscription
   mutable std::mutex mutex_;
   std::condition_variable infos_changed_;  // a shard_info taken or refused
   std::vector<Shard> shards_;
   Join join_;
   Layout layout_;
+  uint64_t generations_ = 0;  // layouts made
   DistanceMetric metric_;
   int64_t decided_ = 0, decided_partial_ = 0, layouts_ = 0;
   std::deque<Outgoing> outbox_;

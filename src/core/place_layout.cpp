@@ -84,6 +84,12 @@ void PlaceLayout::CheckPlacePoses(const std::string& name, const std::vector<int
 }
 
 void PlaceLayout::Add(SetLayout set) {
+  if (set.name.empty()) throw std::invalid_argument("a reference set needs a non-empty name");
+  if (set.dimension < 1 || set.dimension > kMaxDimension) {
+    throw std::invalid_argument("reference set '" + set.name + "' has dimension " +
+                                std::to_string(set.dimension) + " (1 to " +
+                                std::to_string(kMaxDimension) + ")");
+  }
   CheckPlaceRows("reference set '" + set.name + "'", set.place_ids, set.poses, set.images,
                  set.image_files);
   if (IndexOf(set.name) >= 0) {

@@ -109,6 +109,11 @@ TEST(PlaceLayout, RefusesWhatCannotShareThePlaceIndexAndStaysAsItWas) {
   EXPECT_DOUBLE_EQ(*layout.MedianPlaceSpacing(), 10.0);
   SetLayout b = a;
   EXPECT_THROW(layout.Add(b), std::invalid_argument);  // name taken
+  b.name = "";
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // no name
+  b.name = "b";
+  b.dimension = 0;
+  EXPECT_THROW(layout.Add(b), std::invalid_argument);  // no descriptors to compare
   b.name = "b";
   b.dimension = 9;
   EXPECT_THROW(layout.Add(b), std::invalid_argument);  // dimension

@@ -52,7 +52,8 @@ class PlaceLayout {
   void CheckPlacePoses(const std::string& name, const std::vector<int>& place_ids,
                        const std::vector<PlacePose>& poses) const;
 
-  // Adds a set after checking it (CheckPlaceRows; its name free; its dimension the
+  // Adds a set after checking it (a name; a dimension in [1, kMaxDimension]; CheckPlaceRows;
+  // its name free; its dimension the
   // layout's; no place id far beyond the set and the layout, kMaxPlaceIdGrowth; poses that
   // agree, CheckPlacePoses). Throws std::invalid_argument, the layout unchanged.
   void Add(SetLayout set);

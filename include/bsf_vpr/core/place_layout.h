@@ -53,9 +53,9 @@ class PlaceLayout {
                        const std::vector<PlacePose>& poses) const;
 
   // Adds a set after checking it (a name; a dimension in [1, kMaxDimension]; CheckPlaceRows;
-  // its name free; its dimension the
-  // layout's; no place id far beyond the set and the layout, kMaxPlaceIdGrowth; poses that
-  // agree, CheckPlacePoses). Throws std::invalid_argument, the layout unchanged.
+  // its name free; its dimension the layout's; no place id far beyond the set and the
+  // layout, kMaxPlaceIdGrowth; poses that agree, CheckPlacePoses). Throws
+  // std::invalid_argument, the layout unchanged.
   void Add(SetLayout set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);

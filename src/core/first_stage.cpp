@@ -5,10 +5,16 @@
 
 namespace bsf_vpr {
 
+const EnumNames<FirstStageKind>& FirstStageKindNames() {
+  static const EnumNames<FirstStageKind> kNames{{FirstStageKind::kExact, "exact"},
+                                                {FirstStageKind::kPca, "pca"}};
+  return kNames;
+}
+
+std::string ToString(FirstStageKind kind) { return FirstStageKindNames().Name(kind); }
+
 void FirstStageOptions::Validate() const {
-  if (kind != "exact" && kind != "pca") {
-    throw std::invalid_argument("first_stage must be exact or pca, got '" + kind + "'");
-  }
+  FirstStageKindNames().Parse(kind, "first_stage");
   approximate.Validate();
 }
 
@@ -22,7 +28,7 @@ const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
               "exactly at camera rate: approximate distances to every row from int8 "
               "projections onto a PCA basis of the map, then each set's rerank_candidates "
               "nearest made exact; docs/performance.md gives its error on real data)",
-              {"exact", "pca"}, [](const std::string& s) { return s; })
+              FirstStageKindNames())
           .Add(
               "first_stage_dimensions", [](auto& o) -> auto& { return o.approximate.dimensions; },
               "pca: projected dimensions d' (bytes per row the first stage reads)", "dimensions",

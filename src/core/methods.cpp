@@ -139,19 +139,19 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "selection", [](auto& o) -> auto& { return o.selection.rule; },
               "selection rule: relative (the paper's) or standardized (scale-free, on "
               "each set's standardised minimum)",
-              {"relative", "standardized"}, ParseSelectionRule, kLive)
+              SelectionRuleNames(), kLive)
           .AddChoice(
               "fusion", [](auto& o) -> auto& { return o.fusion; },
               "how bsf fuses the sets: mixture (sets of one descriptor are alternative "
               "conditions of the query: their likelihoods are mixed, weighted by the soft form "
               "of the selection rule, with the non-match statistics pooled; README) or "
               "product (exactly the paper: the selected sets' likelihoods multiply)",
-              {"mixture", "product"}, ParseFusionRule, kLive)
+              FusionRuleNames(), kLive)
           .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
               "(exactly the paper)",
-              {"one_sided", "two_sided"}, ParseLikelihoodVariant, kLive)
+              LikelihoodVariantNames(), kLive)
           .Add(
               "threshold", [](auto& o) -> auto& { return o.threshold.value; },
               "threshold h on the match, given as threshold_kind says; gates the Bayesian "
@@ -161,7 +161,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "threshold_kind", [](auto& o) -> auto& { return o.threshold.kind; },
               "how threshold is given: probability (a posterior in (0, 1)) or log_odds "
               "(log(p / (1 - p)), any finite number)",
-              {"probability", "log_odds"}, ParseThresholdKind, kLive)
+              ThresholdKindNames(), kLive)
           .Add(
               "max_match_distance", [](auto& o) -> auto& { return o.max_match_distance; },
               "distance methods (nn:<set>, med, med_selective): the largest (mean) distance of "

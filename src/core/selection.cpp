@@ -5,16 +5,17 @@
 
 namespace bsf_vpr {
 
-SelectionRule ParseSelectionRule(const std::string& name) {
-  if (name == "relative") return SelectionRule::kRelative;
-  if (name == "standardized") return SelectionRule::kStandardized;
-  throw std::invalid_argument("unknown selection rule '" + name +
-                              "' (expected relative or standardized)");
+const EnumNames<SelectionRule>& SelectionRuleNames() {
+  static const EnumNames<SelectionRule> kNames{{SelectionRule::kRelative, "relative"},
+                                               {SelectionRule::kStandardized, "standardized"}};
+  return kNames;
 }
 
-std::string ToString(SelectionRule rule) {
-  return rule == SelectionRule::kRelative ? "relative" : "standardized";
+SelectionRule ParseSelectionRule(const std::string& name) {
+  return SelectionRuleNames().Parse(name, "selection");
 }
+
+std::string ToString(SelectionRule rule) { return SelectionRuleNames().Name(rule); }
 
 void SelectionOptions::Validate() const {
   if (!(gamma_fraction >= 0) || !std::isfinite(gamma_fraction)) {

@@ -170,7 +170,7 @@ const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable() {
               "image_descriptor", [](auto& o) -> auto& { return o.kind; },
               "image descriptor: patchnorm (patch-normalised, downsampled image), hog or "
               "onnx (a network, e.g. NetVLAD exported to ONNX)",
-              {"patchnorm", "hog", "onnx"}, ParseImageDescriberKind)
+              ImageDescriberKindNames())
           .Add(
               "patch_width_px", [](auto& o) -> auto& { return o.patch_norm.width_px; },
               "patchnorm: width the image is resized to", "px", AtLeast(1))
@@ -228,25 +228,18 @@ void ValidateImageDescriberOptions(const ImageDescriberOptions& options) {
   if (options.kind == ImageDescriberKind::kOnnx) options.onnx.Validate();
 }
 
-ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
-  if (name == "patchnorm") return ImageDescriberKind::kPatchNorm;
-  if (name == "hog") return ImageDescriberKind::kHog;
-  if (name == "onnx") return ImageDescriberKind::kOnnx;
-  throw std::invalid_argument("unknown image descriptor '" + name +
-                              "' (expected patchnorm, hog or onnx)");
+const EnumNames<ImageDescriberKind>& ImageDescriberKindNames() {
+  static const EnumNames<ImageDescriberKind> kNames{{ImageDescriberKind::kPatchNorm, "patchnorm"},
+                                                    {ImageDescriberKind::kHog, "hog"},
+                                                    {ImageDescriberKind::kOnnx, "onnx"}};
+  return kNames;
 }
 
-std::string ToString(ImageDescriberKind kind) {
-  switch (kind) {
-    case ImageDescriberKind::kHog:
-      return "hog";
-    case ImageDescriberKind::kOnnx:
-      return "onnx";
-    case ImageDescriberKind::kPatchNorm:
-      break;
-  }
-  return "patchnorm";
+ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
+  return ImageDescriberKindNames().Parse(name, "image_descriptor");
 }
+
+std::string ToString(ImageDescriberKind kind) { return ImageDescriberKindNames().Name(kind); }
 
 std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options) {
   switch (options.kind) {

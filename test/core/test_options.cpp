@@ -5,10 +5,18 @@
 #include <set>
 #include <stdexcept>
 
+#include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/first_stage.h"
+#include "bsf_vpr/core/fusion.h"
+#include "bsf_vpr/core/likelihood.h"
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/reference_recorder.h"
+#include "bsf_vpr/core/selection.h"
 #include "bsf_vpr/image/image_describer.h"
+#include "test/core/enum_names_check.h"
 
 namespace bsf_vpr {
 namespace {
@@ -184,6 +192,38 @@ TEST(Options, FormatsValuesAsUsersWriteThem) {
   EXPECT_EQ(FormatOptionValue(std::vector<double>{0.5, 2}), "0.5,2.0");
   EXPECT_EQ(OptionFlag("filter_step_mean_places"), "--filter-step-mean-places");
   EXPECT_EQ(OptionNameFromFlag("--filter-step_mean-places"), "filter_step_mean_places");
+}
+
+// Each enumeration's names are written once (EnumNames) and read by its Parse and ToString
+// functions and by the option tables.
+TEST(Options, EveryEnumerationsNamesRoundTrip) {
+  using testing::ExpectNamesRoundTrip;
+  ExpectNamesRoundTrip(DistanceMetricNames(), ParseDistanceMetric, "distance");
+  ExpectNamesRoundTrip(StoragePrecisionNames(), ParseStoragePrecision, "storage");
+  ExpectNamesRoundTrip(ThresholdKindNames(), ParseThresholdKind, "threshold_kind");
+  ExpectNamesRoundTrip(FusionRuleNames(), ParseFusionRule, "fusion");
+  ExpectNamesRoundTrip(LikelihoodVariantNames(), ParseLikelihoodVariant, "likelihood");
+  ExpectNamesRoundTrip(SelectionRuleNames(), ParseSelectionRule, "selection");
+  ExpectNamesRoundTrip(RecordingPlacesNames(), ParseRecordingPlaces, "places");
+  ExpectNamesRoundTrip(ImageDescriberKindNames(), ParseImageDescriberKind, "image_descriptor");
+  ExpectNamesRoundTrip<FirstStageKind>(FirstStageKindNames(), nullptr, "first_stage");
+  FirstStageOptions pq;
+  pq.kind = "pq";
+  ExpectThrowsWith([&] { pq.Validate(); }, "first_stage must be exact or pca, got 'pq'");
+}
+
+// A table's choices are the names, in their order, and a value reads and writes through them.
+TEST(Options, ChoicesAreTheEnumerationsNames) {
+  EXPECT_EQ(MethodOptionsTable().Find("fusion")->info.choices, FusionRuleNames().Choices());
+  EXPECT_EQ(MethodOptionsTable().Find("likelihood")->info.choices,
+            (std::vector<std::string>{"one_sided", "two_sided"}));
+  EXPECT_EQ(RecognizerOptionsTable().Find("first_stage")->info.choices,
+            (std::vector<std::string>{"exact", "pca"}));
+  MethodOptions o;
+  o.likelihood.variant = LikelihoodVariant::kTwoSided;
+  EXPECT_EQ(MethodOptionsTable().Find("likelihood")->get(o), OptionValue(std::string("two_sided")));
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--fusion", "product", &o));
+  EXPECT_EQ(o.fusion, FusionRule::kProduct);
 }
 
 }  // namespace

@@ -9,12 +9,19 @@
 #include <vector>
 
 #include "bsf_vpr/core/approximate_distances.h"
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/options.h"
 
 namespace bsf_vpr {
 
+// Exact distances from every stored descriptor, or the pca first stage (ApproximateIndex).
+enum class FirstStageKind { kExact, kPca };
+// Their names (first_stage).
+const EnumNames<FirstStageKind>& FirstStageKindNames();
+std::string ToString(FirstStageKind kind);
+
 struct FirstStageOptions {
-  std::string kind = "exact";  // "exact" or "pca"
+  std::string kind = "exact";  // a name of FirstStageKindNames()
   ApproximateOptions approximate;
 
   void Validate() const;  // throws std::invalid_argument naming the bad field

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/enum_names.h"
 
 namespace bsf_vpr {
 
@@ -20,7 +21,9 @@ enum class SelectionRule {
   kStandardized,
 };
 
-SelectionRule ParseSelectionRule(const std::string& name);  // "relative" | "standardized"
+// The rules' names (selection).
+const EnumNames<SelectionRule>& SelectionRuleNames();
+SelectionRule ParseSelectionRule(const std::string& name);  // throws naming the choices
 std::string ToString(SelectionRule rule);
 
 struct SelectionOptions {

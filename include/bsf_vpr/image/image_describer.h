@@ -48,7 +48,9 @@ struct OnnxOptions {
 
 enum class ImageDescriberKind { kPatchNorm, kHog, kOnnx };
 
-// "patchnorm", "hog" or "onnx"; throws std::invalid_argument naming the choices otherwise.
+// The describers' names (image_descriptor).
+const EnumNames<ImageDescriberKind>& ImageDescriberKindNames();
+// A name of ImageDescriberKindNames(); throws std::invalid_argument naming the choices otherwise.
 ImageDescriberKind ParseImageDescriberKind(const std::string& name);
 std::string ToString(ImageDescriberKind kind);
 

@@ -14,8 +14,8 @@ const EnumNames<FirstStageKind>& FirstStageKindNames() {
 std::string ToString(FirstStageKind kind) { return FirstStageKindNames().Name(kind); }
 
 void FirstStageOptions::Validate() const {
-  FirstStageKindNames().Parse(kind, "first_stage");
-  approximate.Validate();
+  // The choice and the bounds, named as the options are (first_stage_dimensions, ...).
+  FirstStageOptionsTable().CheckValues(*this);
 }
 
 const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
@@ -29,20 +29,8 @@ const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
               "projections onto a PCA basis of the map, then each set's rerank_candidates "
               "nearest made exact; docs/performance.md gives its error on real data)",
               FirstStageKindNames())
-          .Add(
-              "first_stage_dimensions", [](auto& o) -> auto& { return o.approximate.dimensions; },
-              "pca: projected dimensions d' (bytes per row the first stage reads)", "dimensions",
-              AtLeast(1))
-          .Add(
-              "rerank_candidates", [](auto& o) -> auto& { return o.approximate.rerank; },
-              "pca: rows per set and query whose distance is made exact (the nearest by the "
-              "approximate distance)",
-              "rows", AtLeast(0))
-          .Add(
-              "first_stage_sample_rows", [](auto& o) -> auto& { return o.approximate.sample_rows; },
-              "pca: rows drawn from the map to fit the basis (fitting costs O(rows^2 D + rows^3): "
-              "about 3.5 s for 2048 rows of 4096-d on 2 cores, 8x that per doubling)",
-              "rows", Between(1, ApproximateOptions::kMaxSampleRows));
+          .Include(
+              ApproximateOptionsTable(), [](auto& o) -> auto& { return o.approximate; });
   return kTable;
 }
 

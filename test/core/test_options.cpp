@@ -2,6 +2,8 @@
 // and the usage text; every table entry reads and writes its own member.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
@@ -12,6 +14,7 @@
 #include "bsf_vpr/core/likelihood.h"
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/reference_recorder.h"
 #include "bsf_vpr/core/selection.h"
@@ -209,7 +212,7 @@ TEST(Options, EveryEnumerationsNamesRoundTrip) {
   ExpectNamesRoundTrip<FirstStageKind>(FirstStageKindNames(), nullptr, "first_stage");
   FirstStageOptions pq;
   pq.kind = "pq";
-  ExpectThrowsWith([&] { pq.Validate(); }, "first_stage must be exact or pca, got 'pq'");
+  ExpectThrowsWith([&] { pq.Validate(); }, "first_stage must be exact | pca, got 'pq'");
 }
 
 // A table's choices are the names, in their order, and a value reads and writes through them.
@@ -224,6 +227,80 @@ TEST(Options, ChoicesAreTheEnumerationsNames) {
   EXPECT_EQ(MethodOptionsTable().Find("likelihood")->get(o), OptionValue(std::string("two_sided")));
   EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--fusion", "product", &o));
   EXPECT_EQ(o.fusion, FusionRule::kProduct);
+}
+
+// A value just out of `info`'s bounds on the side `below` (nullopt: the bounds are open there).
+std::optional<OptionValue> OutOfBounds(const OptionInfo& info, bool below) {
+  const OptionBounds& b = info.bounds;
+  const double edge = below ? b.min : b.max;
+  if (!std::isfinite(edge)) return std::nullopt;
+  const bool open = below ? b.min_open : b.max_open;
+  if (info.type == OptionType::kInt) return static_cast<long long>(edge) + (below ? -1 : 1);
+  if (info.type == OptionType::kDouble) return open ? edge : edge + (below ? -0.5 : 0.5);
+  return std::nullopt;
+}
+
+// Every bound of `table` is enforced by `validate` for options built in code (a value put in
+// the member, not read through the table), and the message names the option.
+template <typename S, typename Validate>
+void ExpectValidateEnforcesTheBounds(const OptionTable<S>& table, const S& valid,
+                                     Validate validate) {
+  EXPECT_NO_THROW(validate(valid));
+  for (const auto& spec : table.specs()) {
+    if (!spec.set) continue;
+    std::vector<OptionValue> bad;
+    for (bool below : {true, false}) {
+      if (const std::optional<OptionValue> v = OutOfBounds(spec.info, below)) bad.push_back(*v);
+    }
+    if (spec.info.bounds.finite) bad.push_back(std::numeric_limits<double>::infinity());
+    for (const OptionValue& v : bad) {
+      S options = valid;
+      spec.set(options, v);
+      ExpectThrowsWith([&] { validate(options); }, spec.info.name + " must be");
+    }
+  }
+}
+
+TEST(Options, ValidateEnforcesTheTableBoundsOfOptionsBuiltInCode) {
+  ExpectValidateEnforcesTheBounds(MethodOptionsTable(), MethodOptions(),
+                                  [](const MethodOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(RecognizerOptionsTable(), RecognizerOptions(),
+                                  [](const RecognizerOptions& o) { PlaceRecognizer{o}; });
+  ExpectValidateEnforcesTheBounds(SequenceOptionsTable(), SequenceOptions(),
+                                  [](const SequenceOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(TemporalFilterOptionsTable(), TemporalFilterOptions(),
+                                  [](const TemporalFilterOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(PlaceIndexOptionsTable(), PlaceIndexOptions(),
+                                  [](const PlaceIndexOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(PatchNormOptionsTable(), PatchNormOptions(),
+                                  [](const PatchNormOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(HogOptionsTable(), HogOptions(),
+                                  [](const HogOptions& o) { o.Validate(); });
+  OnnxOptions onnx;
+  onnx.model_path = "model.onnx";  // read by MakeImageDescriber, not by Validate
+  ExpectValidateEnforcesTheBounds(OnnxOptionsTable(), onnx,
+                                  [](const OnnxOptions& o) { o.Validate(); });
+
+  // The messages say what the bound is and what came.
+  MethodOptions o;
+  o.sequence.length = kMaxSequenceLength + 1;
+  ExpectThrowsWith([&] { o.Validate(); }, "sequence_length must be in [1, 1000], got 1001");
+  o = MethodOptions();
+  o.selection.gamma_fraction = std::numeric_limits<double>::infinity();
+  ExpectThrowsWith([&] { o.Validate(); }, "gamma_fraction must be a finite number >= 0, got inf");
+  o = MethodOptions();
+  o.filter.step_mean_places = std::nan("");
+  ExpectThrowsWith([&] { o.filter.Validate(); },
+                   "filter_step_mean_places must be a finite number, got nan");
+  // Rules across fields stay in Validate().
+  o = MethodOptions();
+  o.sequence.min_velocity = 2;
+  o.sequence.max_velocity = 1;
+  ExpectThrowsWith([&] { o.Validate(); }, "sequence_min_velocity <= sequence_max_velocity");
+  // ApproximateOptions are named by their fields (the index is built in code).
+  ApproximateOptions a;
+  a.sample_rows = ApproximateOptions::kMaxSampleRows + 1;
+  ExpectThrowsWith([&] { a.Validate(); }, "ApproximateOptions.sample_rows must be in [1, 8192]");
 }
 
 }  // namespace

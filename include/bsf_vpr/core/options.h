@@ -15,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -43,12 +44,18 @@ struct OptionBounds {
   double max = std::numeric_limits<double>::infinity();
   bool min_open = false;  // the value must be > min (else >= min)
   bool max_open = false;
+  bool finite = false;  // refuse infinity too (else a side without a bound admits it)
 };
 inline OptionBounds AtLeast(double min) { return {min}; }
 inline OptionBounds Above(double min) {
   return {min, std::numeric_limits<double>::infinity(), true};
 }
 inline OptionBounds Between(double min, double max) { return {min, max}; }
+// `bounds`, and a finite number: Finite(AtLeast(0)) is a finite number >= 0.
+inline OptionBounds Finite(OptionBounds bounds = {}) {
+  bounds.finite = true;
+  return bounds;
+}
 
 // What a table says about one option, without the struct it belongs to.
 struct OptionInfo {
@@ -126,7 +133,8 @@ class OptionTable {
 
   // An enumeration, given as one of the names of `names` (and written so in every derived
   // file). The member is E; or std::optional<E>, where the choice "" (shown first) is none;
-  // or a std::string holding one of the names, for a struct that keeps the text.
+  // or a std::string holding one of the names, for a struct that keeps the text (a value
+  // not among them is refused by CheckValues).
   template <typename Field, typename E>
   OptionTable& AddChoice(const std::string& name, Field field, const std::string& doc,
                          const EnumNames<E>& names, bool live = false) {
@@ -226,6 +234,21 @@ class OptionTable {
     CheckOptionValue(s->info, v, flag);
     s->set(*out, v);
     return true;
+  }
+
+  // Checks every value of `options` as Apply checks a value given (bounds, choices):
+  // the checks of single fields in a Validate(), for options built in code as for options
+  // read. Throws std::invalid_argument naming the option.
+  void CheckValues(const S& options) const {
+    for (const Spec& s : specs_) {
+      if (s.get) CheckOptionValue(s.info, s.get(options), s.info.name);
+    }
+  }
+  // The same for the option `name` alone, shown as `shown` (e.g. a field's own name).
+  void CheckValue(const S& options, const std::string& name, const std::string& shown) const {
+    const Spec* s = Find(name);
+    if (s == nullptr || !s->get) throw std::logic_error("no option '" + name + "' to check");
+    CheckOptionValue(s->info, s->get(options), shown);
   }
 
   // The values of `options` (its options that are not external), by name.

@@ -13,6 +13,10 @@ const EnumNames<FirstStageKind>& FirstStageKindNames() {
 
 std::string ToString(FirstStageKind kind) { return FirstStageKindNames().Name(kind); }
 
+FirstStageKind FirstStageOptions::Kind() const {
+  return FirstStageKindNames().Parse(kind, "first_stage");
+}
+
 void FirstStageOptions::Validate() const {
   // The choice and the bounds, named as the options are (first_stage_dimensions, ...).
   FirstStageOptionsTable().CheckValues(*this);
@@ -36,17 +40,19 @@ const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
 
 void DistanceStage::SetOptions(const FirstStageOptions& options) {
   options.Validate();
+  const FirstStageKind kind = options.Kind();
   const ApproximateOptions& a = options.approximate;
   const ApproximateOptions& b = options_.approximate;
-  if (options.kind != options_.kind || a.dimensions != b.dimensions || a.rerank != b.rerank ||
+  if (kind != kind_ || a.dimensions != b.dimensions || a.rerank != b.rerank ||
       a.sample_rows != b.sample_rows || a.seed != b.seed) {
     index_.reset();
   }
   options_ = options;
+  kind_ = kind;
 }
 
 void DistanceStage::Prepare(const ReferenceMap& map) {
-  if (options_.kind == "pca" && !index_ && map.num_sets() > 0) {
+  if (kind_ == FirstStageKind::kPca && !index_ && map.num_sets() > 0) {
     index_ = std::make_unique<ApproximateIndex>(map, options_.approximate);
   }
 }
@@ -54,7 +60,7 @@ void DistanceStage::Prepare(const ReferenceMap& map) {
 std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const RowMatrixXf& queries,
                                                   const ReferenceMap& map) {
   // An empty map has no rows to project (ComputeDistances checks the queries alike).
-  if (options_.kind == "exact" || map.num_sets() == 0) {
+  if (kind_ == FirstStageKind::kExact || map.num_sets() == 0) {
     return ComputeDistances(metric, queries, map);
   }
   Prepare(map);
@@ -62,7 +68,7 @@ std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const R
 }
 
 std::string DistanceStage::Summary() const {
-  if (options_.kind == "exact") return "exact";
+  if (kind_ == FirstStageKind::kExact) return ToString(kind_);
   if (!index_) return "pca: no index built yet";
   char text[160];
   std::snprintf(text, sizeof text,

@@ -210,9 +210,30 @@ TEST(Options, EveryEnumerationsNamesRoundTrip) {
   ExpectNamesRoundTrip(RecordingPlacesNames(), ParseRecordingPlaces, "places");
   ExpectNamesRoundTrip(ImageDescriberKindNames(), ParseImageDescriberKind, "image_descriptor");
   ExpectNamesRoundTrip<FirstStageKind>(FirstStageKindNames(), nullptr, "first_stage");
+  for (const auto& [kind, name] : FirstStageKindNames().entries()) {
+    FirstStageOptions o;
+    o.kind = name;
+    EXPECT_EQ(o.Kind(), kind);
+    EXPECT_EQ(ToString(kind), name);
+  }
   FirstStageOptions pq;
   pq.kind = "pq";
+  ExpectThrowsWith([&] { pq.Kind(); }, "first_stage must be exact or pca, got 'pq'");
   ExpectThrowsWith([&] { pq.Validate(); }, "first_stage must be exact | pca, got 'pq'");
+}
+
+// The first stage's kind is parsed when the options are set, not compared as text per query.
+TEST(Options, TheDistanceStageKeepsTheParsedKind) {
+  DistanceStage stage;
+  EXPECT_EQ(stage.kind(), FirstStageKind::kExact);
+  FirstStageOptions o;
+  o.kind = "pca";
+  stage.SetOptions(o);
+  EXPECT_EQ(stage.kind(), FirstStageKind::kPca);
+  o.kind = "pq";
+  EXPECT_THROW(stage.SetOptions(o), std::invalid_argument);
+  EXPECT_EQ(stage.kind(), FirstStageKind::kPca);  // the options in force are kept
+  EXPECT_EQ(stage.options().kind, "pca");
 }
 
 // A table's choices are the names, in their order, and a value reads and writes through them.

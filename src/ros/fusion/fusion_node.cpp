@@ -46,12 +46,12 @@ void FusionNode::Start() {
           "a fusion node with shards fuses the shards' sets and holds none of its own: give "
           "reference_sets to the shards (docs/sharding.md)");
     }
-    if (params_.recognizer.first_stage.kind != "exact") {
+    if (params_.recognizer.first_stage.Kind() != FirstStageKind::kExact) {
       ROS_WARN(
           "bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no "
           "distances",
           params_.recognizer.first_stage.kind.c_str());
-      params_.recognizer.first_stage.kind = "exact";
+      params_.recognizer.first_stage.kind = ToString(FirstStageKind::kExact);
     }
   }
   LoadConfiguredSets(&params_, &recognizer_);

@@ -109,7 +109,8 @@ constexpr double kFirstStageEnergyWarning = 0.99;
 
 void PrepareFirstStageOrFallBack(PlaceRecognizer* recognizer, FusionParams* params,
                                  std::string* error) {
-  if (recognizer->options().first_stage.kind == "exact" || recognizer->map().num_sets() == 0) {
+  if (recognizer->distance_stage().kind() == FirstStageKind::kExact ||
+      recognizer->map().num_sets() == 0) {
     return;
   }
   const ros::WallTime start = ros::WallTime::now();
@@ -119,9 +120,9 @@ void PrepareFirstStageOrFallBack(PlaceRecognizer* recognizer, FusionParams* para
     // The sets stay as they are; exact search answers until the node is restarted, rather
     // than every descriptor trying the build again.
     RecognizerOptions exact = recognizer->options();
-    exact.first_stage.kind = "exact";
+    exact.first_stage.kind = ToString(FirstStageKind::kExact);
     recognizer->SetOptions(exact);
-    params->recognizer.first_stage.kind = "exact";
+    params->recognizer.first_stage.kind = exact.first_stage.kind;
     *error = e.what();
     ROS_ERROR("bsf_vpr: the pca first stage could not be built (%s): exact search from now on",
               e.what());

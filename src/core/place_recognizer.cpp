@@ -29,6 +29,7 @@ PlaceRecognizer::PlaceRecognizer(RecognizerOptions options) : options_(std::move
   options_.Validate();
   distances_.SetOptions(options_.first_stage);
   // The method is checked against the sets when they are known (SetOptions / Recognize).
+  ResolveMethod();
 }
 
 void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
@@ -38,6 +39,7 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
   distances_.SetOptions(options.first_stage);
   options_ = options;
   method_ = method;
+  method_error_.clear();
   if (restart || !runner_) {
     runner_.reset();  // rebuilt, with no history, at the next query
   } else {
@@ -50,6 +52,7 @@ void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   distances_.Invalidate();
   runner_.reset();
   ResetPrior();
+  ResolveMethod();
 }
 
 void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
@@ -58,6 +61,21 @@ void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   distances_.Invalidate();
   runner_.reset();
   ResetPrior();
+  ResolveMethod();
+}
+
+void PlaceRecognizer::ResolveMethod() {
+  try {
+    method_ = ParseMethod(options_.method, map_.SetNames());
+    method_error_.clear();
+  } catch (const std::invalid_argument& e) {
+    method_error_ = e.what();  // thrown when the method is needed
+  }
+}
+
+const Method& PlaceRecognizer::ResolvedMethod() const {
+  if (!method_error_.empty()) throw std::invalid_argument(method_error_);
+  return method_;
 }
 
 void PlaceRecognizer::CheckRemovable(const std::string& name) const {
@@ -65,7 +83,7 @@ void PlaceRecognizer::CheckRemovable(const std::string& name) const {
     throw std::invalid_argument("no reference set named '" + name + "' is loaded");
   }
   // The method as parsed (suffixes and all) says which set it needs by name.
-  const Method method = ParseMethod(options_.method, map_.SetNames());
+  const Method& method = ResolvedMethod();
   const bool single =
       method.kind == MethodKind::kNearestNeighbour || method.kind == MethodKind::kBayesSingle;
   if (single && method.set_name == name) {
@@ -79,11 +97,7 @@ void PlaceRecognizer::ResetPrior() {
 }
 
 MethodRunner& PlaceRecognizer::Runner() {
-  if (!runner_) {
-    // The method refers to sets by index: resolve it against the current map.
-    method_ = ParseMethod(options_.method, map_.SetNames());
-    runner_ = std::make_unique<MethodRunner>(method_, options_.method_options);
-  }
+  if (!runner_) runner_ = std::make_unique<MethodRunner>(ResolvedMethod(), options_.method_options);
   return *runner_;
 }
 

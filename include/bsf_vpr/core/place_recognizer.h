@@ -54,6 +54,8 @@ class PlaceRecognizer {
   // the filter's step options apply from the next query on.
   void SetOptions(const RecognizerOptions& options);
   const RecognizerOptions& options() const { return options_; }
+  // The method parsed against the current sets (once per change of the options or the
+  // sets). While it names a set that is not loaded, the one parsed before (Recognize throws).
   const Method& method() const { return method_; }
 
   // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
@@ -110,13 +112,19 @@ class PlaceRecognizer {
 
  private:
   MethodRunner& Runner();  // built on demand against the current sets
+  // Parses options_.method against the sets into method_ after the sets changed, or keeps
+  // in method_error_ why it cannot be (it names a set not loaded, or no method at all).
+  void ResolveMethod();
+  // method_, or throws std::invalid_argument with method_error_.
+  const Method& ResolvedMethod() const;
   // Fusion, state and the closest set from checked distances (Recognize, RecognizeDistances).
   // `available` null: every set.
   Recognition Decide(const std::vector<RowMatrixXf>& distances, bool update_state,
                      std::optional<double> step_places, const std::vector<bool>* available);
 
   RecognizerOptions options_;
-  Method method_;
+  Method method_;             // options_.method against map_'s sets, when it resolves
+  std::string method_error_;  // why it does not, or ""
   ReferenceMap map_;
   std::unique_ptr<MethodRunner> runner_;  // null: to be rebuilt
   DistanceStage distances_;

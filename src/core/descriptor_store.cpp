@@ -2,28 +2,29 @@
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
 namespace bsf_vpr {
 
-StoragePrecision ParseStoragePrecision(const std::string& name) {
-  if (name == "float32") return StoragePrecision::kFloat32;
-  if (name == "float16") return StoragePrecision::kFloat16;
-  if (name == "int8") return StoragePrecision::kInt8;
-  throw std::invalid_argument("unknown storage precision '" + name +
-                              "' (expected float32, float16 or int8)");
+const EnumNames<StoragePrecision>& StoragePrecisionNames() {
+  static const EnumNames<StoragePrecision> kNames{{StoragePrecision::kFloat32, "float32"},
+                                                  {StoragePrecision::kFloat16, "float16"},
+                                                  {StoragePrecision::kInt8, "int8"}};
+  return kNames;
 }
 
-std::string ToString(StoragePrecision precision) {
-  switch (precision) {
-    case StoragePrecision::kFloat16:
-      return "float16";
-    case StoragePrecision::kInt8:
-      return "int8";
-    default:
-      return "float32";
+StoragePrecision ParseStoragePrecision(const std::string& name) {
+  // Not EnumNames::Parse's form: the tools' --storage has given this message all along.
+  const std::optional<StoragePrecision> precision = StoragePrecisionNames().Find(name);
+  if (!precision) {
+    throw std::invalid_argument("unknown storage precision '" + name + "' (expected " +
+                                StoragePrecisionNames().Listed() + ")");
   }
+  return *precision;
 }
+
+std::string ToString(StoragePrecision precision) { return StoragePrecisionNames().Name(precision); }
 
 int BytesPerElement(StoragePrecision precision) {
   return precision == StoragePrecision::kFloat32 ? 4

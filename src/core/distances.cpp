@@ -13,15 +13,17 @@
 
 namespace bsf_vpr {
 
-DistanceMetric ParseDistanceMetric(const std::string& name) {
-  if (name == "euclidean") return DistanceMetric::kEuclidean;
-  if (name == "cosine") return DistanceMetric::kCosine;
-  throw std::invalid_argument("unknown distance '" + name + "' (expected euclidean or cosine)");
+const EnumNames<DistanceMetric>& DistanceMetricNames() {
+  static const EnumNames<DistanceMetric> kNames{{DistanceMetric::kEuclidean, "euclidean"},
+                                                {DistanceMetric::kCosine, "cosine"}};
+  return kNames;
 }
 
-std::string ToString(DistanceMetric metric) {
-  return metric == DistanceMetric::kEuclidean ? "euclidean" : "cosine";
+DistanceMetric ParseDistanceMetric(const std::string& name) {
+  return DistanceMetricNames().Parse(name, "distance");
 }
+
+std::string ToString(DistanceMetric metric) { return DistanceMetricNames().Name(metric); }
 
 namespace {
 

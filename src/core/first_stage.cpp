@@ -5,11 +5,21 @@
 
 namespace bsf_vpr {
 
+const EnumNames<FirstStageKind>& FirstStageKindNames() {
+  static const EnumNames<FirstStageKind> kNames{{FirstStageKind::kExact, "exact"},
+                                                {FirstStageKind::kPca, "pca"}};
+  return kNames;
+}
+
+std::string ToString(FirstStageKind kind) { return FirstStageKindNames().Name(kind); }
+
+FirstStageKind FirstStageOptions::Kind() const {
+  return FirstStageKindNames().Parse(kind, "first_stage");
+}
+
 void FirstStageOptions::Validate() const {
-  if (kind != "exact" && kind != "pca") {
-    throw std::invalid_argument("first_stage must be exact or pca, got '" + kind + "'");
-  }
-  approximate.Validate();
+  // The choice and the bounds, named as the options are (first_stage_dimensions, ...).
+  FirstStageOptionsTable().CheckValues(*this);
 }
 
 const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
@@ -22,37 +32,27 @@ const OptionTable<FirstStageOptions>& FirstStageOptionsTable() {
               "exactly at camera rate: approximate distances to every row from int8 "
               "projections onto a PCA basis of the map, then each set's rerank_candidates "
               "nearest made exact; docs/performance.md gives its error on real data)",
-              {"exact", "pca"}, [](const std::string& s) { return s; })
-          .Add(
-              "first_stage_dimensions", [](auto& o) -> auto& { return o.approximate.dimensions; },
-              "pca: projected dimensions d' (bytes per row the first stage reads)", "dimensions",
-              AtLeast(1))
-          .Add(
-              "rerank_candidates", [](auto& o) -> auto& { return o.approximate.rerank; },
-              "pca: rows per set and query whose distance is made exact (the nearest by the "
-              "approximate distance)",
-              "rows", AtLeast(0))
-          .Add(
-              "first_stage_sample_rows", [](auto& o) -> auto& { return o.approximate.sample_rows; },
-              "pca: rows drawn from the map to fit the basis (fitting costs O(rows^2 D + rows^3): "
-              "about 3.5 s for 2048 rows of 4096-d on 2 cores, 8x that per doubling)",
-              "rows", Between(1, ApproximateOptions::kMaxSampleRows));
+              FirstStageKindNames())
+          .Include(
+              ApproximateOptionsTable(), [](auto& o) -> auto& { return o.approximate; });
   return kTable;
 }
 
 void DistanceStage::SetOptions(const FirstStageOptions& options) {
   options.Validate();
+  const FirstStageKind kind = options.Kind();
   const ApproximateOptions& a = options.approximate;
   const ApproximateOptions& b = options_.approximate;
-  if (options.kind != options_.kind || a.dimensions != b.dimensions || a.rerank != b.rerank ||
+  if (kind != kind_ || a.dimensions != b.dimensions || a.rerank != b.rerank ||
       a.sample_rows != b.sample_rows || a.seed != b.seed) {
     index_.reset();
   }
   options_ = options;
+  kind_ = kind;
 }
 
 void DistanceStage::Prepare(const ReferenceMap& map) {
-  if (options_.kind == "pca" && !index_ && map.num_sets() > 0) {
+  if (kind_ == FirstStageKind::kPca && !index_ && map.num_sets() > 0) {
     index_ = std::make_unique<ApproximateIndex>(map, options_.approximate);
   }
 }
@@ -60,7 +60,7 @@ void DistanceStage::Prepare(const ReferenceMap& map) {
 std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const RowMatrixXf& queries,
                                                   const ReferenceMap& map) {
   // An empty map has no rows to project (ComputeDistances checks the queries alike).
-  if (options_.kind == "exact" || map.num_sets() == 0) {
+  if (kind_ == FirstStageKind::kExact || map.num_sets() == 0) {
     return ComputeDistances(metric, queries, map);
   }
   Prepare(map);
@@ -68,7 +68,7 @@ std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const R
 }
 
 std::string DistanceStage::Summary() const {
-  if (options_.kind == "exact") return "exact";
+  if (kind_ == FirstStageKind::kExact) return ToString(kind_);
   if (!index_) return "pca: no index built yet";
   char text[160];
   std::snprintf(text, sizeof text,

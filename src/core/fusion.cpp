@@ -57,15 +57,17 @@ void Threshold::Validate() const {
   }
 }
 
-Threshold::Kind ParseThresholdKind(const std::string& name) {
-  if (name == "probability") return Threshold::Kind::kProbability;
-  if (name == "log_odds") return Threshold::Kind::kLogOdds;
-  throw std::invalid_argument("threshold_kind must be probability or log_odds, got '" + name + "'");
+const EnumNames<Threshold::Kind>& ThresholdKindNames() {
+  static const EnumNames<Threshold::Kind> kNames{{Threshold::Kind::kProbability, "probability"},
+                                                 {Threshold::Kind::kLogOdds, "log_odds"}};
+  return kNames;
 }
 
-std::string ToString(Threshold::Kind kind) {
-  return kind == Threshold::Kind::kLogOdds ? "log_odds" : "probability";
+Threshold::Kind ParseThresholdKind(const std::string& name) {
+  return ThresholdKindNames().Parse(name, "threshold_kind");
 }
+
+std::string ToString(Threshold::Kind kind) { return ThresholdKindNames().Name(kind); }
 
 double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {
   double other_max = -INFINITY;
@@ -213,15 +215,17 @@ DistanceStats PooledStats(const std::vector<SetDistances>& sets,
 
 }  // namespace
 
-FusionRule ParseFusionRule(const std::string& name) {
-  if (name == "mixture") return FusionRule::kMixture;
-  if (name == "product") return FusionRule::kProduct;
-  throw std::invalid_argument("fusion must be mixture or product, got '" + name + "'");
+const EnumNames<FusionRule>& FusionRuleNames() {
+  static const EnumNames<FusionRule> kNames{{FusionRule::kMixture, "mixture"},
+                                            {FusionRule::kProduct, "product"}};
+  return kNames;
 }
 
-std::string ToString(FusionRule rule) {
-  return rule == FusionRule::kMixture ? "mixture" : "product";
+FusionRule ParseFusionRule(const std::string& name) {
+  return FusionRuleNames().Parse(name, "fusion");
 }
+
+std::string ToString(FusionRule rule) { return FusionRuleNames().Name(rule); }
 
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,

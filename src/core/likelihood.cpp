@@ -12,16 +12,17 @@
 
 namespace bsf_vpr {
 
-LikelihoodVariant ParseLikelihoodVariant(const std::string& name) {
-  if (name == "one_sided") return LikelihoodVariant::kOneSided;
-  if (name == "two_sided") return LikelihoodVariant::kTwoSided;
-  throw std::invalid_argument("unknown likelihood variant '" + name +
-                              "' (expected one_sided or two_sided)");
+const EnumNames<LikelihoodVariant>& LikelihoodVariantNames() {
+  static const EnumNames<LikelihoodVariant> kNames{{LikelihoodVariant::kOneSided, "one_sided"},
+                                                   {LikelihoodVariant::kTwoSided, "two_sided"}};
+  return kNames;
 }
 
-std::string ToString(LikelihoodVariant variant) {
-  return variant == LikelihoodVariant::kOneSided ? "one_sided" : "two_sided";
+LikelihoodVariant ParseLikelihoodVariant(const std::string& name) {
+  return LikelihoodVariantNames().Parse(name, "likelihood");
 }
+
+std::string ToString(LikelihoodVariant variant) { return LikelihoodVariantNames().Name(variant); }
 
 namespace {
 

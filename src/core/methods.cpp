@@ -128,30 +128,20 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
   constexpr bool kLive = true;
   static const OptionTable<MethodOptions> kTable =
       OptionTable<MethodOptions>()
-          .Add(
-              "gamma_fraction", [](auto& o) -> auto& { return o.selection.gamma_fraction; },
-              "selection fraction gamma: with selection relative, a set is selected when its "
-              "minimum distance is within (1 + gamma) of the best set's (paper, Eq. "
-              "reference_selection); with fusion mixture, the scale of the sets' soft weights "
-              "(weight e^-1 at that boundary)",
-              "", AtLeast(0), kLive)
-          .AddChoice(
-              "selection", [](auto& o) -> auto& { return o.selection.rule; },
-              "selection rule: relative (the paper's) or standardized (scale-free, on "
-              "each set's standardised minimum)",
-              {"relative", "standardized"}, ParseSelectionRule, kLive)
+          .Include(
+              SelectionOptionsTable(), [](auto& o) -> auto& { return o.selection; })
           .AddChoice(
               "fusion", [](auto& o) -> auto& { return o.fusion; },
               "how bsf fuses the sets: mixture (sets of one descriptor are alternative "
               "conditions of the query: their likelihoods are mixed, weighted by the soft form "
               "of the selection rule, with the non-match statistics pooled; README) or "
               "product (exactly the paper: the selected sets' likelihoods multiply)",
-              {"mixture", "product"}, ParseFusionRule, kLive)
+              FusionRuleNames(), kLive)
           .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
               "(exactly the paper)",
-              {"one_sided", "two_sided"}, ParseLikelihoodVariant, kLive)
+              LikelihoodVariantNames(), kLive)
           .Add(
               "threshold", [](auto& o) -> auto& { return o.threshold.value; },
               "threshold h on the match, given as threshold_kind says; gates the Bayesian "
@@ -161,7 +151,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "threshold_kind", [](auto& o) -> auto& { return o.threshold.kind; },
               "how threshold is given: probability (a posterior in (0, 1)) or log_odds "
               "(log(p / (1 - p)), any finite number)",
-              {"probability", "log_odds"}, ParseThresholdKind, kLive)
+              ThresholdKindNames(), kLive)
           .Add(
               "max_match_distance", [](auto& o) -> auto& { return o.max_match_distance; },
               "distance methods (nn:<set>, med, med_selective): the largest (mean) distance of "
@@ -170,52 +160,17 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
           .Add(
               "top_k", [](auto& o) -> auto& { return o.top_k; },
               "ranked places kept per query (recall@K needs K)", "places", AtLeast(1))
-          .Add(
-              "sequence_length", [](auto& o) -> auto& { return o.sequence.length; },
-              "+seq: queries per sequence", "queries", Between(1, kMaxSequenceLength), kLive)
-          .Add(
-              "sequence_use_partial",
-              [](auto& o) -> auto& { return o.sequence.use_partial_sequences; },
-              "+seq: before sequence_length queries have arrived, match the shorter sequence "
-              "so far (true) or the single query (false)",
-              "", {}, kLive)
-          .Add(
-              "sequence_min_velocity", [](auto& o) -> auto& { return o.sequence.min_velocity; },
-              "+seq: slowest progress searched", "places per query",
-              {0, kMaxSequenceVelocity, true, false}, kLive)
-          .Add(
-              "sequence_max_velocity", [](auto& o) -> auto& { return o.sequence.max_velocity; },
-              "+seq: fastest progress searched", "places per query",
-              {0, kMaxSequenceVelocity, true, false}, kLive)
-          .Add(
-              "sequence_velocity_step", [](auto& o) -> auto& { return o.sequence.velocity_step; },
-              "+seq: step between the velocities searched", "places per query", Above(0), kLive)
-          .Add(
-              "filter_step_mean_places", [](auto& o) -> auto& { return o.filter.step_mean_places; },
-              "+filter without odometry: mean progress per query (0 carries the belief in "
-              "place)",
-              "places", {}, kLive)
-          .Add(
-              "filter_step_std_places", [](auto& o) -> auto& { return o.filter.step_std_places; },
-              "+filter: standard deviation of the progress per query", "places", AtLeast(0), kLive)
-          .Add(
-              "relocalization_probability",
-              [](auto& o) -> auto& { return o.filter.relocalization_probability; },
-              "+filter: probability per query of re-localising anywhere on the map", "",
-              {0, 1, true, false}, kLive);
+          .Include(
+              SequenceOptionsTable(), [](auto& o) -> auto& { return o.sequence; })
+          .Include(
+              TemporalFilterOptionsTable(), [](auto& o) -> auto& { return o.filter; });
   return kTable;
 }
 
 void MethodOptions::Validate() const {
-  selection.Validate();
-  threshold.Validate();
-  if (top_k < 1) throw std::invalid_argument("top_k must be >= 1, got " + std::to_string(top_k));
-  if (!(max_match_distance >= 0) || std::isnan(max_match_distance)) {
-    throw std::invalid_argument("max_match_distance must be >= 0, got " +
-                                std::to_string(max_match_distance));
-  }
+  MethodOptionsTable().CheckValues(*this);  // each field's bounds, the parts' fields too
+  threshold.Validate();                     // the rules across fields
   sequence.Validate();
-  filter.Validate();
 }
 
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,

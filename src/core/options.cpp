@@ -183,6 +183,11 @@ void CheckOptionValue(const OptionInfo& info, const OptionValue& value, const st
   ConvertOptionValue(value, info.type, shown);  // throws for a value of another type
   const OptionBounds& b = info.bounds;
   const auto check = [&](double x) {
+    if (b.finite && !std::isfinite(x)) {
+      const std::string range = DescribeRange(info);
+      throw std::invalid_argument(shown + " must be a finite number" +
+                                  (range.empty() ? "" : " " + range) + ", got " + PlainNumber(x));
+    }
     const bool low = b.min_open ? !(x > b.min) : !(x >= b.min);
     const bool high = b.max_open ? !(x < b.max) : !(x <= b.max);
     if (std::isnan(x) || low || high) {

@@ -53,17 +53,7 @@ class PlaceGrid {
 
 }  // namespace
 
-void PlaceIndexOptions::Validate() const {
-  if (!(place_spacing_m > 0) || !std::isfinite(place_spacing_m)) {
-    throw std::invalid_argument("place_spacing_m must be a finite number > 0");
-  }
-  if (!(association_radius_m > 0) || !std::isfinite(association_radius_m)) {
-    throw std::invalid_argument("association_radius_m must be a finite number > 0");
-  }
-  if (!(max_yaw_difference_deg >= 0)) {
-    throw std::invalid_argument("max_yaw_difference_deg must be >= 0");
-  }
-}
+void PlaceIndexOptions::Validate() const { PlaceIndexOptionsTable().CheckValues(*this); }
 
 const OptionTable<PlaceIndexOptions>& PlaceIndexOptionsTable() {
   static const OptionTable<PlaceIndexOptions> kTable =
@@ -71,12 +61,12 @@ const OptionTable<PlaceIndexOptions>& PlaceIndexOptionsTable() {
           .Add(
               "place_spacing_m", [](auto& o) -> auto& { return o.place_spacing_m; },
               "distance between places along a route that makes new places (the paper: 1)", "m",
-              Above(0))
+              Finite(Above(0)))
           .Add(
               "association_radius_m", [](auto& o) -> auto& { return o.association_radius_m; },
               "a traversal's frame describes a place of the map when it lies within this "
               "distance of it (the nearest such frame)",
-              "m", Above(0))
+              "m", Finite(Above(0)))
           .Add(
               "max_yaw_difference_deg", [](auto& o) -> auto& { return o.max_yaw_difference_deg; },
               "a frame whose heading differs more from a place's is not a view of it (a place "

@@ -6,24 +6,18 @@
 
 namespace bsf_vpr {
 
-RecordingPlaces ParseRecordingPlaces(const std::string& name) {
-  if (name == "sequential") return RecordingPlaces::kSequential;
-  if (name == "pose") return RecordingPlaces::kPose;
-  if (name == "localized") return RecordingPlaces::kLocalized;
-  throw std::invalid_argument("places must be sequential, pose or localized, got '" + name + "'");
+const EnumNames<RecordingPlaces>& RecordingPlacesNames() {
+  static const EnumNames<RecordingPlaces> kNames{{RecordingPlaces::kSequential, "sequential"},
+                                                 {RecordingPlaces::kPose, "pose"},
+                                                 {RecordingPlaces::kLocalized, "localized"}};
+  return kNames;
 }
 
-std::string ToString(RecordingPlaces places) {
-  switch (places) {
-    case RecordingPlaces::kPose:
-      return "pose";
-    case RecordingPlaces::kLocalized:
-      return "localized";
-    case RecordingPlaces::kSequential:
-      break;
-  }
-  return "sequential";
+RecordingPlaces ParseRecordingPlaces(const std::string& name) {
+  return RecordingPlacesNames().Parse(name, "places");
 }
+
+std::string ToString(RecordingPlaces places) { return RecordingPlacesNames().Name(places); }
 
 void ReferenceRecorder::Start(const std::string& name, const std::string& condition, int dimension,
                               RecordingPlaces places) {

@@ -5,22 +5,37 @@
 
 namespace bsf_vpr {
 
+const EnumNames<SelectionRule>& SelectionRuleNames() {
+  static const EnumNames<SelectionRule> kNames{{SelectionRule::kRelative, "relative"},
+                                               {SelectionRule::kStandardized, "standardized"}};
+  return kNames;
+}
+
 SelectionRule ParseSelectionRule(const std::string& name) {
-  if (name == "relative") return SelectionRule::kRelative;
-  if (name == "standardized") return SelectionRule::kStandardized;
-  throw std::invalid_argument("unknown selection rule '" + name +
-                              "' (expected relative or standardized)");
+  return SelectionRuleNames().Parse(name, "selection");
 }
 
-std::string ToString(SelectionRule rule) {
-  return rule == SelectionRule::kRelative ? "relative" : "standardized";
-}
+std::string ToString(SelectionRule rule) { return SelectionRuleNames().Name(rule); }
 
-void SelectionOptions::Validate() const {
-  if (!(gamma_fraction >= 0) || !std::isfinite(gamma_fraction)) {
-    throw std::invalid_argument("gamma_fraction must be a finite number >= 0, got " +
-                                std::to_string(gamma_fraction));
-  }
+void SelectionOptions::Validate() const { SelectionOptionsTable().CheckValues(*this); }
+
+const OptionTable<SelectionOptions>& SelectionOptionsTable() {
+  constexpr bool kLive = true;
+  static const OptionTable<SelectionOptions> kTable =
+      OptionTable<SelectionOptions>()
+          .Add(
+              "gamma_fraction", [](auto& o) -> auto& { return o.gamma_fraction; },
+              "selection fraction gamma: with selection relative, a set is selected when its "
+              "minimum distance is within (1 + gamma) of the best set's (paper, Eq. "
+              "reference_selection); with fusion mixture, the scale of the sets' soft weights "
+              "(weight e^-1 at that boundary)",
+              "", Finite(AtLeast(0)), kLive)
+          .AddChoice(
+              "selection", [](auto& o) -> auto& { return o.rule; },
+              "selection rule: relative (the paper's) or standardized (scale-free, on "
+              "each set's standardised minimum)",
+              SelectionRuleNames(), kLive);
+  return kTable;
 }
 
 DistanceStats ComputeDistanceStats(const SetDistances& d) {

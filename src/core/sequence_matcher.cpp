@@ -7,19 +7,12 @@
 namespace bsf_vpr {
 
 void SequenceOptions::Validate() const {
-  if (length < 1 || length > kMaxSequenceLength) {
-    throw std::invalid_argument("sequence_length must lie in 1.." +
-                                std::to_string(kMaxSequenceLength) + ", got " +
-                                std::to_string(length));
-  }
-  if (!(min_velocity > 0) || !(max_velocity >= min_velocity) ||
-      !(max_velocity <= kMaxSequenceVelocity)) {
+  SequenceOptionsTable().CheckValues(*this);  // each field's bounds
+  if (!(max_velocity >= min_velocity)) {
     throw std::invalid_argument(
-        "sequence velocities must satisfy 0 < sequence_min_velocity <= sequence_max_velocity <= " +
-        std::to_string(kMaxSequenceVelocity) + " places per query, got " +
+        "sequence velocities must satisfy sequence_min_velocity <= sequence_max_velocity, got " +
         std::to_string(min_velocity) + " and " + std::to_string(max_velocity));
   }
-  if (!(velocity_step > 0)) throw std::invalid_argument("sequence_velocity_step must be > 0");
   // Computed in double before any conversion to int: a tiny step cannot overflow.
   const double velocities = (max_velocity - min_velocity) / velocity_step + 1;
   if (!(velocities <= kMaxSequenceVelocities)) {
@@ -29,6 +22,32 @@ void SequenceOptions::Validate() const {
         " and " + std::to_string(max_velocity) + "; at most " +
         std::to_string(kMaxSequenceVelocities) + " are searched (use a larger step)");
   }
+}
+
+const OptionTable<SequenceOptions>& SequenceOptionsTable() {
+  constexpr bool kLive = true;
+  static const OptionTable<SequenceOptions> kTable =
+      OptionTable<SequenceOptions>()
+          .Add(
+              "sequence_length", [](auto& o) -> auto& { return o.length; },
+              "+seq: queries per sequence", "queries", Between(1, kMaxSequenceLength), kLive)
+          .Add(
+              "sequence_use_partial", [](auto& o) -> auto& { return o.use_partial_sequences; },
+              "+seq: before sequence_length queries have arrived, match the shorter sequence "
+              "so far (true) or the single query (false)",
+              "", {}, kLive)
+          .Add(
+              "sequence_min_velocity", [](auto& o) -> auto& { return o.min_velocity; },
+              "+seq: slowest progress searched", "places per query",
+              {0, kMaxSequenceVelocity, true, false}, kLive)
+          .Add(
+              "sequence_max_velocity", [](auto& o) -> auto& { return o.max_velocity; },
+              "+seq: fastest progress searched", "places per query",
+              {0, kMaxSequenceVelocity, true, false}, kLive)
+          .Add(
+              "sequence_velocity_step", [](auto& o) -> auto& { return o.velocity_step; },
+              "+seq: step between the velocities searched", "places per query", Above(0), kLive);
+  return kTable;
 }
 
 namespace {

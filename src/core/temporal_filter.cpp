@@ -7,16 +7,27 @@
 
 namespace bsf_vpr {
 
-void TemporalFilterOptions::Validate() const {
-  if (!std::isfinite(step_mean_places))
-    throw std::invalid_argument("filter_step_mean_places must be finite");
-  if (!(step_std_places >= 0) || !std::isfinite(step_std_places)) {
-    throw std::invalid_argument("filter_step_std_places must be a finite number >= 0");
-  }
-  if (!(relocalization_probability > 0 && relocalization_probability <= 1)) {
-    throw std::invalid_argument("relocalization_probability must lie in (0, 1], got " +
-                                std::to_string(relocalization_probability));
-  }
+void TemporalFilterOptions::Validate() const { TemporalFilterOptionsTable().CheckValues(*this); }
+
+const OptionTable<TemporalFilterOptions>& TemporalFilterOptionsTable() {
+  constexpr bool kLive = true;
+  static const OptionTable<TemporalFilterOptions> kTable =
+      OptionTable<TemporalFilterOptions>()
+          .Add(
+              "filter_step_mean_places", [](auto& o) -> auto& { return o.step_mean_places; },
+              "+filter without odometry: mean progress per query (0 carries the belief in "
+              "place)",
+              "places", Finite(), kLive)
+          .Add(
+              "filter_step_std_places", [](auto& o) -> auto& { return o.step_std_places; },
+              "+filter: standard deviation of the progress per query", "places", Finite(AtLeast(0)),
+              kLive)
+          .Add(
+              "relocalization_probability",
+              [](auto& o) -> auto& { return o.relocalization_probability; },
+              "+filter: probability per query of re-localising anywhere on the map", "",
+              {0, 1, true, false}, kLive);
+  return kTable;
 }
 
 Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,

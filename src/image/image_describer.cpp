@@ -14,7 +14,7 @@
 namespace bsf_vpr {
 
 void HogOptions::Validate() const {
-  if (cell_px < 1 || bins < 1) throw std::invalid_argument("hog_cell_px and hog_bins must be >= 1");
+  HogOptionsTable().CheckValues(*this);  // each field's bounds: cell_px >= 1 before the division
   if (width_px % cell_px != 0 || height_px % cell_px != 0 || width_px < 2 * cell_px ||
       height_px < 2 * cell_px) {
     throw std::invalid_argument(
@@ -31,14 +31,9 @@ int HogOptions::dimension() const {
 void OnnxOptions::Validate() const {
   if (model_path.empty())
     throw std::invalid_argument("onnx_model is empty: the onnx descriptor needs a network (.onnx)");
-  if (input_width_px < 1 || input_height_px < 1) {
-    throw std::invalid_argument("onnx_input_width_px and onnx_input_height_px must be >= 1");
-  }
+  OnnxOptionsTable().CheckValues(*this);  // each field's bounds (onnx_std > 0)
   if (mean.size() != 3 || std.size() != 3) {
     throw std::invalid_argument("onnx_mean and onnx_std need 3 values (one per channel)");
-  }
-  for (float s : std) {
-    if (!(s > 0)) throw std::invalid_argument("onnx_std values must be > 0");
   }
 }
 
@@ -163,6 +158,56 @@ class OnnxDescriber : public ImageDescriber {
 
 }  // namespace
 
+const OptionTable<HogOptions>& HogOptionsTable() {
+  static const OptionTable<HogOptions> kTable =
+      OptionTable<HogOptions>()
+          .Add(
+              "hog_width_px", [](auto& o) -> auto& { return o.width_px; },
+              "hog: width the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
+          .Add(
+              "hog_height_px", [](auto& o) -> auto& { return o.height_px; },
+              "hog: height the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
+          .Add(
+              "hog_cell_px", [](auto& o) -> auto& { return o.cell_px; },
+              "hog: cell side; blocks are 2 x 2 cells moved by one cell", "px", AtLeast(1))
+          .Add(
+              "hog_bins", [](auto& o) -> auto& { return o.bins; }, "hog: orientation bins", "",
+              AtLeast(1));
+  return kTable;
+}
+
+const OptionTable<OnnxOptions>& OnnxOptionsTable() {
+  static const OptionTable<OnnxOptions> kTable =
+      OptionTable<OnnxOptions>()
+          .Add("onnx_model", [](auto& o) -> auto& { return o.model_path; },
+               "onnx: path of the network (.onnx); required for onnx", "", {})
+          .Add(
+              "onnx_input_width_px", [](auto& o) -> auto& { return o.input_width_px; },
+              "onnx: network input width", "px", AtLeast(1))
+          .Add(
+              "onnx_input_height_px", [](auto& o) -> auto& { return o.input_height_px; },
+              "onnx: network input height", "px", AtLeast(1))
+          .Add(
+              "onnx_mean", [](auto& o) -> auto& { return o.mean; },
+              "onnx: per-channel mean of [0, 1] pixels, R,G,B (ImageNet's by default)")
+          .Add(
+              "onnx_std", [](auto& o) -> auto& { return o.std; },
+              "onnx: per-channel standard deviation of [0, 1] pixels, R,G,B", "", Above(0))
+          .Add(
+              "onnx_rgb", [](auto& o) -> auto& { return o.rgb; },
+              "onnx: feed R, G, B (false: B, G, R)")
+          .Add(
+              "onnx_output_layer", [](auto& o) -> auto& { return o.output_layer; },
+              "onnx: output layer name (\"\": the network's output)")
+          .Add(
+              "onnx_pca_path", [](auto& o) -> auto& { return o.pca_path; },
+              "onnx: K x D projection .npy applied to the output (\"\": none)")
+          .Add(
+              "onnx_l2_normalize", [](auto& o) -> auto& { return o.l2_normalize; },
+              "onnx: L2-normalise the network output");
+  return kTable;
+}
+
 const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable() {
   static const OptionTable<ImageDescriberOptions> kTable =
       OptionTable<ImageDescriberOptions>()
@@ -170,55 +215,13 @@ const OptionTable<ImageDescriberOptions>& ImageDescriberOptionsTable() {
               "image_descriptor", [](auto& o) -> auto& { return o.kind; },
               "image descriptor: patchnorm (patch-normalised, downsampled image), hog or "
               "onnx (a network, e.g. NetVLAD exported to ONNX)",
-              {"patchnorm", "hog", "onnx"}, ParseImageDescriberKind)
-          .Add(
-              "patch_width_px", [](auto& o) -> auto& { return o.patch_norm.width_px; },
-              "patchnorm: width the image is resized to", "px", AtLeast(1))
-          .Add(
-              "patch_height_px", [](auto& o) -> auto& { return o.patch_norm.height_px; },
-              "patchnorm: height the image is resized to", "px", AtLeast(1))
-          .Add(
-              "patch_size_px", [](auto& o) -> auto& { return o.patch_norm.patch_size_px; },
-              "patchnorm: side of the patches normalised to zero mean and unit variance", "px",
-              AtLeast(1))
-          .Add(
-              "hog_width_px", [](auto& o) -> auto& { return o.hog.width_px; },
-              "hog: width the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
-          .Add(
-              "hog_height_px", [](auto& o) -> auto& { return o.hog.height_px; },
-              "hog: height the image is resized to (a multiple of hog_cell_px)", "px", AtLeast(1))
-          .Add(
-              "hog_cell_px", [](auto& o) -> auto& { return o.hog.cell_px; },
-              "hog: cell side; blocks are 2 x 2 cells moved by one cell", "px", AtLeast(1))
-          .Add(
-              "hog_bins", [](auto& o) -> auto& { return o.hog.bins; }, "hog: orientation bins", "",
-              AtLeast(1))
-          .Add("onnx_model", [](auto& o) -> auto& { return o.onnx.model_path; },
-               "onnx: path of the network (.onnx); required for onnx", "", {})
-          .Add(
-              "onnx_input_width_px", [](auto& o) -> auto& { return o.onnx.input_width_px; },
-              "onnx: network input width", "px", AtLeast(1))
-          .Add(
-              "onnx_input_height_px", [](auto& o) -> auto& { return o.onnx.input_height_px; },
-              "onnx: network input height", "px", AtLeast(1))
-          .Add(
-              "onnx_mean", [](auto& o) -> auto& { return o.onnx.mean; },
-              "onnx: per-channel mean of [0, 1] pixels, R,G,B (ImageNet's by default)")
-          .Add(
-              "onnx_std", [](auto& o) -> auto& { return o.onnx.std; },
-              "onnx: per-channel standard deviation of [0, 1] pixels, R,G,B", "", Above(0))
-          .Add(
-              "onnx_rgb", [](auto& o) -> auto& { return o.onnx.rgb; },
-              "onnx: feed R, G, B (false: B, G, R)")
-          .Add(
-              "onnx_output_layer", [](auto& o) -> auto& { return o.onnx.output_layer; },
-              "onnx: output layer name (\"\": the network's output)")
-          .Add(
-              "onnx_pca_path", [](auto& o) -> auto& { return o.onnx.pca_path; },
-              "onnx: K x D projection .npy applied to the output (\"\": none)")
-          .Add(
-              "onnx_l2_normalize", [](auto& o) -> auto& { return o.onnx.l2_normalize; },
-              "onnx: L2-normalise the network output");
+              ImageDescriberKindNames())
+          .Include(
+              PatchNormOptionsTable(), [](auto& o) -> auto& { return o.patch_norm; })
+          .Include(
+              HogOptionsTable(), [](auto& o) -> auto& { return o.hog; })
+          .Include(
+              OnnxOptionsTable(), [](auto& o) -> auto& { return o.onnx; });
   return kTable;
 }
 
@@ -228,25 +231,18 @@ void ValidateImageDescriberOptions(const ImageDescriberOptions& options) {
   if (options.kind == ImageDescriberKind::kOnnx) options.onnx.Validate();
 }
 
-ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
-  if (name == "patchnorm") return ImageDescriberKind::kPatchNorm;
-  if (name == "hog") return ImageDescriberKind::kHog;
-  if (name == "onnx") return ImageDescriberKind::kOnnx;
-  throw std::invalid_argument("unknown image descriptor '" + name +
-                              "' (expected patchnorm, hog or onnx)");
+const EnumNames<ImageDescriberKind>& ImageDescriberKindNames() {
+  static const EnumNames<ImageDescriberKind> kNames{{ImageDescriberKind::kPatchNorm, "patchnorm"},
+                                                    {ImageDescriberKind::kHog, "hog"},
+                                                    {ImageDescriberKind::kOnnx, "onnx"}};
+  return kNames;
 }
 
-std::string ToString(ImageDescriberKind kind) {
-  switch (kind) {
-    case ImageDescriberKind::kHog:
-      return "hog";
-    case ImageDescriberKind::kOnnx:
-      return "onnx";
-    case ImageDescriberKind::kPatchNorm:
-      break;
-  }
-  return "patchnorm";
+ImageDescriberKind ParseImageDescriberKind(const std::string& name) {
+  return ImageDescriberKindNames().Parse(name, "image_descriptor");
 }
+
+std::string ToString(ImageDescriberKind kind) { return ImageDescriberKindNames().Name(kind); }
 
 std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options) {
   switch (options.kind) {

@@ -10,15 +10,28 @@
 namespace bsf_vpr {
 
 void PatchNormOptions::Validate() const {
-  if (width_px < 1 || height_px < 1) {
-    throw std::invalid_argument("patch_width_px and patch_height_px must be >= 1, got " +
-                                std::to_string(width_px) + " x " + std::to_string(height_px));
-  }
-  if (patch_size_px < 1 || patch_size_px > std::min(width_px, height_px)) {
+  PatchNormOptionsTable().CheckValues(*this);  // each field's bounds
+  if (patch_size_px > std::min(width_px, height_px)) {
     throw std::invalid_argument(
         "patch_size_px must lie in 1..min(patch_width_px, patch_height_px) = " +
         std::to_string(std::min(width_px, height_px)) + ", got " + std::to_string(patch_size_px));
   }
+}
+
+const OptionTable<PatchNormOptions>& PatchNormOptionsTable() {
+  static const OptionTable<PatchNormOptions> kTable =
+      OptionTable<PatchNormOptions>()
+          .Add(
+              "patch_width_px", [](auto& o) -> auto& { return o.width_px; },
+              "patchnorm: width the image is resized to", "px", AtLeast(1))
+          .Add(
+              "patch_height_px", [](auto& o) -> auto& { return o.height_px; },
+              "patchnorm: height the image is resized to", "px", AtLeast(1))
+          .Add(
+              "patch_size_px", [](auto& o) -> auto& { return o.patch_size_px; },
+              "patchnorm: side of the patches normalised to zero mean and unit variance", "px",
+              AtLeast(1));
+  return kTable;
 }
 
 std::string PatchNormOptions::DescriptorType() const {

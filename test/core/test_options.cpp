@@ -2,13 +2,24 @@
 // and the usage text; every table entry reads and writes its own member.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
+#include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/first_stage.h"
+#include "bsf_vpr/core/fusion.h"
+#include "bsf_vpr/core/likelihood.h"
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/reference_recorder.h"
+#include "bsf_vpr/core/selection.h"
 #include "bsf_vpr/image/image_describer.h"
+#include "test/core/enum_names_check.h"
 
 namespace bsf_vpr {
 namespace {
@@ -184,6 +195,133 @@ TEST(Options, FormatsValuesAsUsersWriteThem) {
   EXPECT_EQ(FormatOptionValue(std::vector<double>{0.5, 2}), "0.5,2.0");
   EXPECT_EQ(OptionFlag("filter_step_mean_places"), "--filter-step-mean-places");
   EXPECT_EQ(OptionNameFromFlag("--filter-step_mean-places"), "filter_step_mean_places");
+}
+
+// Each enumeration's names are written once (EnumNames) and read by its Parse and ToString
+// functions and by the option tables.
+TEST(Options, EveryEnumerationsNamesRoundTrip) {
+  using testing::ExpectNamesRoundTrip;
+  ExpectNamesRoundTrip(DistanceMetricNames(), ParseDistanceMetric, "distance");
+  ExpectNamesRoundTrip(StoragePrecisionNames(), ParseStoragePrecision, "storage");
+  ExpectNamesRoundTrip(ThresholdKindNames(), ParseThresholdKind, "threshold_kind");
+  ExpectNamesRoundTrip(FusionRuleNames(), ParseFusionRule, "fusion");
+  ExpectNamesRoundTrip(LikelihoodVariantNames(), ParseLikelihoodVariant, "likelihood");
+  ExpectNamesRoundTrip(SelectionRuleNames(), ParseSelectionRule, "selection");
+  ExpectNamesRoundTrip(RecordingPlacesNames(), ParseRecordingPlaces, "places");
+  ExpectNamesRoundTrip(ImageDescriberKindNames(), ParseImageDescriberKind, "image_descriptor");
+  ExpectNamesRoundTrip<FirstStageKind>(FirstStageKindNames(), nullptr, "first_stage");
+  for (const auto& [kind, name] : FirstStageKindNames().entries()) {
+    FirstStageOptions o;
+    o.kind = name;
+    EXPECT_EQ(o.Kind(), kind);
+    EXPECT_EQ(ToString(kind), name);
+  }
+  FirstStageOptions pq;
+  pq.kind = "pq";
+  ExpectThrowsWith([&] { pq.Kind(); }, "first_stage must be exact or pca, got 'pq'");
+  ExpectThrowsWith([&] { pq.Validate(); }, "first_stage must be exact | pca, got 'pq'");
+}
+
+// The first stage's kind is parsed when the options are set, not compared as text per query.
+TEST(Options, TheDistanceStageKeepsTheParsedKind) {
+  DistanceStage stage;
+  EXPECT_EQ(stage.kind(), FirstStageKind::kExact);
+  FirstStageOptions o;
+  o.kind = "pca";
+  stage.SetOptions(o);
+  EXPECT_EQ(stage.kind(), FirstStageKind::kPca);
+  o.kind = "pq";
+  EXPECT_THROW(stage.SetOptions(o), std::invalid_argument);
+  EXPECT_EQ(stage.kind(), FirstStageKind::kPca);  // the options in force are kept
+  EXPECT_EQ(stage.options().kind, "pca");
+}
+
+// A table's choices are the names, in their order, and a value reads and writes through them.
+TEST(Options, ChoicesAreTheEnumerationsNames) {
+  EXPECT_EQ(MethodOptionsTable().Find("fusion")->info.choices, FusionRuleNames().Choices());
+  EXPECT_EQ(MethodOptionsTable().Find("likelihood")->info.choices,
+            (std::vector<std::string>{"one_sided", "two_sided"}));
+  EXPECT_EQ(RecognizerOptionsTable().Find("first_stage")->info.choices,
+            (std::vector<std::string>{"exact", "pca"}));
+  MethodOptions o;
+  o.likelihood.variant = LikelihoodVariant::kTwoSided;
+  EXPECT_EQ(MethodOptionsTable().Find("likelihood")->get(o), OptionValue(std::string("two_sided")));
+  EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--fusion", "product", &o));
+  EXPECT_EQ(o.fusion, FusionRule::kProduct);
+}
+
+// A value just out of `info`'s bounds on the side `below` (nullopt: the bounds are open there).
+std::optional<OptionValue> OutOfBounds(const OptionInfo& info, bool below) {
+  const OptionBounds& b = info.bounds;
+  const double edge = below ? b.min : b.max;
+  if (!std::isfinite(edge)) return std::nullopt;
+  const bool open = below ? b.min_open : b.max_open;
+  if (info.type == OptionType::kInt) return static_cast<long long>(edge) + (below ? -1 : 1);
+  if (info.type == OptionType::kDouble) return open ? edge : edge + (below ? -0.5 : 0.5);
+  return std::nullopt;
+}
+
+// Every bound of `table` is enforced by `validate` for options built in code (a value put in
+// the member, not read through the table), and the message names the option.
+template <typename S, typename Validate>
+void ExpectValidateEnforcesTheBounds(const OptionTable<S>& table, const S& valid,
+                                     Validate validate) {
+  EXPECT_NO_THROW(validate(valid));
+  for (const auto& spec : table.specs()) {
+    if (!spec.set) continue;
+    std::vector<OptionValue> bad;
+    for (bool below : {true, false}) {
+      if (const std::optional<OptionValue> v = OutOfBounds(spec.info, below)) bad.push_back(*v);
+    }
+    if (spec.info.bounds.finite) bad.push_back(std::numeric_limits<double>::infinity());
+    for (const OptionValue& v : bad) {
+      S options = valid;
+      spec.set(options, v);
+      ExpectThrowsWith([&] { validate(options); }, spec.info.name + " must be");
+    }
+  }
+}
+
+TEST(Options, ValidateEnforcesTheTableBoundsOfOptionsBuiltInCode) {
+  ExpectValidateEnforcesTheBounds(MethodOptionsTable(), MethodOptions(),
+                                  [](const MethodOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(RecognizerOptionsTable(), RecognizerOptions(),
+                                  [](const RecognizerOptions& o) { PlaceRecognizer{o}; });
+  ExpectValidateEnforcesTheBounds(SequenceOptionsTable(), SequenceOptions(),
+                                  [](const SequenceOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(TemporalFilterOptionsTable(), TemporalFilterOptions(),
+                                  [](const TemporalFilterOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(PlaceIndexOptionsTable(), PlaceIndexOptions(),
+                                  [](const PlaceIndexOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(PatchNormOptionsTable(), PatchNormOptions(),
+                                  [](const PatchNormOptions& o) { o.Validate(); });
+  ExpectValidateEnforcesTheBounds(HogOptionsTable(), HogOptions(),
+                                  [](const HogOptions& o) { o.Validate(); });
+  OnnxOptions onnx;
+  onnx.model_path = "model.onnx";  // read by MakeImageDescriber, not by Validate
+  ExpectValidateEnforcesTheBounds(OnnxOptionsTable(), onnx,
+                                  [](const OnnxOptions& o) { o.Validate(); });
+
+  // The messages say what the bound is and what came.
+  MethodOptions o;
+  o.sequence.length = kMaxSequenceLength + 1;
+  ExpectThrowsWith([&] { o.Validate(); }, "sequence_length must be in [1, 1000], got 1001");
+  o = MethodOptions();
+  o.selection.gamma_fraction = std::numeric_limits<double>::infinity();
+  ExpectThrowsWith([&] { o.Validate(); }, "gamma_fraction must be a finite number >= 0, got inf");
+  o = MethodOptions();
+  o.filter.step_mean_places = std::nan("");
+  ExpectThrowsWith([&] { o.filter.Validate(); },
+                   "filter_step_mean_places must be a finite number, got nan");
+  // Rules across fields stay in Validate().
+  o = MethodOptions();
+  o.sequence.min_velocity = 2;
+  o.sequence.max_velocity = 1;
+  ExpectThrowsWith([&] { o.Validate(); }, "sequence_min_velocity <= sequence_max_velocity");
+  // ApproximateOptions are named by their fields (the index is built in code).
+  ApproximateOptions a;
+  a.sample_rows = ApproximateOptions::kMaxSampleRows + 1;
+  ExpectThrowsWith([&] { a.Validate(); }, "ApproximateOptions.sample_rows must be in [1, 8192]");
 }
 
 }  // namespace

@@ -129,6 +129,33 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
             std::vector<int>{0});
 }
 
+// The method is parsed once per change of the options or of the sets: the set it names is
+// found again when the sets change, and a method that names a set not loaded is refused
+// when it is needed, with the parser's message.
+TEST(PlaceRecognizer, TheMethodFollowsTheSetsItNames) {
+  const SyntheticData data = Data();
+  const Eigen::VectorXf query = data.queries.row(0).transpose();
+  RecognizerOptions o;
+  o.method = "nn:c1";
+  PlaceRecognizer r(o);  // no sets yet: nothing to resolve the method against
+  r.AddReferenceSet(data.map.sets()[0].ToReferenceSet());
+  try {
+    r.Recognize(query, true);
+    ADD_FAILURE() << "nn:c1 ran without c1";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown reference set 'c1' (loaded: c0)"),
+              std::string::npos)
+        << e.what();
+  }
+  r.AddReferenceSet(data.map.sets()[1].ToReferenceSet());
+  EXPECT_EQ(r.method().kind, MethodKind::kNearestNeighbour);
+  EXPECT_EQ(r.method().set_index, 1);
+  EXPECT_EQ(r.Recognize(query, true).belief.used_sets, std::vector<int>{1});
+  r.RemoveReferenceSet("c0");
+  EXPECT_EQ(r.method().set_index, 0);
+  EXPECT_EQ(r.Recognize(query, true).belief.used_sets, std::vector<int>{0});
+}
+
 // The pca first stage through the recognizer: with every row re-ranked its recognitions are
 // bitwise the exact ones; its index follows the map (a set added or removed is projected
 // before the next query, not refused as another map), and a bad option is refused with the

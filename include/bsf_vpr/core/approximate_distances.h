@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/types.h"
 
@@ -43,10 +44,15 @@ struct ApproximateOptions {
   // O(sample_rows^3): beyond it a fit would take hours.
   static constexpr int kMaxSampleRows = 8192;
 
-  // Throws std::invalid_argument naming the field: dimensions < 1, rerank < 0,
+  // Throws std::invalid_argument naming the field ("ApproximateOptions.dimensions") for a
+  // value out of the bounds of ApproximateOptionsTable: dimensions < 1, rerank < 0,
   // sample_rows < 1 or > kMaxSampleRows.
   void Validate() const;
 };
+
+// first_stage_dimensions, rerank_candidates and first_stage_sample_rows (part of
+// FirstStageOptionsTable, first_stage.h); seed is not an option.
+const OptionTable<ApproximateOptions>& ApproximateOptionsTable();
 
 // The first stage's data for one ReferenceMap: the basis and every row's projection. Built
 // once for a map (see the constructor for its cost) and valid for that map as long as it

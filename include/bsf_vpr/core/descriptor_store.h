@@ -7,11 +7,16 @@
 #include <cstdint>
 #include <string>
 
+#include "bsf_vpr/core/enum_names.h"
+
 namespace bsf_vpr {
 
 enum class StoragePrecision { kFloat32, kFloat16, kInt8 };
 
-// "float32", "float16" or "int8"; throws std::invalid_argument naming the bad value.
+// The precisions' names (the storage of parameters, flags and shard answers).
+const EnumNames<StoragePrecision>& StoragePrecisionNames();
+// A name of StoragePrecisionNames(); throws std::invalid_argument naming the bad value and
+// the choices otherwise.
 StoragePrecision ParseStoragePrecision(const std::string& name);
 std::string ToString(StoragePrecision precision);
 // Bytes per descriptor element: 4, 2 or 1.

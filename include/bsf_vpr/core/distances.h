@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/types.h"
 
@@ -15,7 +16,9 @@ namespace bsf_vpr {
 
 enum class DistanceMetric { kEuclidean, kCosine };
 
-// "euclidean" or "cosine"; throws std::invalid_argument naming the bad value.
+// The metrics' names (the distance of parameters, flags and reference-set files).
+const EnumNames<DistanceMetric>& DistanceMetricNames();
+// A name of DistanceMetricNames(); throws std::invalid_argument naming the choices otherwise.
 DistanceMetric ParseDistanceMetric(const std::string& name);
 std::string ToString(DistanceMetric metric);
 

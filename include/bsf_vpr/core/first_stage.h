@@ -9,14 +9,25 @@
 #include <vector>
 
 #include "bsf_vpr/core/approximate_distances.h"
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/options.h"
 
 namespace bsf_vpr {
 
+// Exact distances from every stored descriptor, or the pca first stage (ApproximateIndex).
+enum class FirstStageKind { kExact, kPca };
+// Their names (first_stage).
+const EnumNames<FirstStageKind>& FirstStageKindNames();
+std::string ToString(FirstStageKind kind);
+
 struct FirstStageOptions {
-  std::string kind = "exact";  // "exact" or "pca"
+  // The option's text, a name of FirstStageKindNames() (kept as text, as callers write it:
+  // kind = "pca"); Kind() parses it, and nothing compares it as a string.
+  std::string kind = "exact";
   ApproximateOptions approximate;
 
+  // The kind named; throws std::invalid_argument naming first_stage and the choices.
+  FirstStageKind Kind() const;
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
 
@@ -31,6 +42,7 @@ class DistanceStage {
   // Validates; keeps the index when the options it was built with are unchanged.
   void SetOptions(const FirstStageOptions& options);
   const FirstStageOptions& options() const { return options_; }
+  FirstStageKind kind() const { return kind_; }  // options().Kind(), parsed by SetOptions
   // The map changed: the index, if any, is rebuilt at the next use.
   void Invalidate() { index_.reset(); }
   // Builds the index now for "pca" (a no-op for "exact" or when it is built).
@@ -48,6 +60,7 @@ class DistanceStage {
 
  private:
   FirstStageOptions options_;
+  FirstStageKind kind_ = FirstStageKind::kExact;
   std::unique_ptr<ApproximateIndex> index_;
 };
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/likelihood.h"
 #include "bsf_vpr/core/selection.h"
 
@@ -29,7 +30,9 @@ struct Threshold {
   // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
   void Validate() const;
 };
-Threshold::Kind ParseThresholdKind(const std::string& name);  // probability | log_odds
+// The kinds' names (threshold_kind).
+const EnumNames<Threshold::Kind>& ThresholdKindNames();
+Threshold::Kind ParseThresholdKind(const std::string& name);  // throws naming the choices
 std::string ToString(Threshold::Kind kind);
 
 // How bsf fuses the sets it relies on (MethodOptions::fusion; README, "Fusion that never
@@ -45,7 +48,9 @@ enum class FusionRule {
   // statistics.
   kProduct,
 };
-FusionRule ParseFusionRule(const std::string& name);  // mixture | product
+// The rules' names (fusion).
+const EnumNames<FusionRule>& FusionRuleNames();
+FusionRule ParseFusionRule(const std::string& name);  // throws naming the choices
 std::string ToString(FusionRule rule);
 
 // The outcome of one query under one method.

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/selection.h"
 
 namespace bsf_vpr {
@@ -26,7 +27,10 @@ enum class LikelihoodVariant {
   kOneSided,
 };
 
-LikelihoodVariant ParseLikelihoodVariant(const std::string& name);  // one_sided | two_sided
+// The variants' names (likelihood).
+const EnumNames<LikelihoodVariant>& LikelihoodVariantNames();
+// A name of LikelihoodVariantNames(); throws std::invalid_argument naming the choices otherwise.
+LikelihoodVariant ParseLikelihoodVariant(const std::string& name);
 std::string ToString(LikelihoodVariant variant);
 
 struct LikelihoodOptions {

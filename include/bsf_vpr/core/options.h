@@ -15,11 +15,14 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
 #include <variant>
 #include <vector>
+
+#include "bsf_vpr/core/enum_names.h"
 
 namespace bsf_vpr {
 
@@ -41,12 +44,18 @@ struct OptionBounds {
   double max = std::numeric_limits<double>::infinity();
   bool min_open = false;  // the value must be > min (else >= min)
   bool max_open = false;
+  bool finite = false;  // refuse infinity too (else a side without a bound admits it)
 };
 inline OptionBounds AtLeast(double min) { return {min}; }
 inline OptionBounds Above(double min) {
   return {min, std::numeric_limits<double>::infinity(), true};
 }
 inline OptionBounds Between(double min, double max) { return {min, max}; }
+// `bounds`, and a finite number: Finite(AtLeast(0)) is a finite number >= 0.
+inline OptionBounds Finite(OptionBounds bounds = {}) {
+  bounds.finite = true;
+  return bounds;
+}
 
 // What a table says about one option, without the struct it belongs to.
 struct OptionInfo {
@@ -122,23 +131,40 @@ class OptionTable {
     return Push(std::move(s));
   }
 
-  // An enumeration: stored as E, given as one of `choices` (text). ToString(E) gives the
-  // text (found by argument-dependent lookup); `parse` turns a valid text into E. E may be
-  // std::string itself (then `parse` returns the text).
-  template <typename Field, typename Parse>
+  // An enumeration, given as one of the names of `names` (and written so in every derived
+  // file). The member is E; or std::optional<E>, where the choice "" (shown first) is none;
+  // or a std::string holding one of the names, for a struct that keeps the text (a value
+  // not among them is refused by CheckValues).
+  template <typename Field, typename E>
   OptionTable& AddChoice(const std::string& name, Field field, const std::string& doc,
-                         std::vector<std::string> choices, Parse parse, bool live = false) {
+                         const EnumNames<E>& names, bool live = false) {
+    using T = std::decay_t<decltype(field(std::declval<S&>()))>;
+    static_assert(std::is_same_v<T, E> || std::is_same_v<T, std::optional<E>> ||
+                      std::is_same_v<T, std::string>,
+                  "a choice is stored as its enumeration, std::optional of it or its name");
+    std::vector<std::string> choices = names.Choices();
+    if constexpr (std::is_same_v<T, std::optional<E>>) choices.insert(choices.begin(), "");
     Spec s;
     s.info = {name, OptionType::kChoice, doc, "", {}, std::move(choices), live, OptionValue()};
-    s.get = [field](const S& v) {
-      if constexpr (std::is_same_v<std::decay_t<decltype(field(v))>, std::string>) {
-        return OptionValue(field(v));  // a string member holding one of the choices
+    s.get = [field, names](const S& v) {
+      const T& x = field(v);
+      if constexpr (std::is_same_v<T, std::string>) {
+        return OptionValue(x);
+      } else if constexpr (std::is_same_v<T, std::optional<E>>) {
+        return OptionValue(std::string(x ? names.Name(*x) : ""));
       } else {
-        return OptionValue(std::string(ToString(field(v))));
+        return OptionValue(std::string(names.Name(x)));
       }
     };
-    s.set = [field, parse](S& v, const OptionValue& x) {
-      field(v) = parse(std::get<std::string>(x));
+    s.set = [field, names, name](S& v, const OptionValue& x) {
+      const std::string& text = std::get<std::string>(x);  // one of the choices
+      if constexpr (std::is_same_v<T, std::string>) {
+        field(v) = text;
+      } else if constexpr (std::is_same_v<T, std::optional<E>>) {
+        field(v) = text.empty() ? std::nullopt : std::optional<E>(names.Parse(text, name));
+      } else {
+        field(v) = names.Parse(text, name);
+      }
     };
     return Push(std::move(s));
   }
@@ -208,6 +234,21 @@ class OptionTable {
     CheckOptionValue(s->info, v, flag);
     s->set(*out, v);
     return true;
+  }
+
+  // Checks every value of `options` as Apply checks a value given (bounds, choices):
+  // the checks of single fields in a Validate(), for options built in code as for options
+  // read. Throws std::invalid_argument naming the option.
+  void CheckValues(const S& options) const {
+    for (const Spec& s : specs_) {
+      if (s.get) CheckOptionValue(s.info, s.get(options), s.info.name);
+    }
+  }
+  // The same for the option `name` alone, shown as `shown` (e.g. a field's own name).
+  void CheckValue(const S& options, const std::string& name, const std::string& shown) const {
+    const Spec* s = Find(name);
+    if (s == nullptr || !s->get) throw std::logic_error("no option '" + name + "' to check");
+    CheckOptionValue(s->info, s->get(options), shown);
   }
 
   // The values of `options` (its options that are not external), by name.

@@ -29,7 +29,8 @@ struct PlaceIndexOptions {
   double max_yaw_difference_deg = 45;
   bool add_new_places = false;  // route beyond the map becomes new places
 
-  void Validate() const;  // throws std::invalid_argument naming the bad field
+  // Throws std::invalid_argument naming the bad field (the bounds of PlaceIndexOptionsTable).
+  void Validate() const;
 };
 
 // The options of PlaceIndexOptions (options.h), for the tools and the fusion node.

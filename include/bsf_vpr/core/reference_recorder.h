@@ -17,13 +17,16 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/reference_set.h"
 
 namespace bsf_vpr {
 
 enum class RecordingPlaces { kSequential, kPose, kLocalized };
-RecordingPlaces ParseRecordingPlaces(const std::string& name);  // sequential | pose | localized
+// Their names (the start_recording service's places).
+const EnumNames<RecordingPlaces>& RecordingPlacesNames();
+RecordingPlaces ParseRecordingPlaces(const std::string& name);  // throws naming the choices
 std::string ToString(RecordingPlaces places);
 
 // The place the localisation accepted for a descriptor, and how sure it was (log-odds).

@@ -5,6 +5,8 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/enum_names.h"
+#include "bsf_vpr/core/options.h"
 
 namespace bsf_vpr {
 
@@ -20,7 +22,9 @@ enum class SelectionRule {
   kStandardized,
 };
 
-SelectionRule ParseSelectionRule(const std::string& name);  // "relative" | "standardized"
+// The rules' names (selection).
+const EnumNames<SelectionRule>& SelectionRuleNames();
+SelectionRule ParseSelectionRule(const std::string& name);  // throws naming the choices
 std::string ToString(SelectionRule rule);
 
 struct SelectionOptions {
@@ -29,9 +33,12 @@ struct SelectionOptions {
   double gamma_fraction = 0.04;
   SelectionRule rule = SelectionRule::kRelative;
 
-  // Throws std::invalid_argument naming the bad field.
+  // Throws std::invalid_argument naming the bad field (the bounds of SelectionOptionsTable).
   void Validate() const;
 };
+
+// gamma_fraction and selection (part of MethodOptionsTable, methods.h).
+const OptionTable<SelectionOptions>& SelectionOptionsTable();
 
 // Summary statistics of one D^u: min, mean and population standard deviation.
 struct DistanceStats {

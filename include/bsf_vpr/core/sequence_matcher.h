@@ -15,6 +15,8 @@
 #include <deque>
 #include <string>
 
+#include "bsf_vpr/core/options.h"
+
 namespace bsf_vpr {
 
 // Bounds that keep one query's sequence search small (N x L x velocities evaluations).
@@ -32,10 +34,14 @@ struct SequenceOptions {
   // false reports the current query's own costs until L are there.
   bool use_partial_sequences = true;
 
-  // Throws std::invalid_argument naming the bad field, also when the search would be
-  // unbounded (more than kMaxSequenceVelocities velocities, longer than kMaxSequenceLength).
+  // Throws std::invalid_argument naming the bad field (the bounds of SequenceOptionsTable),
+  // also when the search would be unbounded (more than kMaxSequenceVelocities velocities).
   void Validate() const;
 };
+
+// sequence_length, sequence_use_partial and the velocities (part of MethodOptionsTable,
+// methods.h); standardize is not an option.
+const OptionTable<SequenceOptions>& SequenceOptionsTable();
 
 // The confidence of a +seq match, comparable across queries and independent of the cost
 // scale: the log-odds that the best sequence (cost sequence_costs(best)) is not a chance

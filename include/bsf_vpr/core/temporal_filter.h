@@ -14,6 +14,8 @@
 #include <Eigen/Core>
 #include <optional>
 
+#include "bsf_vpr/core/options.h"
+
 namespace bsf_vpr {
 
 struct TemporalFilterOptions {
@@ -21,8 +23,14 @@ struct TemporalFilterOptions {
   double step_std_places = 1.0;              // its standard deviation, places (>= 0)
   double relocalization_probability = 0.01;  // r, in (0, 1]
 
-  void Validate() const;  // throws std::invalid_argument naming the bad field
+  // Throws std::invalid_argument naming the bad field (the bounds of
+  // TemporalFilterOptionsTable).
+  void Validate() const;
 };
+
+// filter_step_mean_places, filter_step_std_places and relocalization_probability (part of
+// MethodOptionsTable, methods.h).
+const OptionTable<TemporalFilterOptions>& TemporalFilterOptionsTable();
 
 // The log prior for the next query from `log_posterior` (N entries, normalised). step_mean,
 // if given, replaces options.step_mean_places (odometry). Returns N finite entries.

@@ -23,9 +23,14 @@ struct HogOptions {
   int cell_px = 8;
   int bins = 9;
 
-  void Validate() const;  // sizes must be multiples of cell_px, at least 2 cells each way
+  // Throws std::invalid_argument naming the bad field: out of the bounds of HogOptionsTable,
+  // or sizes that are not multiples of cell_px of at least 2 cells each way.
+  void Validate() const;
   int dimension() const;
 };
+
+// hog_width_px, hog_height_px, hog_cell_px and hog_bins (part of ImageDescriberOptionsTable).
+const OptionTable<HogOptions>& HogOptionsTable();
 
 // An ONNX network. The image is converted to RGB (or kept BGR), resized to
 // input_width_px x input_height_px, scaled to [0, 1], normalised per channel with mean and
@@ -43,12 +48,19 @@ struct OnnxOptions {
   std::string pca_path;      // optional K x D .npy; empty: no projection
   bool l2_normalize = true;
 
-  void Validate() const;  // throws std::invalid_argument naming the bad field
+  // Throws std::invalid_argument naming the bad field: no model, out of the bounds of
+  // OnnxOptionsTable, or not 3 values of mean and std.
+  void Validate() const;
 };
+
+// The onnx_* options (part of ImageDescriberOptionsTable).
+const OptionTable<OnnxOptions>& OnnxOptionsTable();
 
 enum class ImageDescriberKind { kPatchNorm, kHog, kOnnx };
 
-// "patchnorm", "hog" or "onnx"; throws std::invalid_argument naming the choices otherwise.
+// The describers' names (image_descriptor).
+const EnumNames<ImageDescriberKind>& ImageDescriberKindNames();
+// A name of ImageDescriberKindNames(); throws std::invalid_argument naming the choices otherwise.
 ImageDescriberKind ParseImageDescriberKind(const std::string& name);
 std::string ToString(ImageDescriberKind kind);
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -18,10 +19,16 @@ struct PatchNormOptions {
   int height_px = 32;
   int patch_size_px = 8;  // edge patches are smaller when the size does not divide evenly
 
-  void Validate() const;  // throws std::invalid_argument naming the bad field
+  // Throws std::invalid_argument naming the bad field: out of the bounds of
+  // PatchNormOptionsTable, or patches larger than the image.
+  void Validate() const;
   int dimension() const { return width_px * height_px; }
   std::string DescriptorType() const;  // e.g. "patchnorm_64x32_p8"
 };
+
+// patch_width_px, patch_height_px and patch_size_px (part of ImageDescriberOptionsTable,
+// image_describer.h).
+const OptionTable<PatchNormOptions>& PatchNormOptionsTable();
 
 // Converts an 8-bit image of 1, 3 (BGR) or 4 (BGRA) channels to one channel / to BGR
 // (returning the input itself when it already is). Throws std::invalid_argument naming the

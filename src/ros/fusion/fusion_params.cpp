@@ -96,12 +96,12 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "distance between descriptors (not squared); \"\": the distance the sets "
               "loaded at start declare (YAML distance:), or the first set loaded into "
               "an empty node; else euclidean",
-              {"", "euclidean", "cosine"}, [](const std::string& v) { return v; })
+              DistanceMetricNames())
           .AddChoice(
               "storage", [](auto& p) -> auto& { return p.storage; },
               "precision every reference set is held at: float16 halves and int8 (one "
               "scale per set) quarters the bytes and the time per query",
-              {"float32", "float16", "int8"}, ParseStoragePrecision)
+              StoragePrecisionNames())
           .Include(
               RecognizerOptionsTable(), [](auto& p) -> auto& { return p.recognizer; })
           .Add(
@@ -113,7 +113,7 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "progress between queries for +filter methods: none (the "
               "filter_step_mean_places), topic (nav_msgs/Odometry on odometry_topic) "
               "or tf (odom_frame -> base_frame)",
-              {"none", "topic", "tf"}, ParseOdometrySource)
+              OdometrySourceNames())
           .Add(
               "odometry_topic", [](auto& p) -> auto& { return p.odometry_topic; },
               "nav_msgs/Odometry topic when odometry_source is topic")
@@ -133,7 +133,7 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "pose_source", [](auto& p) -> auto& { return p.pose_source; },
               "where the robot's pose in map_frame comes from when recording by pose: "
               "tf (map_frame -> base_frame), topic (pose_topic) or none",
-              {"tf", "topic", "none"}, ParsePoseSource)
+              PoseSourceNames())
           .Add(
               "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
               "the robot's pose in map_frame when pose_source is topic: nav_msgs/Odometry, "
@@ -230,7 +230,7 @@ FusionParams LoadFusionParams(RosParamSource& source) {
   p.reference_sets = LoadReferenceSetEntries(source);
   p.shards = LoadShardNames(source);
   source.RefuseUnread();
-  p.recognizer.metric = ParseDistanceMetric(p.distance_given() ? p.distance : "euclidean");
+  p.recognizer.metric = p.distance.value_or(DistanceMetric::kEuclidean);
   p.recognizer.Validate();
   if (p.map_frame.empty() || p.place_frame.empty() || p.view.view_frame.empty()) {
     throw std::invalid_argument("map_frame, place_frame and view_frame must not be empty");

@@ -5,6 +5,7 @@
 
 #include <ros/node_handle.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,9 +28,10 @@ struct FusionParams {
   RecognizerOptions recognizer;
   std::vector<ReferenceSetEntry> reference_sets;
   std::string data_directory;  // services read and write files only below it (created)
-  // "euclidean" or "cosine"; "": the distance the sets loaded at start declare, or the
-  // first set loaded into an empty node (recognizer.metric holds the one in use).
-  std::string distance;
+  // The distance configured; none (parameter ""): the distance the sets loaded at start
+  // declare, or the first set loaded into an empty node (recognizer.metric holds the one in
+  // use).
+  std::optional<DistanceMetric> distance;
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
@@ -66,7 +68,7 @@ struct FusionParams {
   std::vector<std::string> shards;
   double shard_timeout = 0.5;
 
-  bool distance_given() const { return !distance.empty(); }
+  bool distance_given() const { return distance.has_value(); }
 };
 
 // The declaration of every parameter (reference_sets, a list of mappings, is read by code

@@ -4,24 +4,18 @@
 
 namespace bsf_vpr {
 
-OdometrySource ParseOdometrySource(const std::string& text) {
-  if (text == "none") return OdometrySource::kNone;
-  if (text == "topic") return OdometrySource::kTopic;
-  if (text == "tf") return OdometrySource::kTf;
-  throw std::invalid_argument("odometry_source must be none, topic or tf, got '" + text + "'");
+const EnumNames<OdometrySource>& OdometrySourceNames() {
+  static const EnumNames<OdometrySource> kNames{{OdometrySource::kNone, "none"},
+                                                {OdometrySource::kTopic, "topic"},
+                                                {OdometrySource::kTf, "tf"}};
+  return kNames;
 }
 
-std::string ToString(OdometrySource source) {
-  switch (source) {
-    case OdometrySource::kTopic:
-      return "topic";
-    case OdometrySource::kTf:
-      return "tf";
-    case OdometrySource::kNone:
-      break;
-  }
-  return "none";
+OdometrySource ParseOdometrySource(const std::string& text) {
+  return OdometrySourceNames().Parse(text, "odometry_source");
 }
+
+std::string ToString(OdometrySource source) { return OdometrySourceNames().Name(source); }
 
 OdometryTracker::OdometryTracker(ros::NodeHandle nh, OdometrySource source,
                                  const std::string& topic, std::string odom_frame,

@@ -15,11 +15,15 @@
 #include <optional>
 #include <string>
 
+#include "bsf_vpr/core/enum_names.h"
+
 namespace bsf_vpr {
 
 enum class OdometrySource { kNone, kTopic, kTf };
 
-// "none", "topic" or "tf"; throws std::invalid_argument naming the choices otherwise.
+// The sources' names (odometry_source).
+const EnumNames<OdometrySource>& OdometrySourceNames();
+// A name of OdometrySourceNames(); throws std::invalid_argument naming the choices otherwise.
 OdometrySource ParseOdometrySource(const std::string& text);
 std::string ToString(OdometrySource source);
 

@@ -22,48 +22,34 @@ PlacePose FromPose(const geometry_msgs::Pose& p) {
 
 }  // namespace
 
+const EnumNames<PoseSource>& PoseSourceNames() {
+  static const EnumNames<PoseSource> kNames{
+      {PoseSource::kTf, "tf"}, {PoseSource::kTopic, "topic"}, {PoseSource::kNone, "none"}};
+  return kNames;
+}
+
 PoseSource ParsePoseSource(const std::string& text) {
-  if (text == "none") return PoseSource::kNone;
-  if (text == "tf") return PoseSource::kTf;
-  if (text == "topic") return PoseSource::kTopic;
-  throw std::invalid_argument("pose_source must be tf, topic or none, got '" + text + "'");
+  return PoseSourceNames().Parse(text, "pose_source");
 }
 
-std::string ToString(PoseSource source) {
-  switch (source) {
-    case PoseSource::kTf:
-      return "tf";
-    case PoseSource::kTopic:
-      return "topic";
-    case PoseSource::kNone:
-      break;
-  }
-  return "none";
+std::string ToString(PoseSource source) { return PoseSourceNames().Name(source); }
+
+const EnumNames<PoseLoss>& PoseLossNames() {
+  static const EnumNames<PoseLoss> kNames{
+      {PoseLoss::kNone, "none"},
+      {PoseLoss::kNoSource, "no pose source"},
+      {PoseLoss::kNotYet, "no pose received yet"},
+      {PoseLoss::kWaited, "no pose at or after the stamp within pose_wait_s"},
+      {PoseLoss::kTooOld, "stamp older than the poses kept"},
+      {PoseLoss::kGap, "gap in the poses around the stamp"},
+      {PoseLoss::kFrame, "pose message in another frame"},
+      {PoseLoss::kType, "pose message of another type"},
+      {PoseLoss::kNotFinite, "pose not finite"},
+  };
+  return kNames;
 }
 
-std::string ToString(PoseLoss loss) {
-  switch (loss) {
-    case PoseLoss::kNone:
-      return "none";
-    case PoseLoss::kNoSource:
-      return "no pose source";
-    case PoseLoss::kNotYet:
-      return "no pose received yet";
-    case PoseLoss::kWaited:
-      return "no pose at or after the stamp within pose_wait_s";
-    case PoseLoss::kTooOld:
-      return "stamp older than the poses kept";
-    case PoseLoss::kGap:
-      return "gap in the poses around the stamp";
-    case PoseLoss::kFrame:
-      return "pose message in another frame";
-    case PoseLoss::kType:
-      return "pose message of another type";
-    case PoseLoss::kNotFinite:
-      return "pose not finite";
-  }
-  return "?";
-}
+std::string ToString(PoseLoss loss) { return PoseLossNames().Name(loss); }
 
 PlacePose ToPlacePose(double x, double y, double z, double qx, double qy, double qz, double qw) {
   PlacePose p;

@@ -25,12 +25,15 @@
 #include <mutex>
 #include <string>
 
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
 
 enum class PoseSource { kNone, kTf, kTopic };
-PoseSource ParsePoseSource(const std::string& text);  // none | tf | topic
+// The sources' names (pose_source).
+const EnumNames<PoseSource>& PoseSourceNames();
+PoseSource ParsePoseSource(const std::string& text);  // throws naming the choices
 std::string ToString(PoseSource source);
 
 struct RobotPoseOptions {
@@ -55,6 +58,8 @@ enum class PoseLoss {
   kType,      // pose_topic carries another message type
   kNotFinite  // a pose with NaN or infinity
 };
+// The causes as the diagnostics count them ("no pose received yet").
+const EnumNames<PoseLoss>& PoseLossNames();
 std::string ToString(PoseLoss loss);
 
 struct PoseLookup {

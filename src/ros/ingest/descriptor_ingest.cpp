@@ -11,15 +11,17 @@
 #include "src/ros/common/param_util.h"
 
 namespace bsf_vpr {
-IngestInput ParseIngestInput(const std::string& name) {
-  if (name == "image") return IngestInput::kImage;
-  if (name == "descriptor") return IngestInput::kDescriptor;
-  throw std::invalid_argument("input must be image or descriptor, got '" + name + "'");
+const EnumNames<IngestInput>& IngestInputNames() {
+  static const EnumNames<IngestInput> kNames{{IngestInput::kImage, "image"},
+                                             {IngestInput::kDescriptor, "descriptor"}};
+  return kNames;
 }
 
-std::string ToString(IngestInput input) {
-  return input == IngestInput::kDescriptor ? "descriptor" : "image";
+IngestInput ParseIngestInput(const std::string& name) {
+  return IngestInputNames().Parse(name, "input");
 }
+
+std::string ToString(IngestInput input) { return IngestInputNames().Name(input); }
 
 const OptionTable<IngestParams>& IngestParamsTable() {
   static const OptionTable<IngestParams> kTable =
@@ -29,7 +31,7 @@ const OptionTable<IngestParams>& IngestParamsTable() {
               "what arrives: image (sensor_msgs/Image on \"image\", described here) or "
               "descriptor (bsf_vpr/Descriptor or std_msgs/Float32MultiArray on "
               "\"descriptor_in\", e.g. from a NetVLAD node)",
-              {"image", "descriptor"}, ParseIngestInput)
+              IngestInputNames())
           .Add(
               "expected_dimension", [](auto& p) -> auto& { return p.expected_dimension; },
               "refuse descriptors of another dimension; 0 = any", "", AtLeast(0))

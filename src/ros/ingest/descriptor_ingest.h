@@ -25,6 +25,7 @@
 #include <mutex>
 #include <string>
 
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/image/image_describer.h"
 #include "src/ros/common/image_problem.h"
 #include "src/ros/common/param_util.h"
@@ -33,7 +34,9 @@ namespace bsf_vpr {
 
 // What the ingest takes: images to describe, or descriptors computed elsewhere.
 enum class IngestInput { kImage, kDescriptor };
-IngestInput ParseIngestInput(const std::string& name);  // image | descriptor
+// Their names (input).
+const EnumNames<IngestInput>& IngestInputNames();
+IngestInput ParseIngestInput(const std::string& name);  // throws naming the choices
 std::string ToString(IngestInput input);
 
 struct IngestParams {

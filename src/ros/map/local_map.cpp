@@ -21,7 +21,7 @@ constexpr double kFirstStageEnergyWarning = 0.99;
 
 LocalMapOptions LocalMapOptions::From(const FusionParams& params) {
   LocalMapOptions o;
-  if (params.distance_given()) o.metric = params.recognizer.metric;
+  o.metric = params.distance;
   o.storage = params.storage;
   o.place_pose_tolerance_m = params.place_pose_tolerance_m;
   o.first_stage = params.recognizer.first_stage;
@@ -157,7 +157,7 @@ std::string LocalMap::Unload(const std::string& name) {
 void LocalMap::Changed() {
   layout_ = std::make_shared<MapLayout>(map_.layout(), ++generations_);
   stage_.Invalidate();
-  if (stage_.options().kind == "exact" || map_.num_sets() == 0) return;
+  if (stage_.kind() == FirstStageKind::kExact || map_.num_sets() == 0) return;
   const ros::WallTime start = ros::WallTime::now();
   try {
     stage_.Prepare(map_);
@@ -165,7 +165,7 @@ void LocalMap::Changed() {
     // The sets stay as they are; exact search answers until the node is restarted, rather
     // than every descriptor trying the build again.
     FirstStageOptions exact = stage_.options();
-    exact.kind = "exact";
+    exact.kind = ToString(FirstStageKind::kExact);
     stage_.SetOptions(exact);
     first_stage_error_ = e.what();
     ROS_ERROR("bsf_vpr: the pca first stage could not be built (%s): exact search from now on",

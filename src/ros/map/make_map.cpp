@@ -20,7 +20,7 @@ std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParam
         "a fusion node with shards fuses the shards' sets and holds none of its own: give "
         "reference_sets to the shards (docs/sharding.md)");
   }
-  if (params.recognizer.first_stage.kind != "exact") {
+  if (params.recognizer.first_stage.Kind() != FirstStageKind::kExact) {
     ROS_WARN("bsf_vpr: first_stage %s is the shards' parameter; the combiner computes no distances",
              params.recognizer.first_stage.kind.c_str());
   }
@@ -28,7 +28,7 @@ std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParam
   options.shards = params.shards;
   options.timeout_s = params.shard_timeout;
   options.queue_size = params.queue_size;
-  if (params.distance_given()) options.metric = params.recognizer.metric;
+  options.metric = params.distance;
   options.place_pose_tolerance_m = params.place_pose_tolerance_m;
   return std::make_unique<ShardedMap>(nh, std::move(options));
 }

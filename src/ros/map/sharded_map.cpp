@@ -561,7 +561,8 @@ std::string ShardedMap::Problem() const {
 
 void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  status.add("first stage", "exact");  // the shards' own: this map computes no distances
+  // The shards' own: this map computes no distances.
+  status.add("first stage", ToString(FirstStageKind::kExact));
   status.add("shards", static_cast<int>(shards_.size()));
   status.add("map layouts taken", layouts_);
   status.add("queries decided", decided_);

@@ -364,7 +364,7 @@ int Run(int argc, char** argv) {
   int repeats = 7, scale = 1;
   StoragePrecision storage = StoragePrecision::kFloat32;
   FirstStageOptions first_stage;  // of the large and scaling sections
-  first_stage.kind = "pca";
+  first_stage.kind = ToString(FirstStageKind::kPca);
   for (int i = 1; i < argc; ++i) {
     const std::string f = argv[i];
     if (f == "-h" || f == "--help") {

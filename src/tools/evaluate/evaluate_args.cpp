@@ -178,14 +178,15 @@ void CheckCombination(const EvaluateArgs& a) {
   const int truths = (a.tolerance_frames >= 0) + (a.tolerance_m >= 0) + !a.ground_truth.empty();
   const ApproximateOptions defaults;
   const ApproximateOptions& approximate = a.first_stage.approximate;
-  if (a.first_stage.kind == "exact" &&
+  const FirstStageKind first_stage = a.first_stage.Kind();
+  if (first_stage == FirstStageKind::kExact &&
       (approximate.dimensions != defaults.dimensions || approximate.rerank != defaults.rerank ||
        approximate.sample_rows != defaults.sample_rows)) {
     throw std::invalid_argument(
         "--first-stage-dimensions, --rerank-candidates and --first-stage-sample-rows go with "
         "--first-stage pca");
   }
-  if (a.first_stage.kind != "exact" && (matrix_mode || !a.results_bag.empty())) {
+  if (first_stage != FirstStageKind::kExact && (matrix_mode || !a.results_bag.empty())) {
     throw std::invalid_argument(
         "--first-stage pca computes distances from descriptors (--reference/--query): "
         "--distances/--similarities and --results-bag give them already");

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -53,38 +54,34 @@ int64_t FrameNumber(const std::string& file) {
 
 }  // namespace
 
+const EnumNames<DatasetLayout>& DatasetLayoutNames() {
+  static const EnumNames<DatasetLayout> kNames{{DatasetLayout::kRobotCar, "robotcar"},
+                                               {DatasetLayout::kNordland, "nordland"},
+                                               {DatasetLayout::kGeneric, "generic"}};
+  return kNames;
+}
+
 DatasetLayout ParseDatasetLayout(const std::string& text) {
-  if (text == "robotcar") return DatasetLayout::kRobotCar;
-  if (text == "nordland") return DatasetLayout::kNordland;
-  if (text == "generic") return DatasetLayout::kGeneric;
-  throw std::invalid_argument("--layout must be robotcar | nordland | generic, got '" + text + "'");
+  // The choices as the usage text shows them, not EnumNames::Parse's "a, b or c".
+  const std::optional<DatasetLayout> layout = DatasetLayoutNames().Find(text);
+  if (!layout) {
+    throw std::invalid_argument("--layout must be " + DatasetLayoutNames().Listed(" | ", " | ") +
+                                ", got '" + text + "'");
+  }
+  return *layout;
 }
 
-std::string ToString(DatasetLayout layout) {
-  switch (layout) {
-    case DatasetLayout::kRobotCar:
-      return "robotcar";
-    case DatasetLayout::kNordland:
-      return "nordland";
-    case DatasetLayout::kGeneric:
-      return "generic";
-  }
-  return "?";
+std::string ToString(DatasetLayout layout) { return DatasetLayoutNames().Name(layout); }
+
+const EnumNames<PoseSource>& PoseSourceNames() {
+  static const EnumNames<PoseSource> kNames{{PoseSource::kNone, "no poses (frame-aligned)"},
+                                            {PoseSource::kMap, "x,y,z,yaw poses"},
+                                            {PoseSource::kUtm, "UTM poses"},
+                                            {PoseSource::kLatLon, "latitude/longitude fixes"}};
+  return kNames;
 }
 
-std::string ToString(PoseSource source) {
-  switch (source) {
-    case PoseSource::kNone:
-      return "no poses (frame-aligned)";
-    case PoseSource::kMap:
-      return "x,y,z,yaw poses";
-    case PoseSource::kUtm:
-      return "UTM poses";
-    case PoseSource::kLatLon:
-      return "latitude/longitude fixes";
-  }
-  return "?";
-}
+std::string ToString(PoseSource source) { return PoseSourceNames().Name(source); }
 
 Traversal ReadTraversal(DatasetLayout layout, const std::string& name, const std::string& spec,
                         const ReadOptions& options) {

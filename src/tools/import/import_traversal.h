@@ -14,13 +14,16 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/enum_names.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
 namespace tools {
 
 enum class DatasetLayout { kRobotCar, kNordland, kGeneric };
-// "robotcar", "nordland" or "generic"; throws std::invalid_argument naming the choices.
+// The layouts' names (--layout).
+const EnumNames<DatasetLayout>& DatasetLayoutNames();
+// A name of DatasetLayoutNames(); throws std::invalid_argument naming the choices.
 DatasetLayout ParseDatasetLayout(const std::string& text);
 std::string ToString(DatasetLayout layout);
 
@@ -31,6 +34,8 @@ enum class PoseSource {
   kUtm,     // RobotCar INS: x easting, y northing, z up (metres), yaw as in the map frame
   kLatLon,  // latitude/longitude fixes (Frame::fix); no heading
 };
+// What each source gives, for messages ("UTM poses").
+const EnumNames<PoseSource>& PoseSourceNames();
 std::string ToString(PoseSource source);
 
 struct GeoFix {

@@ -8,6 +8,7 @@
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/fusion/reconfigure_options.h"
 #include "src/ros/ingest/descriptor_ingest.h"
+#include "test/core/enum_names_check.h"
 
 namespace bsf_vpr {
 namespace {
@@ -92,6 +93,37 @@ TEST(FusionParams, RefusesWhatNoTableRead) {
   sets["reference_sets"][0]["conditon"] = "winter";
   EXPECT_NE(LoadError(sets).find("reference_sets[0] has unknown key 'conditon'"),
             std::string::npos);
+}
+
+// The nodes' enumerations have one table of names each, which the parameters read.
+TEST(FusionParams, EveryEnumerationsNamesRoundTrip) {
+  using testing::ExpectNamesRoundTrip;
+  ExpectNamesRoundTrip(OdometrySourceNames(), ParseOdometrySource, "odometry_source");
+  ExpectNamesRoundTrip(PoseSourceNames(), ParsePoseSource, "pose_source");
+  ExpectNamesRoundTrip<PoseLoss>(PoseLossNames(), nullptr, "pose loss");
+  ExpectNamesRoundTrip(IngestInputNames(), ParseIngestInput, "input");
+  EXPECT_EQ(ToString(PoseLoss::kNotYet), "no pose received yet");
+  EXPECT_EQ(FusionParamsTable().Find("pose_source")->info.choices, PoseSourceNames().Choices());
+  EXPECT_EQ(IngestParamsTable().Find("input")->info.choices, IngestInputNames().Choices());
+  // distance is optional: "" (shown first) leaves it to the sets.
+  const OptionInfo& distance = FusionParamsTable().Find("distance")->info;
+  EXPECT_EQ(distance.choices, (std::vector<std::string>{"", "euclidean", "cosine"}));
+  EXPECT_EQ(distance.default_value, OptionValue(std::string()));
+  XmlRpc::XmlRpcValue v;
+  v["distance"] = "cosine";
+  RosParamSource cosine(v, "/bsf_vpr");
+  const FusionParams p = LoadFusionParams(cosine);
+  EXPECT_EQ(p.distance, DistanceMetric::kCosine);
+  EXPECT_EQ(p.recognizer.metric, DistanceMetric::kCosine);
+  EXPECT_EQ(FusionParamsTable().Find("distance")->get(p), OptionValue(std::string("cosine")));
+  v["distance"] = "";
+  RosParamSource none(v, "/bsf_vpr");
+  EXPECT_FALSE(LoadFusionParams(none).distance_given());
+  v["distance"] = "manhattan";
+  EXPECT_NE(
+      LoadError(v).find("/bsf_vpr/distance must be \"\" | euclidean | cosine, got 'manhattan'"),
+      std::string::npos)
+      << LoadError(v);
 }
 
 TEST(IngestParams, ReadsTheDescriberTable) {

@@ -16,6 +16,7 @@
 #include "bsf_vpr/io/npy.h"
 #include "bsf_vpr/io/reference_set_io.h"
 #include "src/tools/import/import_traversal.h"
+#include "test/core/enum_names_check.h"
 #include "test/tools/import/import_fixtures.h"
 
 namespace bsf_vpr {
@@ -149,6 +150,14 @@ void ExpectRowsNameTheirFrames(const ReferenceSet& set, const std::string& folde
     const Eigen::VectorXf d = describer->Describe(tools::LoadFrameImage(t, f, resize));
     EXPECT_EQ(set.descriptors.row(static_cast<Eigen::Index>(k)), d.transpose()) << k << file;
   }
+}
+
+// The layouts and pose sources have one table of names each.
+TEST(ImportNames, EveryEnumerationsNamesRoundTrip) {
+  testing::ExpectNamesRoundTrip(tools::DatasetLayoutNames(), tools::ParseDatasetLayout, "--layout");
+  testing::ExpectNamesRoundTrip<tools::PoseSource>(tools::PoseSourceNames(), nullptr,
+                                                   "pose source");
+  EXPECT_EQ(tools::ToString(tools::PoseSource::kUtm), "UTM poses");
 }
 
 TEST(ImportBayer, OpenCvCodesDemosaicTheSdkPatterns) {

@@ -134,7 +134,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "fusion", [](auto& o) -> auto& { return o.fusion; },
               "how bsf fuses the sets: mixture (sets of one descriptor are alternative "
               "conditions of the query: their likelihoods are mixed, weighted by the soft form "
-              "of the selection rule, with the non-match statistics pooled; README) or "
+              "of the selection rule, with the non-match statistics pooled; docs/method.md) or "
               "product (exactly the paper: the selected sets' likelihoods multiply)",
               FusionRuleNames(), kLive)
           .AddChoice(

@@ -179,6 +179,10 @@ std::string Markdown() {
          "    rosrun dynamic_reconfigure dynparam set /bsf_vpr/fusion threshold 0.95\n\n"
          "## Fusion node (`config/fusion.yaml`)\n\n" +
          MarkdownTable(bsf_vpr::FusionParamsTable().Infos(), false) +
+         "\n## Fusion shard (`launch/sharded.launch`, docs/sharding.md)\n\n"
+         "A shard reads these alone (the fusion node's names for the same things); the "
+         "decision's parameters are the combiner's, and a shard refuses them.\n\n" +
+         MarkdownTable(bsf_vpr::ShardParamsTable().Infos(), false) +
          "\n## Descriptor ingest (`config/ingest.yaml`)\n\n" +
          MarkdownTable(bsf_vpr::IngestParamsTable().Infos(), false) +
          "\n## bsf_evaluate: method options\n\n"

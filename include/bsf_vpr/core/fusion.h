@@ -35,7 +35,7 @@ const EnumNames<Threshold::Kind>& ThresholdKindNames();
 Threshold::Kind ParseThresholdKind(const std::string& name);  // throws naming the choices
 std::string ToString(Threshold::Kind kind);
 
-// How bsf fuses the sets it relies on (MethodOptions::fusion; README, "Fusion that never
+// How bsf fuses the sets it relies on (MethodOptions::fusion; docs/method.md, "Fusion that never
 // loses").
 enum class FusionRule {
   // The default. Sets of one descriptor are alternative conditions of the query: the query

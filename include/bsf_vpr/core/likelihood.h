@@ -23,7 +23,7 @@ enum class LikelihoodVariant {
   // (D_i - mu) is replaced by min(D_i - mu, 0). On real data, outlier places (dark tunnel
   // frames, for instance) lie far above the mean of every query's distances, and with the
   // two-sided term their huge (D_i - mu)^2 / 2 sigma^2 outweighs log c_i <= log N, so the
-  // argmax collapses onto them. See README, "Likelihood variants".
+  // argmax collapses onto them. See docs/method.md, "Likelihood variants".
   kOneSided,
 };
 

@@ -108,6 +108,20 @@ std::vector<std::string> WrapWords(const std::string& text, size_t width);
 // column 27, with default, unit and range.
 std::string OptionsUsage(const std::vector<OptionInfo>& options);
 
+// OptionTable::Include's field for a base class of the including struct: the Base part of
+// a struct, const or not.
+template <typename Base>
+struct AsBase {
+  template <typename S>
+  Base& operator()(S& v) const {
+    return v;
+  }
+  template <typename S>
+  const Base& operator()(const S& v) const {
+    return v;
+  }
+};
+
 template <typename S>
 class OptionTable {
  public:
@@ -178,7 +192,8 @@ class OptionTable {
     return Push(std::move(s));
   }
 
-  // Every option of `sub`, a table of the member that `field` returns, but those named in
+  // Every option of `sub`, a table of the member (or base, AsBase) that `field` returns, but
+  // those named in
   // `except` (which the including struct declares with a meaning of its own).
   template <typename Sub, typename Field>
   OptionTable& Include(const OptionTable<Sub>& sub, Field field,

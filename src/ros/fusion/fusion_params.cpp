@@ -76,9 +76,9 @@ std::vector<std::string> LoadShardNames(RosParamSource& source) {
 
 }  // namespace
 
-const OptionTable<FusionParams>& FusionParamsTable() {
-  static const OptionTable<FusionParams> kTable =
-      OptionTable<FusionParams>()
+const OptionTable<MapParams>& MapParamsTable() {
+  static const OptionTable<MapParams> kTable =
+      OptionTable<MapParams>()
           .AddExternal("reference_sets",
                        "reference sets loaded at start: a list of {name, path, condition}. "
                        "path is a descriptor .npy (then name is required) or a reference-set "
@@ -102,6 +102,40 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "precision every reference set is held at: float16 halves and int8 (one "
               "scale per set) quarters the bytes and the time per query",
               StoragePrecisionNames())
+          .Add(
+              "place_pose_tolerance_m", [](auto& p) -> auto& { return p.place_pose_tolerance_m; },
+              "a reference set (loaded or recorded) that puts a place farther than this from "
+              "where the loaded sets have it is refused: its place ids belong to another map",
+              "m", Above(0));
+  return kTable;
+}
+
+const OptionTable<QueueParams>& QueueParamsTable() {
+  static const OptionTable<QueueParams> kTable =
+      OptionTable<QueueParams>()
+          .Add(
+              "queue_size", [](auto& p) -> auto& { return p.queue_size; },
+              "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))
+          .Add(
+              "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
+              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0));
+  return kTable;
+}
+
+const OptionTable<ShardParams>& ShardParamsTable() {
+  static const OptionTable<ShardParams> kTable =
+      OptionTable<ShardParams>()
+          .Include(MapParamsTable(), AsBase<MapParams>())
+          .Include(
+              FirstStageOptionsTable(), [](auto& p) -> auto& { return p.first_stage; })
+          .Include(QueueParamsTable(), AsBase<QueueParams>());
+  return kTable;
+}
+
+const OptionTable<FusionParams>& FusionParamsTable() {
+  static const OptionTable<FusionParams> kTable =
+      OptionTable<FusionParams>()
+          .Include(MapParamsTable(), AsBase<MapParams>())
           .Include(
               RecognizerOptionsTable(), [](auto& p) -> auto& { return p.recognizer; })
           .Add(
@@ -148,11 +182,6 @@ const OptionTable<FusionParams>& FusionParamsTable() {
           .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
                    {"place_spacing_m"})
           .Add(
-              "place_pose_tolerance_m", [](auto& p) -> auto& { return p.place_pose_tolerance_m; },
-              "a reference set (loaded or recorded) that puts a place farther than this from "
-              "where the loaded sets have it is refused: its place ids belong to another map",
-              "m", Above(0))
-          .Add(
               "map_frame", [](auto& p) -> auto& { return p.map_frame; },
               "frame of the place poses, parent of place_frame")
           .Add(
@@ -172,9 +201,7 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "floor of that pose's standard deviation in x and y (a place stands for a "
               "stretch of route); 0: half the median place spacing",
               "m", AtLeast(0))
-          .Add(
-              "queue_size", [](auto& p) -> auto& { return p.queue_size; },
-              "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))
+          .Include(QueueParamsTable(), AsBase<QueueParams>())
           .Add(
               "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
               "distance between places drawn in rviz when they do not all have poses; 0: the "
@@ -199,9 +226,6 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
               "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
               "carry it): rviz and the match image mark the true places; \"\": none")
-          .Add(
-              "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
-              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0))
           .AddExternal("shards",
                        "sharded map (docs/sharding.md): the fusion shards whose sets this node "
                        "fuses, a list of their names (resolved in this node's namespace, e.g. "
@@ -242,6 +266,23 @@ FusionParams LoadFusionParams(RosParamSource& source) {
 FusionParams LoadFusionParams(const ros::NodeHandle& pnh) {
   RosParamSource source = RosParamSource::FromNodeHandle(pnh);
   return LoadFusionParams(source);
+}
+
+ShardParams LoadShardParams(const ros::NodeHandle& pnh) {
+  RosParamSource source = RosParamSource::FromNodeHandle(pnh);
+  return LoadShardParams(source);
+}
+
+ShardParams LoadShardParams(RosParamSource& source) {
+  if (source.Has("shards")) {
+    throw std::invalid_argument(
+        "a fusion shard holds sets; the parameter shards is the combiner's (a fusion node)");
+  }
+  ShardParams p = LoadOptions(ShardParamsTable(), source);
+  p.reference_sets = LoadReferenceSetEntries(source);
+  source.RefuseUnread();
+  p.first_stage.Validate();
+  return p;
 }
 
 }  // namespace bsf_vpr

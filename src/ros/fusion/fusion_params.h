@@ -24,22 +24,37 @@ struct ReferenceSetEntry {
   std::string condition;  // optional
 };
 
-struct FusionParams {
-  RecognizerOptions recognizer;
+// The parameters of a map whose sets live in this process: a fusion node's own sets, a
+// fusion shard's (MapParamsTable()).
+struct MapParams {
   std::vector<ReferenceSetEntry> reference_sets;
   std::string data_directory;  // services read and write files only below it (created)
   // The distance configured; none (parameter ""): the distance the sets loaded at start
-  // declare, or the first set loaded into an empty node (recognizer.metric holds the one in
-  // use).
+  // declare, or the first set loaded into an empty map.
   std::optional<DistanceMetric> distance;
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
+  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
+
+  bool distance_given() const { return distance.has_value(); }
+};
+
+// What a node with a queue of descriptors and diagnostics reads (QueueParamsTable()).
+struct QueueParams {
+  int queue_size = 100;            // descriptors buffered before the oldest are dropped
+  double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
+};
+
+// The fusion node's parameters: its map's, the recognizer's (recognizer.metric is the
+// configured distance, or euclidean), and those of publishing, odometry, recording by pose
+// and the sharded map.
+struct FusionParams : MapParams, QueueParams {
+  RecognizerOptions recognizer;
   std::string map_frame = "map";
   std::string place_frame = "vpr_place";
   bool publish_tf = true;
   bool publish_pose = true;   // the robot's pose from accepted matches (pose_estimate.h)
   double pose_min_std_m = 0;  // its x/y standard deviation's floor; 0: half the spacing
   int belief_top_k = 0;       // 0: the belief message carries every place
-  int queue_size = 100;       // descriptors buffered before the oldest are dropped
   // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.
   BeliefViewOptions view;
   std::string ground_truth_topic = "/vpr/ground_truth";  // "": no true places drawn
@@ -60,16 +75,26 @@ struct FusionParams {
   std::string pose_topic = "odometry/map";
   double pose_wait_s = 0.2;
   PlaceIndexOptions places;
-  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
-  double diagnostic_period = 1.0;      // seconds (diagnostic_updater reads it too)
   // Sharded map (sharded_map.h): the shards whose distances this node fuses, instead of
   // holding sets of its own; a query waits shard_timeout for the shards that have not
   // answered after the first did.
   std::vector<std::string> shards;
   double shard_timeout = 0.5;
-
-  bool distance_given() const { return distance.has_value(); }
 };
+
+// A fusion shard's parameters: its map's, its first stage and its queue; nothing of the
+// decision (the combiner's).
+struct ShardParams : MapParams, QueueParams {
+  FirstStageOptions first_stage;
+};
+
+const OptionTable<MapParams>& MapParamsTable();
+const OptionTable<QueueParams>& QueueParamsTable();
+const OptionTable<ShardParams>& ShardParamsTable();
+// Reads and validates a shard's parameters as LoadFusionParams does; `shards` (the
+// combiner's) is refused by name.
+ShardParams LoadShardParams(RosParamSource& source);
+ShardParams LoadShardParams(const ros::NodeHandle& pnh);
 
 // The declaration of every parameter (reference_sets, a list of mappings, is read by code
 // of its own).

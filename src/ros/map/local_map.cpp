@@ -19,12 +19,13 @@ constexpr double kFirstStageEnergyWarning = 0.99;
 
 }  // namespace
 
-LocalMapOptions LocalMapOptions::From(const FusionParams& params) {
+LocalMapOptions LocalMapOptions::From(const MapParams& params,
+                                      const FirstStageOptions& first_stage) {
   LocalMapOptions o;
   o.metric = params.distance;
   o.storage = params.storage;
   o.place_pose_tolerance_m = params.place_pose_tolerance_m;
-  o.first_stage = params.recognizer.first_stage;
+  o.first_stage = first_stage;
   return o;
 }
 

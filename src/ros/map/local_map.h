@@ -32,8 +32,8 @@ struct LocalMapOptions {
   FirstStageOptions first_stage;
   bool fingerprints = false;  // keep each set's SetFingerprint (a shard's answers carry them)
 
-  // The map's parameters among the node's.
-  static LocalMapOptions From(const FusionParams& params);
+  // From a node's map parameters and its first stage.
+  static LocalMapOptions From(const MapParams& params, const FirstStageOptions& first_stage);
 };
 
 class LocalMap : public MapBackend {

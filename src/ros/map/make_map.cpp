@@ -10,7 +10,8 @@ namespace bsf_vpr {
 std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParams& params,
                                     const DataDirectory* data_dir) {
   if (params.shards.empty()) {
-    auto map = std::make_unique<LocalMap>(LocalMapOptions::From(params), data_dir);
+    auto map = std::make_unique<LocalMap>(
+        LocalMapOptions::From(params, params.recognizer.first_stage), data_dir);
     map->LoadConfigured(params.reference_sets,
                         params.data_directory.empty() ? "." : params.data_directory);
     return map;

@@ -18,16 +18,11 @@ ShardNode::~ShardNode() {
 }
 
 void ShardNode::Start() {
-  params_ = LoadFusionParams(pnh_);
-  if (!params_.shards.empty()) {
-    throw std::invalid_argument(
-        "a fusion shard holds sets; the parameter shards is the "
-        "combiner's (a fusion node)");
-  }
+  params_ = LoadShardParams(pnh_);
   if (!params_.data_directory.empty()) {
     data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
   }
-  LocalMapOptions options = LocalMapOptions::From(params_);
+  LocalMapOptions options = LocalMapOptions::From(params_, params_.first_stage);
   options.fingerprints = true;  // the combiner tells its sets' versions apart by them
   map_ = std::make_unique<LocalMap>(options, data_dir_.get(), pnh_.getNamespace());
   map_->LoadConfigured(params_.reference_sets,

@@ -5,10 +5,11 @@
 // into the belief. The shard decides nothing: selection, fusion, the temporal prior and
 // sequence matching are the combiner's, so that its belief is bitwise the single node's.
 //
-// It reads the fusion node's parameters and uses those of the sets: reference_sets,
-// data_directory, distance, storage, place_pose_tolerance_m, first_stage* (a pca first
-// stage is per shard and no longer bitwise the single node's), queue_size and
-// diagnostic_period. Its sets are a LocalMap, as a fusion node's own. What it holds is latched on
+// Its parameters (ShardParamsTable: reference_sets, data_directory, distance, storage,
+// place_pose_tolerance_m, first_stage* (a pca first stage is per shard and no longer
+// bitwise the single node's), queue_size and diagnostic_period) are the fusion node's
+// names for the same things; any other is refused at start. Its sets are a LocalMap, as a
+// fusion node's own. What it holds is latched on
 // ~shard_info (bsf_vpr/ShardInfo) and published again on every change; ~list_reference_sets,
 // ~load_reference_set, ~unload_reference_set and ~get_distances serve the combiner (and operators).
 //
@@ -66,7 +67,7 @@ class ShardNode {
   bool OnCompute(GetShardDistances::Request& req, GetShardDistances::Response& res);
 
   ros::NodeHandle nh_, pnh_;
-  FusionParams params_;
+  ShardParams params_;
   std::mutex mutex_;
   std::unique_ptr<DataDirectory> data_dir_;  // null: load_reference_set is off
   std::unique_ptr<LocalMap> map_;            // the shard's sets; it decides nothing

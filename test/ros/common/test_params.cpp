@@ -23,6 +23,38 @@ std::string LoadError(XmlRpc::XmlRpcValue params) {
   return "";
 }
 
+// A shard reads its own small table: the map's, the first stage's and the queue's
+// parameters, by the fusion node's names; the decision's are the combiner's and refused.
+TEST(ShardParams, AShardReadsItsMapAndRefusesTheDecisionsParameters) {
+  XmlRpc::XmlRpcValue v;
+  v["distance"] = "cosine";
+  v["storage"] = "int8";
+  v["first_stage"] = "pca";
+  v["queue_size"] = 7;
+  RosParamSource source(v, "/bsf_vpr/shard_0");
+  const ShardParams p = LoadShardParams(source);
+  EXPECT_EQ(p.distance, DistanceMetric::kCosine);
+  EXPECT_EQ(p.storage, StoragePrecision::kInt8);
+  EXPECT_EQ(p.first_stage.Kind(), FirstStageKind::kPca);
+  EXPECT_EQ(p.queue_size, 7);
+  for (const char* decision : {"method", "gamma_fraction", "map_frame", "shard_timeout"}) {
+    XmlRpc::XmlRpcValue bad;
+    bad[decision] =
+        decision == std::string("method") ? XmlRpc::XmlRpcValue("bsf") : XmlRpc::XmlRpcValue(1.0);
+    RosParamSource s(bad, "/bsf_vpr/shard_0");
+    try {
+      LoadShardParams(s);
+      ADD_FAILURE() << decision << " taken by a shard";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(decision), std::string::npos) << e.what();
+    }
+  }
+  XmlRpc::XmlRpcValue combiner;
+  combiner["shards"][0] = "shard_1";
+  RosParamSource s(combiner, "/bsf_vpr/shard_0");
+  EXPECT_THROW(LoadShardParams(s), std::invalid_argument);
+}
+
 TEST(FusionParams, DefaultsAreTheTables) {
   RosParamSource none(XmlRpc::XmlRpcValue(), "/bsf_vpr");
   const FusionParams p = LoadFusionParams(none);

@@ -58,15 +58,7 @@ void FusionNode::Start() {
         params_.recognizer.method.c_str());
   }
 
-  RecognitionPublisherOptions publishing;
-  publishing.map_frame = params_.map_frame;
-  publishing.place_frame = params_.place_frame;
-  publishing.publish_tf = params_.publish_tf;
-  publishing.publish_pose = params_.publish_pose;
-  publishing.pose_min_std_m = params_.pose_min_std_m;
-  publishing.belief_top_k = params_.belief_top_k;
-  publishing.view = params_.view;
-  publishing.ground_truth_topic = params_.ground_truth_topic;
+  const RecognitionPublisherOptions& publishing = params_;  // the parameters' own part
   publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
   odometry_ = std::make_unique<OdometryTracker>(
       nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);

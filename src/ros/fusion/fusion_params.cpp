@@ -132,55 +132,13 @@ const OptionTable<ShardParams>& ShardParamsTable() {
   return kTable;
 }
 
-const OptionTable<FusionParams>& FusionParamsTable() {
-  static const OptionTable<FusionParams> kTable =
-      OptionTable<FusionParams>()
-          .Include(MapParamsTable(), AsBase<MapParams>())
-          .Include(
-              RecognizerOptionsTable(), [](auto& p) -> auto& { return p.recognizer; })
+const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
+  static const OptionTable<RecognitionPublisherOptions> kTable =
+      OptionTable<RecognitionPublisherOptions>()
           .Add(
               "belief_top_k", [](auto& p) -> auto& { return p.belief_top_k; },
               "places in each Belief message: 0 = all N places, else the K best", "places",
               AtLeast(0))
-          .AddChoice(
-              "odometry_source", [](auto& p) -> auto& { return p.odometry_source; },
-              "progress between queries for +filter methods: none (the "
-              "filter_step_mean_places), topic (nav_msgs/Odometry on odometry_topic) "
-              "or tf (odom_frame -> base_frame)",
-              OdometrySourceNames())
-          .Add(
-              "odometry_topic", [](auto& p) -> auto& { return p.odometry_topic; },
-              "nav_msgs/Odometry topic when odometry_source is topic")
-          .Add(
-              "odom_frame", [](auto& p) -> auto& { return p.odom_frame; },
-              "odometry frame when odometry_source is tf")
-          .Add(
-              "base_frame", [](auto& p) -> auto& { return p.base_frame; },
-              "robot frame when odometry_source is tf")
-          .Add(
-              "place_spacing_m", [](auto& p) -> auto& { return p.place_spacing_m; },
-              "distance between places along the route: turns odometry into a step in places "
-              "(+filter), and spaces the places a recording by pose makes where the map has "
-              "none; 0: the median spacing of the loaded place poses (1 m without any)",
-              "m", AtLeast(0))
-          .AddChoice(
-              "pose_source", [](auto& p) -> auto& { return p.pose_source; },
-              "where the robot's pose in map_frame comes from when recording by pose: "
-              "tf (map_frame -> base_frame), topic (pose_topic) or none",
-              PoseSourceNames())
-          .Add(
-              "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
-              "the robot's pose in map_frame when pose_source is topic: nav_msgs/Odometry, "
-              "geometry_msgs/PoseStamped or geometry_msgs/PoseWithCovarianceStamped (the "
-              "type is taken from the publisher)")
-          .Add(
-              "pose_wait_s", [](auto& p) -> auto& { return p.pose_wait_s; },
-              "how long a descriptor waits for the robot's pose at its stamp (tf, or the "
-              "pose_topic message after it, interpolated): a camera image is usually newer "
-              "than the last pose; enough for a 10 Hz pose source by default",
-              "s", Between(0, 10))
-          .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
-                   {"place_spacing_m"})
           .Add(
               "map_frame", [](auto& p) -> auto& { return p.map_frame; },
               "frame of the place poses, parent of place_frame")
@@ -201,7 +159,6 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "floor of that pose's standard deviation in x and y (a place stands for a "
               "stretch of route); 0: half the median place spacing",
               "m", AtLeast(0))
-          .Include(QueueParamsTable(), AsBase<QueueParams>())
           .Add(
               "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
               "distance between places drawn in rviz when they do not all have poses; 0: the "
@@ -225,7 +182,64 @@ const OptionTable<FusionParams>& FusionParamsTable() {
           .Add(
               "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
               "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
-              "carry it): rviz and the match image mark the true places; \"\": none")
+              "carry it): rviz and the match image mark the true places; \"\": none");
+  return kTable;
+}
+
+const OptionTable<OdometryParams>& OdometryParamsTable() {
+  static const OptionTable<OdometryParams> kTable =
+      OptionTable<OdometryParams>()
+          .AddChoice(
+              "odometry_source", [](auto& p) -> auto& { return p.odometry_source; },
+              "progress between queries for +filter methods: none (the "
+              "filter_step_mean_places), topic (nav_msgs/Odometry on odometry_topic) "
+              "or tf (odom_frame -> base_frame)",
+              OdometrySourceNames())
+          .Add(
+              "odometry_topic", [](auto& p) -> auto& { return p.odometry_topic; },
+              "nav_msgs/Odometry topic when odometry_source is topic")
+          .Add(
+              "odom_frame", [](auto& p) -> auto& { return p.odom_frame; },
+              "odometry frame when odometry_source is tf")
+          .Add(
+              "base_frame", [](auto& p) -> auto& { return p.base_frame; },
+              "robot frame when odometry_source is tf")
+          .Add(
+              "place_spacing_m", [](auto& p) -> auto& { return p.place_spacing_m; },
+              "distance between places along the route: turns odometry into a step in places "
+              "(+filter), and spaces the places a recording by pose makes where the map has "
+              "none; 0: the median spacing of the loaded place poses (1 m without any)",
+              "m", AtLeast(0));
+  return kTable;
+}
+
+const OptionTable<RecordingParams>& RecordingParamsTable() {
+  static const OptionTable<RecordingParams> kTable =
+      OptionTable<RecordingParams>()
+          .AddChoice(
+              "pose_source", [](auto& p) -> auto& { return p.pose_source; },
+              "where the robot's pose in map_frame comes from when recording by pose: "
+              "tf (map_frame -> base_frame), topic (pose_topic) or none",
+              PoseSourceNames())
+          .Add(
+              "pose_topic", [](auto& p) -> auto& { return p.pose_topic; },
+              "the robot's pose in map_frame when pose_source is topic: nav_msgs/Odometry, "
+              "geometry_msgs/PoseStamped or geometry_msgs/PoseWithCovarianceStamped (the "
+              "type is taken from the publisher)")
+          .Add(
+              "pose_wait_s", [](auto& p) -> auto& { return p.pose_wait_s; },
+              "how long a descriptor waits for the robot's pose at its stamp (tf, or the "
+              "pose_topic message after it, interpolated): a camera image is usually newer "
+              "than the last pose; enough for a 10 Hz pose source by default",
+              "s", Between(0, 10))
+          .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
+                   {"place_spacing_m"});
+  return kTable;
+}
+
+const OptionTable<ShardingParams>& ShardingParamsTable() {
+  static const OptionTable<ShardingParams> kTable =
+      OptionTable<ShardingParams>()
           .AddExternal("shards",
                        "sharded map (docs/sharding.md): the fusion shards whose sets this node "
                        "fuses, a list of their names (resolved in this node's namespace, e.g. "
@@ -238,6 +252,20 @@ const OptionTable<FusionParams>& FusionParamsTable() {
               "after the first one did; then it is decided without their sets "
               "(Belief.missing_sets)",
               "s", Above(0));
+  return kTable;
+}
+
+const OptionTable<FusionParams>& FusionParamsTable() {
+  static const OptionTable<FusionParams> kTable =
+      OptionTable<FusionParams>()
+          .Include(MapParamsTable(), AsBase<MapParams>())
+          .Include(
+              RecognizerOptionsTable(), [](auto& p) -> auto& { return p.recognizer; })
+          .Include(PublishingParamsTable(), AsBase<RecognitionPublisherOptions>())
+          .Include(OdometryParamsTable(), AsBase<OdometryParams>())
+          .Include(RecordingParamsTable(), AsBase<RecordingParams>())
+          .Include(QueueParamsTable(), AsBase<QueueParams>())
+          .Include(ShardingParamsTable(), AsBase<ShardingParams>());
   return kTable;
 }
 

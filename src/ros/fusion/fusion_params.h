@@ -13,6 +13,7 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "src/ros/common/param_util.h"
 #include "src/ros/fusion/odometry_tracker.h"
+#include "src/ros/fusion/recognition_publisher.h"
 #include "src/ros/fusion/robot_pose.h"
 #include "src/ros/view/belief_view_options.h"
 
@@ -38,49 +39,60 @@ struct MapParams {
   bool distance_given() const { return distance.has_value(); }
 };
 
+// The recognizer's options (RecognizerOptionsTable()).
+struct RecognizerParams {
+  RecognizerOptions recognizer;
+};
+
 // What a node with a queue of descriptors and diagnostics reads (QueueParamsTable()).
 struct QueueParams {
   int queue_size = 100;            // descriptors buffered before the oldest are dropped
   double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
 };
 
-// The fusion node's parameters: its map's, the recognizer's (recognizer.metric is the
-// configured distance, or euclidean), and those of publishing, odometry, recording by pose
-// and the sharded map.
-struct FusionParams : MapParams, QueueParams {
-  RecognizerOptions recognizer;
-  std::string map_frame = "map";
-  std::string place_frame = "vpr_place";
-  bool publish_tf = true;
-  bool publish_pose = true;   // the robot's pose from accepted matches (pose_estimate.h)
-  double pose_min_std_m = 0;  // its x/y standard deviation's floor; 0: half the spacing
-  int belief_top_k = 0;       // 0: the belief message carries every place
-  // What rviz shows (belief_markers.h, belief_view.h): map_frame is set from map_frame.
-  BeliefViewOptions view;
-  std::string ground_truth_topic = "/vpr/ground_truth";  // "": no true places drawn
-  // Odometry for +filter methods: "none", "topic" (nav_msgs/Odometry on odometry_topic) or
-  // "tf" (odom_frame -> base_frame). The distance travelled between two queries divided by
-  // the place spacing (place_spacing_m, or the median spacing of the place poses when 0) is
-  // the filter's step for that query.
+// Odometry for +filter methods: none, topic (nav_msgs/Odometry on odometry_topic) or tf
+// (odom_frame -> base_frame). The distance travelled between two queries divided by the
+// place spacing (place_spacing_m, or the median spacing of the place poses when 0) is the
+// filter's step for that query (OdometryParamsTable()).
+struct OdometryParams {
   OdometrySource odometry_source = OdometrySource::kNone;
   std::string odometry_topic = "odom";
   std::string odom_frame = "odom";
-  std::string base_frame = "base_link";
+  std::string base_frame = "base_link";  // also the robot's frame for recording by pose
   double place_spacing_m = 0;
-  // Recording by pose (start_recording places: pose): where the robot's pose in map_frame
-  // comes from (robot_pose.h: tf map_frame -> base_frame, or a pose topic), how long a
-  // descriptor waits for it, and how it is associated with the places
-  // (places.place_spacing_m is set from place_spacing_m).
+};
+
+// Recording by pose (start_recording places: pose): where the robot's pose in map_frame
+// comes from (robot_pose.h: tf map_frame -> base_frame, or a pose topic), how long a
+// descriptor waits for it, and how it is associated with the places (places.place_spacing_m
+// is set from place_spacing_m) (RecordingParamsTable()).
+struct RecordingParams {
   PoseSource pose_source = PoseSource::kTf;
   std::string pose_topic = "odometry/map";
   double pose_wait_s = 0.2;
   PlaceIndexOptions places;
-  // Sharded map (sharded_map.h): the shards whose distances this node fuses, instead of
-  // holding sets of its own; a query waits shard_timeout for the shards that have not
-  // answered after the first did.
+};
+
+// A sharded map (sharded_map.h): the shards whose distances this node fuses instead of
+// holding sets of its own; a query waits shard_timeout for the shards that have not
+// answered after the first did (ShardingParamsTable()).
+struct ShardingParams {
   std::vector<std::string> shards;
   double shard_timeout = 0.5;
 };
+
+// The fusion node's parameters, part by part, each part with its table: the map's, the
+// recognizer's (recognizer.metric is the configured distance, or euclidean), what is
+// published (RecognitionPublisherOptions, recognition_publisher.h), odometry, recording by
+// pose, the queue and the sharded map. Read once at start; what changes later is the
+// decider's (the live options) or the map's (the distance in use).
+struct FusionParams : MapParams,
+                      RecognizerParams,
+                      RecognitionPublisherOptions,
+                      OdometryParams,
+                      RecordingParams,
+                      QueueParams,
+                      ShardingParams {};
 
 // A fusion shard's parameters: its map's, its first stage and its queue; nothing of the
 // decision (the combiner's).
@@ -90,6 +102,10 @@ struct ShardParams : MapParams, QueueParams {
 
 const OptionTable<MapParams>& MapParamsTable();
 const OptionTable<QueueParams>& QueueParamsTable();
+const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable();
+const OptionTable<OdometryParams>& OdometryParamsTable();
+const OptionTable<RecordingParams>& RecordingParamsTable();
+const OptionTable<ShardingParams>& ShardingParamsTable();
 const OptionTable<ShardParams>& ShardParamsTable();
 // Reads and validates a shard's parameters as LoadFusionParams does; `shards` (the
 // combiner's) is refused by name.

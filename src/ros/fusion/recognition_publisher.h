@@ -23,15 +23,15 @@
 
 namespace bsf_vpr {
 
-// Filled from the fusion parameters of the same names (fusion_params.h, which documents
-// them); fixed once the node has started.
+// The fusion parameters of the same names (fusion_params.h, PublishingParamsTable(), which
+// documents them); fixed once the node has started.
 struct RecognitionPublisherOptions {
-  std::string map_frame;    // frame of the match, the markers and the tf parent
-  std::string place_frame;  // tf child frame at the matched place
-  bool publish_tf = false;
-  int belief_top_k = 0;            // 0: the belief lists every place
-  BeliefViewOptions view;          // its map_frame is map_frame
-  std::string ground_truth_topic;  // "": none
+  std::string map_frame = "map";          // frame of the match, the markers and the tf parent
+  std::string place_frame = "vpr_place";  // tf child frame at the matched place
+  bool publish_tf = true;
+  int belief_top_k = 0;                                  // 0: the belief lists every place
+  BeliefViewOptions view;                                // its map_frame is map_frame
+  std::string ground_truth_topic = "/vpr/ground_truth";  // "": none
   bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
   // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
   double pose_min_std_m = 0;

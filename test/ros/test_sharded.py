@@ -3,6 +3,7 @@
 against a single fusion node holding the same sets, on the shipped Nordland-100 data."""
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -17,7 +18,7 @@ import rostest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 
-from bsf_vpr.msg import Belief, Descriptor, ShardInfo
+from bsf_vpr.msg import Belief, Descriptor, ShardDistances, ShardInfo
 from bsf_vpr.srv import ListReferenceSets, LoadReferenceSet, QueryPlace, UnloadReferenceSet
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -66,6 +67,7 @@ class Sharded(unittest.TestCase):
         """Publishes the query rows as descriptors, stamped 0.1 s apart; returns the stamps
         (ns)."""
         stamps = []
+        self.published_at = getattr(self, "published_at", {})
         for q in rows:
             d = Descriptor()
             d.header.stamp = rospy.Time.from_sec(self.next_stamp)
@@ -73,6 +75,7 @@ class Sharded(unittest.TestCase):
             d.data = self.queries[q].tolist()
             self.next_stamp += 0.1
             stamps.append(d.header.stamp.to_nsec())
+            self.published_at[stamps[-1]] = time.monotonic()
             self.pub.publish(d)
             time.sleep(1.0 / rate_hz)
         return stamps
@@ -141,20 +144,39 @@ class Sharded(unittest.TestCase):
         self.assert_bitwise(self.publish(range(30, 50)))
         self.assertEqual(self.fusion_diagnostic("map layouts taken"), layouts)
 
-        # 4. A shard that lags (stopped, then continued): decided without it after
-        # shard_timeout, its late answers dropped, taken back when it answers in time.
+        # 4. A shard that lags (the one holding the most places, stopped 10 s, then
+        # continued): each query decided without it after shard_timeout, its late answers
+        # dropped; it is still waited for, so it is back within 2 s of continuing.
         pid = self.shard_pid("/bsf_vpr/shard_1")
         os.kill(pid, signal.SIGSTOP)
         try:
-            self.check_outage(self.publish(range(50, 55)), ["fall"])
+            stopped_at = time.monotonic()
+            during = []
+            while time.monotonic() - stopped_at < 10:
+                during += self.publish([50 + len(during) % 5], rate_hz=10)
+            self.check_outage(during, ["fall"])
             start = len(self.diagnostics)
             wait_for(lambda: any("deciding without shard" in st.message and "fall" in st.message
                                  for array in self.diagnostics[start:] for st in array.status),
                      10, "diagnostics naming the missing shard")
         finally:
             os.kill(pid, signal.SIGCONT)
-        self.until_complete()
+        continued_at = time.monotonic()
+        after = self.publish(range(55, 85), rate_hz=10)
+        wait_for(lambda: all(s in self.sharded for s in after), 30, "beliefs after continuing")
+        back = [s for s in after if not list(self.sharded[s].missing_sets)]
+        self.assertTrue(back, "shard_1 never came back")
+        self.assertLess(self.published_at[back[0]] - continued_at, 2.0,
+                        "shard_1 back in the beliefs only %.2f s after continuing"
+                        % (self.published_at[back[0]] - continued_at))
+        self.assertTrue(all(not list(self.sharded[s].missing_sets) for s in after
+                            if s >= back[0]), "shard_1 missing again after it came back")
         self.assert_bitwise(self.publish(range(55, 60)))
+
+        # Answers a faulty or hostile peer publishes on a shard's topic: stamps no descriptor
+        # had (1 ns off a real one, 11 days ahead) are never decided and hold up nothing; a
+        # NaN or impossible answer makes that shard missing for its query, which is decided.
+        self.check_hostile_answers()
 
         # 5. Restarted with other sets (another storage precision: another fingerprint):
         # detected, the map follows.
@@ -212,12 +234,35 @@ class Sharded(unittest.TestCase):
         self.assertEqual([s.name for s in self.list().sets], SETS)
         self.until_complete()
 
+        # 7. The combiner dies (kill -9): the shards keep running and keep their sets, the one
+        # loaded at run time too; the respawned combiner takes them back and decides with every
+        # set within 20 s.
+        r = load(path="summer.yaml", name="summer_b", shard="shard_2")
+        self.assertTrue(r.success, r.message)
+        shards = [self.shard_pid("/bsf_vpr/shard_%d" % k) for k in range(3)]
+        combiner = self.shard_pid("/bsf_vpr/fusion")
+        os.kill(combiner, signal.SIGKILL)
+        killed_at = time.monotonic()
+        wait_for(lambda: self.pid_or_none("/bsf_vpr/fusion") not in (None, combiner), 20,
+                 "the combiner respawned")
+        deadline = killed_at + 20
+        while True:
+            stamp = self.publish([3])[0]
+            # One at a time (the first ones may reach no combiner yet), each waited for 1 s.
+            end = min(deadline, time.monotonic() + 1)
+            while stamp not in self.sharded and time.monotonic() < end:
+                time.sleep(0.02)
+            b = self.sharded.get(stamp)
+            if b is not None and list(b.set_names) == SETS + ["summer_b"] and not b.missing_sets:
+                break
+            self.assertLess(time.monotonic(), deadline,
+                            "no belief with every set 20 s after the combiner's death")
+        self.assertEqual([self.shard_pid("/bsf_vpr/shard_%d" % k) for k in range(3)], shards)
+
         # query_place through the shards' get_distances equals the single node's, once both
         # hold the same sets at the same precision.
         # A set loaded at run time lives as long as its shard's process: a respawn loads the
         # configured sets only, and the combiner says which set was lost.
-        r = load(path="summer.yaml", name="summer_b", shard="shard_2")
-        self.assertTrue(r.success, r.message)
         self.assertEqual([s.name for s in self.list().sets], SETS + ["summer_b"])
         rospy.set_param("/bsf_vpr/shard_2/storage", "float32")
         self.restart_shard_2()
@@ -238,6 +283,70 @@ class Sharded(unittest.TestCase):
         r = rospy.ServiceProxy("/bsf_vpr/query_place", QueryPlace)(descriptor=d)
         self.assertFalse(r.success)
         self.assertIn("dimension", r.message)
+
+    def pid_or_none(self, name):
+        try:
+            return self.shard_pid(name)
+        except Exception:  # not registered (yet), or its API is gone
+            return None
+
+    def check_hostile_answers(self):
+        real = []
+        sub = rospy.Subscriber("/bsf_vpr/shard_1/distances", ShardDistances, real.append)
+        fake = rospy.Publisher("/bsf_vpr/shard_1/distances", ShardDistances, queue_size=400)
+        wait_for(lambda: fake.get_num_connections() > 0, 20, "the combiner to hear the peer")
+        stamps = self.publish([7])
+        wait_for(lambda: real, 10, "an answer of shard_1")
+        sub.unregister()
+        model = real[-1]
+        forged = []
+        for i in range(150):
+            for stamp in (stamps[-1] + 1 + i, stamps[-1] + 11 * 86400 * 10**9 + i):
+                m = ShardDistances(header=model.header, shard=model.shard,
+                                   set_names=model.set_names, fingerprints=model.fingerprints,
+                                   counts=model.counts, distances=model.distances)
+                m.header.stamp = rospy.Time(stamp // 10**9, stamp % 10**9)
+                forged.append(stamp)
+                fake.publish(m)
+            if i % 15 == 0:
+                stamps += self.publish([7 + i % 30])
+        # A NaN, a negative and a cosine distance of 3e38, each sent before the real answer
+        # (so first): decided without shard_1's set, never dropped.
+        broken = []
+        for bad in (float("nan"), -1.0, 3e38):
+            d = list(model.distances)
+            d[len(d) // 2] = bad
+            m = ShardDistances(header=model.header, shard=model.shard, set_names=model.set_names,
+                               fingerprints=model.fingerprints, counts=model.counts, distances=d)
+            m.header.stamp = rospy.Time.from_sec(self.next_stamp)
+            fake.publish(m)
+            time.sleep(0.2)
+            broken += self.publish([9])
+        wait_for(lambda: all(s in self.sharded for s in stamps + broken), 30,
+                 "beliefs among the hostile answers")
+        time.sleep(2.5)  # past shard_timeout: a forged stamp would have been decided by now
+        self.assertFalse([s for s in forged if s in self.sharded], "a forged stamp was decided")
+        for s in stamps:
+            self.assertEqual(list(self.sharded[s].missing_sets), [], "query at %d ns" % s)
+        for s in broken:
+            self.assertEqual(list(self.sharded[s].missing_sets), ["fall"], "query at %d ns" % s)
+        fake.unregister()
+        start = len(self.diagnostics)
+
+        def counted():
+            for array in self.diagnostics[start:]:
+                for st in array.status:
+                    for kv in st.values:
+                        if kv.key == "shard /bsf_vpr/shard_1":
+                            return kv.value
+            return None
+
+        wait_for(lambda: counted() is not None, 10, "the combiner's diagnostics of shard_1")
+        # Counted (as many as reached the combiner: its subscriber queue may drop some).
+        unheard = int(re.search(r"(\d+) for stamps no descriptor had", counted()).group(1))
+        self.assertGreater(unheard, 0, counted())
+        self.assertLessEqual(unheard, len(forged), counted())
+        self.assertIn(" 3 with impossible distances", counted())
 
     def check_outage(self, stamps, missing):
         """The queries at `stamps` were all decided, and some without the sets `missing`,

@@ -119,6 +119,7 @@ ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {
   m.dimension = set.dimension();
   m.memory_bytes = set.MemoryBytes();
   m.storage = ToString(set.precision());
+  m.max_norm = set.size() > 0 ? std::sqrt(static_cast<double>(set.squared_norms().maxCoeff())) : 0;
   m.place_ids.assign(set.place_ids().begin(), set.place_ids().end());
   m.poses.reserve(4 * set.poses().size());
   for (const PlacePose& p : set.poses()) {

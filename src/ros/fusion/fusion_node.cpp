@@ -78,7 +78,10 @@ void FusionNode::Start() {
     // arrives on the node's own queue.
     services_.push_back(AdvertiseOnQueue<UnloadReferenceSet>(
         nh_, names::kUnloadReferenceSetService, &FusionNode::OnUnload, this, &load_queue_));
-    load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
+    // A sharded map's loads and unloads wait for shards: two threads, so that one stalled
+    // shard does not hold up a load to another.
+    load_spinner_ =
+        std::make_unique<ros::AsyncSpinner>(params_.shards.empty() ? 1 : 2, &load_queue_);
     load_spinner_->start();
   }
   // query_place on a queue and thread of its own: a sharded map's calls every shard, and a

@@ -250,7 +250,20 @@ const OptionTable<ShardingParams>& ShardingParamsTable() {
               "shard_timeout", [](auto& p) -> auto& { return p.shard_timeout; },
               "sharded map: how long a query waits for the shards that have not answered "
               "after the first one did; then it is decided without their sets "
-              "(Belief.missing_sets)",
+              "(Belief.missing_sets); a shard that was slow is waited for again, so its first "
+              "answer within it takes the shard back",
+              "s", Above(0))
+          .Add(
+              "shard_call_timeout", [](auto& p) -> auto& { return p.shard_call_timeout; },
+              "sharded map: how long a call to a shard's service (query_place's "
+              "get_distances, a routed unload) waits beyond shard_timeout; a shard that has "
+              "not answered is reported and not called again until that call returns",
+              "s", Above(0))
+          .Add(
+              "shard_load_timeout", [](auto& p) -> auto& { return p.shard_load_timeout; },
+              "sharded map: how long a routed load_reference_set waits for the shard (reading "
+              "a large set takes a while); a load that outlasts it may still complete: the map "
+              "takes the set when the shard publishes it",
               "s", Above(0));
   return kTable;
 }

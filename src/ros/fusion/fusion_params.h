@@ -79,6 +79,8 @@ struct RecordingParams {
 struct ShardingParams {
   std::vector<std::string> shards;
   double shard_timeout = 0.5;
+  double shard_call_timeout = 0.5;  // beyond shard_timeout
+  double shard_load_timeout = 30;
 };
 
 // The fusion node's parameters, part by part, each part with its table: the map's, the

@@ -28,6 +28,8 @@ std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const FusionParam
   ShardedMapOptions options;
   options.shards = params.shards;
   options.timeout_s = params.shard_timeout;
+  options.call_timeout_s = params.shard_timeout + params.shard_call_timeout;
+  options.load_timeout_s = params.shard_load_timeout;
   options.queue_size = params.queue_size;
   options.metric = params.distance;
   options.place_pose_tolerance_m = params.place_pose_tolerance_m;

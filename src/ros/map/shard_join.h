@@ -4,13 +4,19 @@
 // answered or `timeout_s` after the first answer.
 //
 // A shard is expected while the owner says it can answer (it has published its sets and
-// still publishes: `can_answer`) and it has not missed a query. One that misses a query is
-// not waited for: its answers are missing from the queries that follow, and it is expected
-// again as soon as it answers a query in time. A query whose stamp is at or before the last
-// one decided is late: one shard's late answer is dropped (its query was decided without
-// it); when every expected shard's answer comes for such a stamp, it is a query that came
-// late on the wire from all of them (a bag replayed again, descriptors published out of
-// stamp order), decided as a single node would, and the stamps start afresh from it.
+// still publishes: `can_answer`), whether or not it missed the last queries: a shard that
+// was slow (stopped a while, overloaded) is taken back by its first answer within the
+// timeout, however long it was missing. A query whose stamp is at or before the last one
+// decided is late: one shard's late answer is dropped (its query was decided without it);
+// when every expected shard's answer comes for such a stamp, it is a query that came late
+// on the wire from all of them (a bag replayed again, descriptors published out of stamp
+// order), decided as a single node would, and the stamps start afresh from it.
+//
+// Only stamps the owner heard (Hear: a descriptor with that stamp reached this node) are
+// decided. An answer for a stamp no descriptor had (a forged or corrupted stamp, 1 ns off
+// or days ahead) is refused and counted, never decided, and holds up no query: it waits
+// for its descriptor only while that can still be in flight (no later descriptor heard,
+// and less than the timeout).
 //
 // Free of ROS: time comes from the caller (seconds on any monotonic clock), the answers are
 // any copyable pointer (AnswerPtr, null meaning none), what happens to a shard is told
@@ -19,8 +25,10 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <deque>
 #include <functional>
 #include <map>
 #include <string>
@@ -29,6 +37,31 @@
 
 namespace bsf_vpr {
 
+// Why shard distances `d` (n of them, to one set) cannot be a shard's exact distances of a
+// query whose L2 norm is `query_norm` to rows whose largest L2 norm is `max_row_norm`, or ""
+// if they can: every distance is finite and non-negative, a cosine distance (1 - cos) is at
+// most 2, and a Euclidean one at most query_norm + max_row_norm (the triangle inequality),
+// each with a margin for rounding. A shard's fault (a NaN from a broken kernel, a corrupted
+// message) then makes that shard missing for the query instead of dropping it.
+inline std::string ShardDistancesProblem(const float* d, size_t n, bool cosine, double query_norm,
+                                         double max_row_norm) {
+  // Float32 rounding of a distance computed as in distance_formula (relative 1e-6 a term,
+  // over D terms in float): 1e-3 relative is far beyond it and far below a fault's value.
+  const double bound = cosine ? 2.0 * (1 + 1e-3) : (query_norm + max_row_norm) * (1 + 1e-3) + 1e-6;
+  for (size_t i = 0; i < n; ++i) {
+    const double v = d[i];
+    if (std::isfinite(v) && v >= 0 && v <= bound) continue;
+    char what[160];
+    std::snprintf(what, sizeof(what), "distance %zu of %zu is %g: %s", i, n, v,
+                  !std::isfinite(v) ? "not finite"
+                  : v < 0           ? "negative"
+                  : cosine          ? "a cosine distance is at most 2"
+                                    : "above the query's norm plus the set's largest row norm");
+    return what;
+  }
+  return "";
+}
+
 template <class AnswerPtr>
 class ShardJoin {
  public:
@@ -36,11 +69,13 @@ class ShardJoin {
   enum class Level { kInfo, kWarn, kWarnRepeated };
   struct Decision {
     int64_t stamp_ns = 0;
+    double query_norm = 0;           // as heard (Hear)
     std::vector<AnswerPtr> answers;  // one per shard, null where none came
   };
   struct ShardCounts {
     int64_t answered = 0, missed = 0, late = 0;
-    bool missing = false;  // missed a query: not waited for until it answers in time
+    int64_t unheard = 0;   // answers for a stamp no descriptor had: refused
+    bool missing = false;  // missed the last query it was expected for
     double missing_since_s = 0;
   };
 
@@ -54,12 +89,37 @@ class ShardJoin {
         can_answer_(std::move(can_answer)),
         log_(std::move(log)) {}
 
+  // A descriptor stamped `stamp_ns` (not zero) reached the owner at `now_s`; `query_norm` is
+  // its L2 norm, handed back with its decision. The queries now decided, in stamp order.
+  std::vector<Decision> Hear(int64_t stamp_ns, double query_norm, double now_s) {
+    heard_[stamp_ns] = query_norm;  // a stamp heard again (a replay) stays heard
+    heard_order_.push_back(stamp_ns);
+    latest_heard_ = stamp_ns;
+    heard_any_ = true;
+    // Enough to pair every pending query (at most queue_size) twice over; by the order
+    // heard, so that a replay's earlier stamps are not the ones forgotten.
+    while (heard_order_.size() > 2 * queue_size_ + 16) {
+      const int64_t oldest = heard_order_.front();
+      heard_order_.pop_front();
+      if (std::find(heard_order_.begin(), heard_order_.end(), oldest) == heard_order_.end()) {
+        heard_.erase(oldest);
+      }
+    }
+    std::vector<Decision> out;
+    Flush(now_s, &out);
+    return out;
+  }
+
   // Shard k's answer for the query stamped `stamp_ns` (not zero), at `now_s`; the queries
   // now decided, in stamp order.
   std::vector<Decision> Answer(int k, int64_t stamp_ns, AnswerPtr answer, double now_s) {
     ShardCounts& shard = shards_.at(static_cast<size_t>(k));
     ++shard.answered;
     const bool old = decided_any_ && stamp_ns <= last_decided_;
+    if (old && !heard_.count(stamp_ns)) {
+      RefuseUnheard(k, stamp_ns);  // not a late answer: no query had this stamp
+      return {};
+    }
     Pending& p = (old ? past_ : pending_)[stamp_ns];
     if (p.answers.empty()) {
       p.answers.resize(shards_.size());
@@ -75,7 +135,6 @@ class ShardJoin {
     p.answers[static_cast<size_t>(k)] = std::move(answer);
     std::vector<Decision> out;
     if (!old) {
-      MarkAnswering(k, now_s);  // on time: waited for again (a late answer does not)
       Flush(now_s, &out);
       return out;
     }
@@ -105,10 +164,8 @@ class ShardJoin {
 
   int num_shards() const { return static_cast<int>(shards_.size()); }
   const ShardCounts& counts(int k) const { return shards_.at(static_cast<size_t>(k)); }
-  // Whether a query waits for shard k's answer now.
-  bool Expected(int k) const {
-    return !shards_.at(static_cast<size_t>(k)).missing && can_answer_(k);
-  }
+  // Whether a query waits for shard k's answer now (up to the timeout).
+  bool Expected(int k) const { return can_answer_(k); }
   size_t pending() const { return pending_.size(); }
 
  private:
@@ -116,6 +173,14 @@ class ShardJoin {
     std::vector<AnswerPtr> answers;  // one per shard
     double first_s = 0;              // when the first answer came
   };
+
+  void RefuseUnheard(int k, int64_t stamp_ns) {
+    ++shards_[static_cast<size_t>(k)].unheard;
+    log_(Level::kWarnRepeated, k,
+         "answered for stamp " + std::to_string(stamp_ns * 1e-9) +
+             ", which no descriptor this node heard had (a forged or corrupted stamp, or this "
+             "node and the shard listen to different descriptors): refused");
+  }
 
   void MarkAnswering(int k, double now_s) {
     ShardCounts& shard = shards_[static_cast<size_t>(k)];
@@ -129,30 +194,57 @@ class ShardJoin {
 
   void Flush(double now_s, std::vector<Decision>* out) {
     while (!pending_.empty()) {
+      // Full: answers for stamps not heard go first, the furthest ahead first (a flood of
+      // forged stamps must not push real queries out undecided).
+      for (auto back = pending_.end(); pending_.size() > queue_size_ && back != pending_.begin();) {
+        --back;
+        if (heard_.count(back->first)) continue;
+        for (size_t k = 0; k < shards_.size(); ++k) {
+          if (back->second.answers[k]) RefuseUnheard(static_cast<int>(k), back->first);
+        }
+        back = pending_.erase(back);
+      }
       auto it = pending_.begin();
       Pending& p = it->second;
+      const bool overflow = pending_.size() > queue_size_;
+      const bool timed_out = now_s - p.first_s >= timeout_s_;
+      const auto heard = heard_.find(it->first);
+      if (heard == heard_.end()) {
+        // Its descriptor may still be on its way to this node, unless a later one came
+        // first (descriptors arrive in the order published).
+        const bool in_flight = !heard_any_ || latest_heard_ < it->first;
+        if (in_flight && !timed_out && !overflow) return;
+        for (size_t k = 0; k < shards_.size(); ++k) {
+          if (p.answers[k]) RefuseUnheard(static_cast<int>(k), it->first);
+        }
+        pending_.erase(it);
+        continue;
+      }
       bool waiting = false;
       for (size_t k = 0; k < shards_.size(); ++k) {
         if (!p.answers[k] && Expected(static_cast<int>(k))) waiting = true;
       }
-      const bool overflow = pending_.size() > queue_size_;
-      if (waiting && now_s - p.first_s < timeout_s_ && !overflow) return;
+      if (waiting && !timed_out && !overflow) return;
       for (size_t k = 0; k < shards_.size(); ++k) {
-        if (!p.answers[k] && Expected(static_cast<int>(k))) {
+        if (p.answers[k]) {
+          MarkAnswering(static_cast<int>(k), now_s);
+        } else if (Expected(static_cast<int>(k))) {
           ShardCounts& shard = shards_[k];
+          ++shard.missed;
+          if (shard.missing) continue;  // said when it went missing
           shard.missing = true;
           shard.missing_since_s = now_s;
-          ++shard.missed;
           char seconds[32];
           std::snprintf(seconds, sizeof(seconds), "%.2f", timeout_s_);
           log_(Level::kWarn, static_cast<int>(k),
                std::string("did not answer within ") + seconds +
-                   " s: deciding without its sets until it answers again");
+                   " s: deciding without its sets, waiting for it up to that long a query, "
+                   "until it answers again");
         }
       }
       last_decided_ = it->first;
       decided_any_ = true;
-      out->push_back(Decision{it->first, std::move(p.answers)});
+      out->push_back(Decision{it->first, heard->second, std::move(p.answers)});
       pending_.erase(it);
     }
   }
@@ -168,6 +260,12 @@ class ShardJoin {
   std::map<int64_t, Pending> past_;
   int64_t last_decided_ = 0;
   bool decided_any_ = false;
+  // The stamps heard (with their query's norm), the last 2 x queue_size + 16 in the order
+  // heard, and the latest.
+  std::map<int64_t, double> heard_;
+  std::deque<int64_t> heard_order_;
+  int64_t latest_heard_ = 0;
+  bool heard_any_ = false;
 };
 
 }  // namespace bsf_vpr

@@ -2,9 +2,13 @@
 
 #include <bsf_vpr/GetShardDistances.h>
 #include <bsf_vpr/UnloadReferenceSet.h>
+#include <ros/callback_queue.h>
 
 #include <algorithm>
+#include <boost/make_shared.hpp>
 #include <chrono>
+#include <cmath>
+#include <thread>
 
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/ros/names.h"
@@ -27,6 +31,95 @@ std::string SetList(const ShardInfo* info) {
   for (const ShardSet& s : info->sets) out += (out.empty() ? "" : ", ") + s.name;
   return out;
 }
+
+std::chrono::steady_clock::time_point Deadline(double seconds) {
+  return std::chrono::steady_clock::now() +
+         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+             std::chrono::duration<double>(seconds));
+}
+
+// A call to a shard's service that is waited for a bounded time: roscpp's calls cannot be
+// cancelled, so each runs in a thread of its own, which goes on (owning its request and
+// response) when the wait ends first. Such a call raises the shard's count of stalled calls
+// until it returns; while it is raised, the shard is not called (a stalled shard would
+// otherwise gather one blocked thread per call).
+template <typename Service>
+class ShardCall {
+ public:
+  ShardCall(const std::string& service, const Service& srv,
+            std::shared_ptr<std::atomic<int>> stalled)
+      : service_(service), state_(std::make_shared<State>()) {
+    state_->srv = srv;
+    state_->stalled = std::move(stalled);
+    if (*state_->stalled > 0) {
+      busy_ = true;
+      return;
+    }
+    std::thread([state = state_, service] {
+      const bool ok = ros::service::call(service, state->srv);
+      std::lock_guard<std::mutex> lock(state->mutex);
+      state->finished = true;
+      state->ok = ok;
+      if (state->abandoned) --*state->stalled;
+      state->done.notify_all();
+    }).detach();
+  }
+
+  // Waits for the answer until `deadline`: "" once answered (response()), else why not.
+  std::string Wait(std::chrono::steady_clock::time_point deadline, double timeout_s) {
+    if (busy_) {
+      return "has not answered an earlier call yet (a stalled shard is not called again until "
+             "it does)";
+    }
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    if (!state_->done.wait_until(lock, deadline, [this] { return state_->finished; })) {
+      if (!state_->abandoned) {
+        state_->abandoned = true;
+        ++*state_->stalled;
+      }
+      char seconds[32];
+      std::snprintf(seconds, sizeof(seconds), "%.2f", timeout_s);
+      return std::string("did not answer ") + service_ + " within " + seconds + " s (stalled?)";
+    }
+    return state_->ok ? "" : "did not answer " + service_;
+  }
+  // The response; read after Wait returned "".
+  const typename Service::Response& response() const { return state_->srv.response; }
+
+ private:
+  struct State {
+    Service srv;
+    std::shared_ptr<std::atomic<int>> stalled;
+    std::mutex mutex;
+    std::condition_variable done;
+    bool finished = false, ok = false, abandoned = false;
+  };
+  std::string service_;
+  std::shared_ptr<State> state_;
+  bool busy_ = false;
+};
+
+template <typename Service>
+std::string CallShard(const std::string& service, Service* srv,
+                      std::shared_ptr<std::atomic<int>> stalled, double timeout_s) {
+  ShardCall<Service> call(service, *srv, std::move(stalled));
+  const std::string why = call.Wait(Deadline(timeout_s), timeout_s);
+  if (why.empty()) srv->response = call.response();
+  return why;
+}
+
+// Runs a function on a callback queue.
+class FunctionCallback : public ros::CallbackInterface {
+ public:
+  explicit FunctionCallback(std::function<void()> f) : f_(std::move(f)) {}
+  CallResult call() override {
+    f_();
+    return Success;
+  }
+
+ private:
+  std::function<void()> f_;
+};
 
 bool SameSets(const ShardInfo* a, const ShardInfo* b) {
   if (!a || !b || a->sets.size() != b->sets.size() || a->distance != b->distance) return false;
@@ -105,6 +198,28 @@ ShardedMap::~ShardedMap() {
   }
   timer_.stop();
   for (ros::Subscriber& s : subscribers) s.shutdown();
+  nh_.getCallbackQueue()->removeByID(reinterpret_cast<uint64_t>(this));
+}
+
+std::optional<MapBackend::Query> ShardedMap::Hear(const Descriptor& descriptor) {
+  if (descriptor.header.stamp.isZero()) return std::nullopt;  // the shards' answers say so
+  double norm = 0;
+  for (const float x : descriptor.data) norm += static_cast<double>(x) * x;
+  bool decided = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<Join::Decision> decisions =
+        join_.Hear(static_cast<int64_t>(descriptor.header.stamp.toNSec()), std::sqrt(norm), NowS());
+    decided = !decisions.empty();
+    Queue(std::move(decisions));
+  }
+  if (decided) DeliverLater();  // the caller holds the node's lock
+  return std::nullopt;
+}
+
+void ShardedMap::DeliverLater() {
+  nh_.getCallbackQueue()->addCallback(boost::make_shared<FunctionCallback>([this] { Deliver(); }),
+                                      reinterpret_cast<uint64_t>(this));
 }
 
 MapBackend::Layout ShardedMap::layout() const {
@@ -298,7 +413,7 @@ void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
       if (a) header = a->header;
     }
     try {
-      Query query = Assemble(header, answers);
+      Query query = Assemble(header, d.query_norm, answers);
       ++decided_;
       if (!query.missing_shards.empty()) ++decided_partial_;
       outbox_.push_back(Outgoing{std::move(query), "", nullptr});
@@ -328,8 +443,8 @@ void ShardedMap::Deliver() {
   }
 }
 
-MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header,
-                                       const std::vector<const ShardDistances*>& answers) const {
+MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header, double query_norm,
+                                       const std::vector<const ShardDistances*>& answers) {
   Query query;
   query.header = header;
   query.layout = layout_;
@@ -338,7 +453,7 @@ MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header,
   bool any = false;      // a shard's distances are in
   int u = 0;             // the layout's index of the shard's first set
   for (size_t k = 0; k < shards_.size(); ++k) {
-    const Shard& shard = shards_[k];
+    Shard& shard = shards_[k];
     if (!shard.info) {
       query.missing_shards.push_back(shard.name);  // no sets known yet
       continue;
@@ -359,6 +474,22 @@ MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header,
       total += sets[i].place_ids.size();
     }
     usable = usable && a->distances.size() == total;
+    // Distances no exact distance can be (a broken kernel, a corrupted message): that
+    // shard's fault, not the query's.
+    for (size_t i = 0, offset = 0; usable && i < sets.size();
+         offset += sets[i].place_ids.size(), ++i) {
+      const std::string problem =
+          ShardDistancesProblem(a->distances.data() + offset, sets[i].place_ids.size(),
+                                metric_ == DistanceMetric::kCosine, query_norm, sets[i].max_norm);
+      if (problem.empty()) continue;
+      usable = false;
+      ++shard.invalid_answers;
+      shard.invalid = "set '" + sets[i].name + "': " + problem;
+      ROS_WARN_THROTTLE(5.0,
+                        "bsf_vpr: shard %s answered distances that cannot be exact (%s): "
+                        "deciding without its sets for that query",
+                        shard.name.c_str(), shard.invalid.c_str());
+    }
     if (!usable) {
       if (!sets.empty()) query.missing_shards.push_back(shard.name);
       u += static_cast<int>(sets.size());  // absent
@@ -380,39 +511,60 @@ MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header,
 }
 
 MapBackend::Query ShardedMap::Ask(const Descriptor& descriptor) {
-  // Each shard's distances through its get_distances service (without the lock: the shards
-  // answer while descriptors stream in).
+  // Each shard's distances through its get_distances service, called at once and waited for
+  // until one deadline (without the lock: the shards answer while descriptors stream in).
   std::vector<std::string> names;
+  std::vector<std::shared_ptr<std::atomic<int>>> stalled;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (const Shard& s : shards_) names.push_back(s.name);
-  }
-  std::vector<GetShardDistances> calls(names.size());
-  std::vector<const ShardDistances*> answers(names.size(), nullptr);
-  for (size_t k = 0; k < names.size(); ++k) {
-    calls[k].request.descriptor = descriptor;
-    if (ros::service::call(names[k] + "/" + names::kShardDistancesService, calls[k])) {
-      answers[k] = &calls[k].response.distances;
+    for (const Shard& s : shards_) {
+      names.push_back(s.name);
+      stalled.push_back(s.stalled_calls);
     }
   }
+  GetShardDistances request;
+  request.request.descriptor = descriptor;
+  std::vector<std::unique_ptr<ShardCall<GetShardDistances>>> calls;
+  for (size_t k = 0; k < names.size(); ++k) {
+    calls.push_back(std::make_unique<ShardCall<GetShardDistances>>(
+        names[k] + "/" + names::kShardDistancesService, request, stalled[k]));
+  }
+  const auto deadline = Deadline(options_.call_timeout_s);
+  std::vector<const ShardDistances*> answers(names.size(), nullptr);
+  for (size_t k = 0; k < names.size(); ++k) {
+    const std::string why = calls[k]->Wait(deadline, options_.call_timeout_s);
+    if (why.empty()) {
+      answers[k] = &calls[k]->response().distances;
+    } else {
+      ROS_WARN_THROTTLE(5.0, "bsf_vpr: query_place: shard %s %s: answered without its sets",
+                        names[k].c_str(), why.c_str());
+    }
+  }
+  double norm = 0;
+  for (const float x : descriptor.data) norm += static_cast<double>(x) * x;
   std::lock_guard<std::mutex> lock(mutex_);
-  return Assemble(descriptor.header, answers);
+  return Assemble(descriptor.header, std::sqrt(norm), answers);
 }
 
 template <typename Service>
-std::string ShardedMap::Route(int k, const std::string& service, Service* srv) {
+std::string ShardedMap::Route(int k, const std::string& service, Service* srv, double timeout_s) {
   std::string name;
   uint64_t infos = 0, refusals = 0;
+  std::shared_ptr<std::atomic<int>> stalled;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     Shard& shard = shards_.at(static_cast<size_t>(k));
     name = shard.name;
     infos = shard.info_count;
     refusals = shard.refusals;
+    stalled = shard.stalled_calls;
     shard.change_expected = true;  // its next change of sets is not warned about as lost
   }
-  if (!ros::service::call(name + "/" + service, *srv)) {
-    throw std::invalid_argument("shard " + name + " did not answer " + service);
+  const std::string why = CallShard(name + "/" + service, srv, stalled, timeout_s);
+  if (!why.empty()) {
+    throw std::invalid_argument("shard " + name + " " + why +
+                                "; if it completes later, the map takes the shard's new sets "
+                                "when its shard_info arrives (list_reference_sets)");
   }
   if (!srv->response.success) {
     throw std::invalid_argument("shard " + name + ": " + srv->response.message);
@@ -448,7 +600,9 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv) {
   for (const std::string& set : added) {
     UnloadReferenceSet undo;
     undo.request.name = set;
-    ros::service::call(name + "/" + names::kUnloadReferenceSetService, undo);
+    const std::string undone = CallShard(name + "/" + names::kUnloadReferenceSetService, &undo,
+                                         stalled, options_.call_timeout_s);
+    if (!undone.empty()) ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), undone.c_str());
   }
   if (!added.empty()) {
     lock.lock();
@@ -487,7 +641,7 @@ std::string ShardedMap::Load(const LoadReferenceSet::Request& request, const Set
   LoadReferenceSet forward;
   forward.request = request;
   forward.request.shard.clear();
-  return Route(shard, names::kLoadReferenceSetService, &forward);
+  return Route(shard, names::kLoadReferenceSetService, &forward, options_.load_timeout_s);
 }
 
 std::string ShardedMap::Unload(const std::string& name) {
@@ -501,7 +655,7 @@ std::string ShardedMap::Unload(const std::string& name) {
   }
   UnloadReferenceSet forward;
   forward.request.name = name;
-  return Route(shard, names::kUnloadReferenceSetService, &forward);
+  return Route(shard, names::kUnloadReferenceSetService, &forward, options_.call_timeout_s);
 }
 
 std::string ShardedMap::CannotRecord() const {
@@ -583,9 +737,17 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
       state += "answering: " + SetList(shard.info.get());
     }
     if (!shard.lost.empty()) state += "; lost at its last change: " + shard.lost;
-    status.addf("shard " + shard.name, "%s; %ld answers, %ld missed, %ld late", state.c_str(),
-                static_cast<long>(counts.answered), static_cast<long>(counts.missed),
-                static_cast<long>(counts.late));
+    if (*shard.stalled_calls > 0) {
+      state += "; " + std::to_string(shard.stalled_calls->load()) +
+               " service call(s) not answered in time, still pending";
+    }
+    status.addf("shard " + shard.name,
+                "%s; %ld answers, %ld missed, %ld late, %ld for stamps no descriptor had, %ld "
+                "with impossible distances%s",
+                state.c_str(), static_cast<long>(counts.answered), static_cast<long>(counts.missed),
+                static_cast<long>(counts.late), static_cast<long>(counts.unheard),
+                static_cast<long>(shard.invalid_answers),
+                shard.invalid.empty() ? "" : (" (last: " + shard.invalid + ")").c_str());
   }
 }
 

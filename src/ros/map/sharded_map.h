@@ -6,6 +6,12 @@
 // through Callbacks::query. load_reference_set and unload_reference_set are routed to the
 // shard concerned and answered once its new shard_info is in the layout.
 //
+// This map hears the descriptors too (Hear), only to know which stamps are queries: a
+// shard's answer for any other stamp is refused (shard_join.h), and an answer whose
+// distances no exact distance can be (ShardDistancesProblem: NaN, negative, beyond the
+// norms) makes that shard missing for the query. Every call to a shard's service waits a
+// bounded time (ShardCall in sharded_map.cpp): a stalled shard is reported, not waited on.
+//
 // A shard that comes back holding other sets (another fingerprint) changes the layout; a
 // shard's sets that cannot share the map with the others' are refused (the layout keeps
 // them out) and tried again when another shard's change.
@@ -18,9 +24,11 @@
 #include <bsf_vpr/ShardInfo.h>
 #include <ros/ros.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -34,6 +42,8 @@ namespace bsf_vpr {
 struct ShardedMapOptions {
   std::vector<std::string> shards;  // resolved in the node's namespace
   double timeout_s = 0.5;           // a query waits this long for the shards after the first
+  double call_timeout_s = 1.0;      // a call to get_distances or unload waits this long
+  double load_timeout_s = 30;       // a routed load waits this long
   int queue_size = 100;             // queries pending at most
   // The distance the node is configured with (nullopt: the shards').
   std::optional<DistanceMetric> metric;
@@ -47,10 +57,12 @@ class ShardedMap : public MapBackend {
 
   // Subscribes to the shards; queries and layouts are handed on from then on.
   void Start(Callbacks callbacks) override;
-  bool NeedsDescriptors() const override { return false; }
+  bool NeedsDescriptors() const override { return true; }
   Layout layout() const override;
   DistanceMetric metric() const override;
-  std::optional<Query> Hear(const Descriptor&) override { return std::nullopt; }
+  // Notes the descriptor's stamp and norm for the join; its query comes back through
+  // Callbacks::query once the shards answered.
+  std::optional<Query> Hear(const Descriptor& descriptor) override;
   Query Ask(const Descriptor& descriptor) override;
   std::string Load(const LoadReferenceSet::Request& request, const SetCheck& check) override;
   std::string Unload(const std::string& name) override;
@@ -71,6 +83,12 @@ class ShardedMap : public MapBackend {
     uint64_t refusals = 0;
     bool change_expected = false;  // a load or unload was routed to it
     std::string lost;              // sets its last change dropped without one
+    // Answers refused for their distances (ShardDistancesProblem), and the last reason.
+    int64_t invalid_answers = 0;
+    std::string invalid;
+    // Calls to its services that outlasted their wait and have not returned yet: while
+    // any has not, it is not called again (shared with the calls' threads).
+    std::shared_ptr<std::atomic<int>> stalled_calls = std::make_shared<std::atomic<int>>(0);
   };
   using Join = ShardJoin<ShardDistances::ConstPtr>;
   // What the callbacks are to be told, in order: a query, a rejection or a layout.
@@ -90,19 +108,24 @@ class ShardedMap : public MapBackend {
   // Every shard's sets with shard k's from `info`, in the map's order, and their distance.
   // Throws std::invalid_argument when they cannot share a map. Caller holds mutex_.
   PlaceLayout LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const;
-  // The query of `answers` (one per shard, null where none) on the layout now. A shard's
-  // refusal, or an answer that does not fit its sets, makes that shard missing; throws
+  // The query of `answers` (one per shard, null where none) on the layout now, for a
+  // descriptor of L2 norm `query_norm`. A shard's refusal, an answer that does not fit its
+  // sets or distances that cannot be exact ones make that shard missing; throws
   // std::invalid_argument when every shard that answered with sets refused the descriptor.
   // Caller holds mutex_.
-  Query Assemble(const std_msgs::Header& header,
-                 const std::vector<const ShardDistances*>& answers) const;
+  Query Assemble(const std_msgs::Header& header, double query_norm,
+                 const std::vector<const ShardDistances*>& answers);
   // Queues the join's decisions for the callbacks. Caller holds mutex_.
   void Queue(std::vector<Join::Decision> decisions);
   // Hands the queued queries to the callbacks, in order. Called without mutex_.
   void Deliver();
-  // Routes a load or unload to shard k and waits for its new shard_info. Without mutex_.
+  // Deliver() soon, from the node's callback queue (for a caller that holds the node's
+  // lock, which the callbacks take).
+  void DeliverLater();
+  // Routes a load or unload to shard k (waiting `timeout_s` for its answer) and waits for
+  // its new shard_info. Without mutex_.
   template <typename Service>
-  std::string Route(int k, const std::string& service, Service* srv);
+  std::string Route(int k, const std::string& service, Service* srv, double timeout_s);
   int OwnerOf(const std::string& set) const;  // caller holds mutex_; -1 if none
   int LeastLoaded() const;                    // caller holds mutex_; -1 if none published
   bool CanAnswer(int k) const;                // caller holds mutex_

@@ -159,6 +159,29 @@ class Sharded(unittest.TestCase):
             wait_for(lambda: any("deciding without shard" in st.message and "fall" in st.message
                                  for array in self.diagnostics[start:] for st in array.status),
                      10, "diagnostics naming the missing shard")
+            # Services while a shard is stalled: query_place answers without its set once
+            # shard_timeout + shard_call_timeout (2 + 0.5 s here) are over, the next call at
+            # once (a stalled shard is not called again), and a load and an unload routed to
+            # a healthy shard are not held up.
+            query = rospy.ServiceProxy("/bsf_vpr/query_place", QueryPlace)
+            d = Descriptor()
+            d.data = self.queries[42].tolist()
+            for wait in (2.5, 0.0):
+                began = time.monotonic()
+                r = query(descriptor=d)
+                took = time.monotonic() - began
+                self.assertTrue(r.success, r.message)
+                self.assertEqual(list(r.belief.missing_sets), ["fall"])
+                self.assertGreaterEqual(took, wait - 0.1)
+                self.assertLess(took, wait + 1.5, "query_place took %.2f s" % took)
+            load = rospy.ServiceProxy("/bsf_vpr/load_reference_set", LoadReferenceSet)
+            unload = rospy.ServiceProxy("/bsf_vpr/unload_reference_set", UnloadReferenceSet)
+            began = time.monotonic()
+            r = load(path="summer.yaml", name="summer_c", shard="shard_0")
+            self.assertTrue(r.success, r.message)
+            r = unload(name="summer_c")
+            self.assertTrue(r.success, r.message)
+            self.assertLess(time.monotonic() - began, 3.0)
         finally:
             os.kill(pid, signal.SIGCONT)
         continued_at = time.monotonic()

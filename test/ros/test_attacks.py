@@ -296,6 +296,34 @@ class Attacks(unittest.TestCase):
         self.assertEqual(len([d for d in self.img_out[n:] if d.header.stamp != rospy.Time(777)]),
                          0)
 
+    def test_descriptors_lost_to_a_full_queue_are_counted(self):
+        # A burst far faster than a queue of one is emptied: what it lost shows in the
+        # diagnostics (WARN), counted among the dropped descriptors.
+        pub = rospy.Publisher("/burst/descriptor", Descriptor, queue_size=1000)
+        wait_for(lambda: pub.get_num_connections() > 0, 20, "the burst node")
+        since = len(self.diagnostics)
+        for i in range(1000):
+            msg = Descriptor()
+            msg.header.stamp = rospy.Time(5000 + i)
+            msg.data = list(map(float, self.night[i % len(self.night)]))
+            pub.publish(msg)
+        self.diagnosed(since, 1, "to a full queue", "burst")
+
+        def lost():
+            total = 0
+            for array in self.diagnostics[since:]:
+                for s in array.status:
+                    if "burst" in s.name:
+                        values = {kv.key: kv.value for kv in s.values}
+                        self.assertEqual(int(values["dropped descriptors"]),
+                                         int(values["dropped: bad"]) +
+                                         int(values["dropped: queue overflow"]))
+                        total = int(values["dropped: queue overflow since start"])
+            return total
+        self.assertGreater(lost(), 0)
+        self.assertLess(lost(), 1000)
+        pub.unregister()
+
     def test_huge_finite_descriptors_are_refused(self):
         self.ensure_day_loaded()
         n_match = len(self.matches)

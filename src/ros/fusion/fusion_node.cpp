@@ -209,7 +209,8 @@ void FusionNode::CheckDescriptorType(const std::string& type) {
                     type_mismatch_.c_str());
 }
 
-void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
+void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) {
+  const Descriptor::ConstPtr& msg = event.getConstMessage();
   // A recording by pose waits for the robot's pose at the descriptor's stamp (up to
   // pose_wait_s: a camera image is usually newer than the last pose), without the lock.
   // Other recordings take a pose only if there is one already.
@@ -218,6 +219,9 @@ void FusionNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++received_;
+    const uint64_t lost = sequence_gaps_.Note(event.getPublisherName(), msg->header.seq);
+    lost_ += lost;
+    lost_total_ += lost;
     recording = recording_->accepting();
     places = recording_->places();
   }
@@ -388,6 +392,11 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   } else if (rejected_ > 0 && processed_ == 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "every descriptor dropped (%d): %s",
                     rejected_, last_rejection_.c_str());
+  } else if (lost_ > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "dropped %lu descriptor(s) to a full queue (queue_size %d): they arrive "
+                    "faster than they are recognised",
+                    static_cast<unsigned long>(lost_), params_.queue_size);
   } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
                     rejected_, last_rejection_.c_str());
@@ -408,10 +417,14 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   // stream that arrives but is dropped whole shows as such.
   status.add("received rate (Hz)", received_ / elapsed);
   status.add("recognised rate (Hz)", processed_ / elapsed);
-  status.add("dropped rate (Hz)", rejected_ / elapsed);
+  status.add("dropped rate (Hz)", (rejected_ + static_cast<double>(lost_)) / elapsed);
   status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
   status.add("max processing time (ms)", 1e3 * processing_s_max_);
-  status.add("dropped descriptors", rejected_);
+  // Every drop: the bad ones and those a full queue lost before this node saw them.
+  status.add("dropped descriptors", rejected_ + lost_);
+  status.add("dropped: bad", rejected_);
+  status.add("dropped: queue overflow", lost_);
+  status.add("dropped: queue overflow since start", lost_total_);
   status.add("method", decider_.method_name());
   if (!last_reconfigure_refusal_.empty()) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);
@@ -431,6 +444,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.add("descriptors not recorded, no pose: " + cause, n);
   }
   processed_ = rejected_ = received_ = 0;
+  lost_ = 0;
   type_mismatch_.clear();
   processing_s_sum_ = processing_s_max_ = 0;
   last_diagnostics_ = now;

@@ -45,6 +45,7 @@
 
 #include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/io/data_directory.h"
+#include "src/ros/common/sequence_gaps.h"
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recognition_publisher.h"
@@ -65,7 +66,7 @@ class FusionNode {
   void Start();
 
  private:
-  void OnDescriptor(const Descriptor::ConstPtr& msg);
+  void OnDescriptor(const ros::MessageEvent<const Descriptor>& event);
   // Decides `query` and publishes the belief; the recognition, or nullopt when it was
   // dropped (reported). Adopts the query's layout first if the map's changed. Caller holds
   // mutex_.
@@ -135,6 +136,10 @@ class FusionNode {
 
   // Statistics since the last diagnostics update (guarded by mutex_).
   int processed_ = 0, rejected_ = 0, received_ = 0;
+  // Descriptors lost to a full queue before this node saw them (header.seq gaps): in the
+  // last diagnostics period, and since start.
+  uint64_t lost_ = 0, lost_total_ = 0;
+  SequenceGaps sequence_gaps_;
   // Recording by pose: descriptors without a pose, by cause (since start).
   std::map<std::string, long> pose_losses_;
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).

@@ -162,6 +162,7 @@ void DescriptorIngest::Reject(const std::string& why) {
 }
 
 void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
+  NoteSequence("", msg->header.seq);  // image_transport does not say who published
   auto out = boost::make_shared<Descriptor>();
   const std::string problem = ImageProblem(*msg);
   if (!problem.empty()) return Reject("bad image: " + problem);
@@ -198,7 +199,9 @@ void DescriptorIngest::OnAnyDescriptor(
   }
   try {
     if (type == ros::message_traits::DataType<Descriptor>::value()) {
-      return OnDescriptor(msg->instantiate<Descriptor>());
+      Descriptor::ConstPtr d = msg->instantiate<Descriptor>();
+      NoteSequence(event.getPublisherName(), d->header.seq);
+      return OnDescriptor(d);
     }
     if (type == ros::message_traits::DataType<std_msgs::Float32MultiArray>::value()) {
       Descriptor::Ptr out = FromFloat32MultiArray(*msg->instantiate<std_msgs::Float32MultiArray>());
@@ -248,7 +251,18 @@ std::string DescriptorIngest::Problem(const Descriptor& d, double* squared_norm)
   return "";
 }
 
+void DescriptorIngest::NoteSequence(const std::string& publisher, uint32_t seq) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  lost_ += sequence_gaps_.Note(publisher, seq);
+}
+
 void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
+  {
+    // Numbered here, so that the fusion node counts what its own queue loses (a nodelet in
+    // the same manager receives the message as it is, seq included).
+    std::lock_guard<std::mutex> lock(mutex_);
+    out->header.seq = next_seq_++;
+  }
   double sq = 0;
   const std::string problem = Problem(*out, &sq);
   if (!problem.empty()) return Reject(problem);
@@ -292,6 +306,11 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
                        ? image_type_problem
                        : "the input topic carries " + wrong_type_ +
                              "; expected bsf_vpr/Descriptor or std_msgs/Float32MultiArray");
+  } else if (lost_ > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "dropped %lu input(s) to a full queue (queue_size %d): they arrive faster "
+                    "than they are described",
+                    static_cast<unsigned long>(lost_), params_.queue_size);
   } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %ld bad input(s): %s",
                     rejected_, last_rejection_.c_str());
@@ -301,9 +320,13 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   status.add("input", params_.input == IngestInput::kImage ? "image" : "descriptor");
   for (const auto& [publisher, type] : heard_) status.add("heard: " + publisher, type);
   status.add("published", published_);
-  status.add("dropped", rejected_);
+  // Every drop: the bad inputs and those a full queue lost before this node saw them.
+  status.add("dropped", rejected_ + static_cast<long>(lost_));
+  status.add("dropped: bad", rejected_);
+  status.add("dropped: queue overflow", lost_);
   status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));
   rejected_ = 0;
+  lost_ = 0;
   wrong_type_.clear();
 }
 

@@ -29,6 +29,7 @@
 #include "bsf_vpr/image/image_describer.h"
 #include "src/ros/common/image_problem.h"
 #include "src/ros/common/param_util.h"
+#include "src/ros/common/sequence_gaps.h"
 
 namespace bsf_vpr {
 
@@ -73,6 +74,8 @@ class DescriptorIngest {
   // Why publishers on the descriptor input are never heard ("" if all are): see the .cpp.
   std::string UnheardPublishers();
   void OnDescriptor(const Descriptor::ConstPtr& msg);
+  // Counts the inputs lost before `seq` from `publisher` (SequenceGaps).
+  void NoteSequence(const std::string& publisher, uint32_t seq);
   // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
   void ValidateAndPublish(const Descriptor::Ptr& out);
   // Why `d` cannot pass ("" if it can); `squared_norm` receives its squared L2 norm.
@@ -94,6 +97,11 @@ class DescriptorIngest {
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
   long published_ = 0, rejected_ = 0;
+  // Inputs lost to a full queue before this node saw them (header.seq gaps), since the
+  // last diagnostics; and the number of the next descriptor made here (header.seq).
+  uint64_t lost_ = 0;
+  uint32_t next_seq_ = 0;
+  SequenceGaps sequence_gaps_;
   std::string last_rejection_;
   std::string wrong_type_;  // the input topic's type, when a publisher offers another one
   // Descriptor input: the type each publisher was heard with, and when the master first

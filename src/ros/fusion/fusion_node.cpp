@@ -42,7 +42,9 @@ void FusionNode::Start() {
                data_dir_->path().c_str());
     }
   }
-  recording_ = std::make_unique<Recording>(data_dir_.get());
+  recording_ = std::make_unique<Recording>(
+      data_dir_.get(), RecordingLimits{params_.recording_max_descriptors,
+                                       int64_t{params_.recording_max_megabytes} * 1000000});
   decider_ = PlaceDecider(params_.recognizer.method, params_.recognizer.method_options);
   map_ = MakeMap(nh_, params_, data_dir_.get());  // calls back only once started, below
   layout_ = map_->layout();
@@ -92,8 +94,10 @@ void FusionNode::Start() {
   query_spinner_->start();
   services_.push_back(
       nh_.advertiseService(names::kStartRecordingService, &FusionNode::OnStartRecording, this));
-  services_.push_back(
-      nh_.advertiseService(names::kStopRecordingService, &FusionNode::OnStopRecording, this));
+  // On the load queue's thread: a stop builds, writes and loads the set (seconds for a long
+  // recording) while the descriptors go on.
+  services_.push_back(AdvertiseOnQueue<StopRecording>(
+      nh_, names::kStopRecordingService, &FusionNode::OnStopRecording, this, &load_queue_));
   services_.push_back(
       nh_.advertiseService(names::kSelectionStatisticsService, &FusionNode::OnStatistics, this));
 
@@ -176,14 +180,15 @@ void FusionNode::CheckDescriptorFormat() {
   format_mismatch_ = problem;
 }
 
-void FusionNode::FollowRecordingImages() {
+ros::Subscriber FusionNode::FollowRecordingImages() {
   const bool wanted = recording_->accepting() && recording_->saves_images();
   if (wanted && !recording_image_sub_) {
     recording_image_sub_ =
         nh_.subscribe(names::kImageTopic, 10, &FusionNode::OnRecordingImage, this);
-  } else if (!wanted && recording_image_sub_) {
-    recording_image_sub_.shutdown();
   }
+  ros::Subscriber ended;
+  if (!wanted) std::swap(ended, recording_image_sub_);
+  return ended;
 }
 
 void FusionNode::OnRecordingImage(const sensor_msgs::ImageConstPtr& msg) {
@@ -247,13 +252,7 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
                         "stamp from %s (%s: %s); not recorded",
                         robot_pose_->Describe().c_str(), cause.c_str(), pose.detail.c_str());
     } else {
-      try {
-        recording_->Add(d, msg->descriptor_type, pose.pose, std::nullopt,
-                        msg->header.stamp.toSec());
-      } catch (const std::exception& e) {
-        // Reported; recognition goes on (a recording must not stop localisation).
-        RejectMessage(std::string("recording: ") + e.what());
-      }
+      Record(d, msg->descriptor_type, pose.pose, std::nullopt, msg->header.stamp.toSec());
     }
   }
   CheckDescriptorType(msg->descriptor_type);
@@ -270,13 +269,22 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   if (!query) return;
   const std::optional<Recognition> r = DecideAndPublish(*query);
   if (r && localized && r->belief.accepted) {
-    try {
-      recording_->Add(d, msg->descriptor_type, std::nullopt,
-                      LocalizedPlace{r->belief.match, r->belief.confidence},
-                      msg->header.stamp.toSec());
-    } catch (const std::exception& e) {
-      RejectMessage(std::string("recording: ") + e.what());
-    }
+    Record(d, msg->descriptor_type, std::nullopt,
+           LocalizedPlace{r->belief.match, r->belief.confidence}, msg->header.stamp.toSec());
+  }
+}
+
+void FusionNode::Record(const Eigen::Ref<const Eigen::VectorXf>& d, const std::string& type,
+                        const std::optional<PlacePose>& pose,
+                        const std::optional<LocalizedPlace>& localized, double stamp_s) {
+  // Reported; recognition goes on (a recording must not stop localisation).
+  try {
+    const std::string warning = recording_->Add(d, type, pose, localized, stamp_s);
+    if (!warning.empty()) ROS_WARN("bsf_vpr: %s", warning.c_str());
+  } catch (const RecordingFull& e) {
+    ROS_WARN_THROTTLE(10.0, "bsf_vpr: %s", e.what());  // counted by the recording
+  } catch (const std::exception& e) {
+    RejectMessage(std::string("recording: ") + e.what());
   }
 }
 
@@ -400,6 +408,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   } else if (rejected_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped %d bad descriptor(s): %s",
                     rejected_, last_rejection_.c_str());
+  } else if (!recording_->LimitProblem().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "recording '" + recording_->name() + "' " + recording_->LimitProblem());
   } else if (!recording_->pending_reason().empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "recording '" + recording_->name() +

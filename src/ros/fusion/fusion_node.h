@@ -75,6 +75,11 @@ class FusionNode {
   // resolved against its sets and the belief starts afresh. False when it is older (a
   // superseded layout). Caller holds mutex_.
   bool AdoptLayout(MapBackend::Layout layout);
+  // Adds a descriptor to the recording; what it refuses is reported, recognition goes on.
+  // Caller holds mutex_.
+  void Record(const Eigen::Ref<const Eigen::VectorXf>& d, const std::string& type,
+              const std::optional<PlacePose>& pose, const std::optional<LocalizedPlace>& localized,
+              double stamp_s);
   // The progress since the previous query in places, from odometry (nullopt without).
   // Caller holds mutex_.
   std::optional<double> OdometryStep(const ros::Time& stamp);
@@ -107,8 +112,9 @@ class FusionNode {
   // Recording with save_images: the camera images, encoded and handed to the recording.
   void OnRecordingImage(const sensor_msgs::ImageConstPtr& msg);
   // Subscribes to the images while a recording takes them, and not otherwise. Caller holds
-  // mutex_.
-  void FollowRecordingImages();
+  // mutex_, and shuts the subscription returned (the one ended, if any) down after
+  // releasing it: shutdown waits for a running OnRecordingImage, which takes mutex_.
+  ros::Subscriber FollowRecordingImages();
 
   ros::NodeHandle nh_, pnh_;
   FusionParams params_;  // as read at start; what changes later is the decider's or the map's

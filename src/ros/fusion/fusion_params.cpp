@@ -233,7 +233,19 @@ const OptionTable<RecordingParams>& RecordingParamsTable() {
               "than the last pose; enough for a 10 Hz pose source by default",
               "s", Between(0, 10))
           .Include(PlaceIndexOptionsTable(), [](auto& p) -> auto& { return p.places; },
-                   {"place_spacing_m"});
+                   {"place_spacing_m"})
+          .Add(
+              "recording_max_descriptors",
+              [](auto& p) -> auto& { return p.recording_max_descriptors; },
+              "the most descriptors a recording holds (about 1.9 h at 30 Hz by default): a "
+              "warning at 90%, then descriptors are refused (counted) until stop_recording",
+              "descriptors", AtLeast(1))
+          .Add(
+              "recording_max_megabytes", [](auto& p) -> auto& { return p.recording_max_megabytes; },
+              "the most memory a recording's descriptors and images take (2048-d descriptors "
+              "at 30 Hz: about 0.9 GB an hour): a warning at 90%, then descriptors are refused "
+              "(counted) until stop_recording",
+              "MB", AtLeast(1));
   return kTable;
 }
 

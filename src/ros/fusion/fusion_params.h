@@ -71,6 +71,8 @@ struct RecordingParams {
   std::string pose_topic = "odometry/map";
   double pose_wait_s = 0.2;
   PlaceIndexOptions places;
+  int recording_max_descriptors = 200000;
+  int recording_max_megabytes = 2000;
 };
 
 // A sharded map (sharded_map.h): the shards whose distances this node fuses instead of

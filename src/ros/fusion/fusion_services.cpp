@@ -138,45 +138,86 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
 }
 
 bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // Also in a refusal: what arrived and what is kept.
-  res.num_descriptors = recording_->count();
-  res.num_received = recording_->counts().received;
+  // The set is built and written without the lock (seconds for a long recording), so that
+  // recognition goes on; the recording is closed meanwhile (Recording::BeginSave). A
+  // subscription ended is shut down without the lock too: shutdown waits for its running
+  // callback, which may be waiting for the lock.
+  ros::Subscriber stopped;
+  Recording::SaveJob job;
+  std::string summary;
   try {
-    if (req.discard) {
-      const std::string summary = recording_->recording() ? recording_->Summary() : "";
-      recording_->Discard();
-      FollowRecordingImages();
-      res.success = true;
-      res.message = "discarded the recording: " + summary;
-      return true;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      // Also in a refusal: what arrived and what is kept.
+      res.num_descriptors = recording_->count();
+      res.num_received = recording_->counts().received;
+      if (req.discard) {
+        summary = recording_->recording() ? recording_->Summary() : "";
+        try {
+          recording_->Discard();
+        } catch (...) {
+          stopped = FollowRecordingImages();
+          throw;
+        }
+        stopped = FollowRecordingImages();
+        res.success = true;
+        res.message = "discarded the recording: " + summary;
+      } else {
+        PlaceIndexOptions places = params_.places;
+        places.place_spacing_m = PlaceSpacing();
+        summary = recording_->Summary();
+        try {
+          job = recording_->BeginSave(map_->metric(), layout_, places);
+        } catch (...) {
+          stopped = FollowRecordingImages();  // a stop that ended the recording
+          throw;
+        }
+        stopped = FollowRecordingImages();
+      }
     }
-    PlaceIndexOptions places = params_.places;
-    places.place_spacing_m = PlaceSpacing();
-    const std::string summary = recording_->Summary();
-    Recording::Saved saved = recording_->Save(map_->metric(), layout_.get(), places);
-    FollowRecordingImages();
+    stopped.shutdown();
+    if (req.discard) return true;
+    recording_->RunSave(job);  // reads the closed recording only
+    Recording::Saved saved;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      try {
+        saved = recording_->EndSave(std::move(job));
+      } catch (...) {
+        stopped = FollowRecordingImages();  // kept, closed
+        throw;
+      }
+      loading_.insert(saved.set.name);  // not to be loaded by another meanwhile
+    }
     res.path = saved.path;
     res.num_places = saved.set.size();
+    const std::string name = saved.set.name;
     const std::string what = "saved " + std::to_string(res.num_places) + " place(s) to " +
                              res.path + " (" + summary + ")" +
                              (saved.note.empty() ? "" : "; " + saved.note);
+    std::string not_loaded;
     try {
-      map_->Add(std::move(saved.set), res.path);
-      AdoptLayout(map_->layout());
+      map_->Add(std::move(saved.set), res.path);  // the map's own lock
     } catch (const std::exception& e) {
-      res.success = true;
-      res.message = what + " but did not load them: " + e.what();
+      not_loaded = e.what();
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      loading_.erase(name);
+      AdoptLayout(map_->layout());
+    }
+    res.success = true;
+    if (!not_loaded.empty()) {
+      res.message = what + " but did not load them: " + not_loaded;
       ROS_WARN("bsf_vpr: %s", res.message.c_str());
       return true;
     }
-    res.success = true;
     res.message = what + " and loaded them";
     ROS_INFO("bsf_vpr: %s", res.message.c_str());
   } catch (const std::exception& e) {
+    stopped.shutdown();
     res.success = false;
     res.message = e.what();
-    FollowRecordingImages();  // a stop that ended the recording, or closed it
     ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;

@@ -27,8 +27,18 @@ std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
   return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
 }
 
-void CheckRecording(const ReferenceRecorder& recorder) {
+void CheckRecording(const ReferenceRecorder& recorder, bool saving) {
   if (!recorder.recording()) throw std::invalid_argument("no recording is running");
+  if (saving) {
+    throw std::invalid_argument("the recording '" + recorder.name() +
+                                "' is being saved (stop_recording); wait for its answer");
+  }
+}
+
+std::string Megabytes(int64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f MB", bytes / 1e6);
+  return text;
 }
 
 }  // namespace
@@ -39,6 +49,7 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
   if (recorder_.recording()) {
+    CheckRecording(recorder_, saving_);
     if (!pending_reason_.empty()) {
       throw std::invalid_argument("the recording '" + recorder_.name() +
                                   "' is pending: its stop failed (" + pending_reason_ +
@@ -67,14 +78,30 @@ void Recording::Start(const std::string& name, const std::string& condition, boo
   counts_ = Counts();
   pending_reason_.clear();
   save_images_ = save_images;
+  bytes_ = 0;
+  limit_warned_ = false;
 }
 
-void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
-                    const std::string& descriptor_type, const std::optional<PlacePose>& pose,
-                    const std::optional<LocalizedPlace>& localized, double stamp_s) {
+std::string Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
+                           const std::string& descriptor_type, const std::optional<PlacePose>& pose,
+                           const std::optional<LocalizedPlace>& localized, double stamp_s) {
   if (!pending_reason_.empty()) {
     throw std::invalid_argument("the recording '" + recorder_.name() +
                                 "' is pending after a failed stop and takes no descriptor");
+  }
+  if (saving_) {
+    throw std::invalid_argument("the recording '" + recorder_.name() +
+                                "' is being saved and takes no descriptor");
+  }
+  const int64_t row_bytes = static_cast<int64_t>(descriptor.size() * sizeof(float));
+  if (recorder_.recording() &&
+      (recorder_.count() >= limits_.max_descriptors || bytes_ + row_bytes > limits_.max_bytes)) {
+    NoteLost("refused: the recording is full");
+    throw RecordingFull("the recording '" + recorder_.name() + "' is full (" +
+                        std::to_string(recorder_.count()) + " descriptors, " + Megabytes(bytes_) +
+                        "; recording_max_descriptors " + std::to_string(limits_.max_descriptors) +
+                        ", recording_max_megabytes " + Megabytes(limits_.max_bytes) +
+                        "): this descriptor is not recorded; stop_recording saves what it holds");
   }
   try {
     recorder_.Add(descriptor, pose, localized);
@@ -84,18 +111,38 @@ void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
   }
   ++counts_.received;
   counts_.with_pose += pose.has_value();
+  bytes_ += row_bytes;
   if (!descriptor_type.empty()) descriptor_type_ = descriptor_type;
   if (save_images_) {
     stamps_.push_back(stamp_s);
     images_.emplace_back();
     for (auto it = early_images_.begin(); it != early_images_.end(); ++it) {
       if (it->first == stamp_s) {
+        bytes_ += static_cast<int64_t>(it->second.size());
         images_.back() = std::move(it->second);
         early_images_.erase(it);
         break;
       }
     }
   }
+  if (limit_warned_ ||
+      (10 * static_cast<int64_t>(recorder_.count()) < 9 * limits_.max_descriptors &&
+       10 * bytes_ < 9 * limits_.max_bytes)) {
+    return "";
+  }
+  limit_warned_ = true;
+  return "the recording '" + recorder_.name() + "' is at 90% of its limits (" + LimitProblem() +
+         "): stop_recording soon, or it refuses descriptors";
+}
+
+std::string Recording::LimitProblem() const {
+  if (!recorder_.recording()) return "";
+  const int64_t n = recorder_.count();
+  if (10 * n < 9 * limits_.max_descriptors && 10 * bytes_ < 9 * limits_.max_bytes) return "";
+  const bool full = n >= limits_.max_descriptors || bytes_ >= limits_.max_bytes;
+  return std::string(full ? "full: " : "") + std::to_string(n) + " of recording_max_descriptors " +
+         std::to_string(limits_.max_descriptors) + ", " + Megabytes(bytes_) +
+         " of recording_max_megabytes " + Megabytes(limits_.max_bytes);
 }
 
 void Recording::AddImage(double stamp_s, std::string encoded) {
@@ -104,6 +151,7 @@ void Recording::AddImage(double stamp_s, std::string encoded) {
   const size_t first = stamps_.size() > kEarlyImages ? stamps_.size() - kEarlyImages : 0;
   for (size_t k = stamps_.size(); k-- > first;) {
     if (stamps_[k] == stamp_s && images_[k].empty()) {
+      bytes_ += static_cast<int64_t>(encoded.size());
       images_[k] = std::move(encoded);
       return;
     }
@@ -168,46 +216,79 @@ std::string Recording::Summary() const {
 
 Recording::Saved Recording::Save(DistanceMetric distance, const PlaceLayout* loaded,
                                  const PlaceIndexOptions& options) {
-  CheckRecording(recorder_);
+  // Not owned: the caller keeps `loaded` alive for the call.
+  SaveJob job = BeginSave(
+      distance, std::shared_ptr<const PlaceLayout>(std::shared_ptr<void>(), loaded), options);
+  RunSave(job);
+  return EndSave(std::move(job));
+}
+
+Recording::SaveJob Recording::BeginSave(DistanceMetric distance,
+                                        std::shared_ptr<const PlaceLayout> loaded,
+                                        const PlaceIndexOptions& options) {
+  CheckRecording(recorder_, saving_);
   if (recorder_.count() == 0) {
     // Nothing to keep: the recording ends, and the answer says what arrived.
     const std::string what = "nothing saved: recording '" + recorder_.name() + "' " + Summary();
     End();
     throw std::invalid_argument(what + "; the recording is ended: fix the cause and start again");
   }
+  RecordingPath(*data_dir_, recorder_.name());  // checked at Start; refuses as Save did
+  SaveJob job;
+  job.distance = distance;
+  job.loaded = std::move(loaded);
+  job.options = options;
+  saving_ = true;
+  return job;
+}
+
+void Recording::RunSave(SaveJob& job) const {
+  // Reads the recording only: nothing of it changes while saving_ (Add, AddImage, Start,
+  // Discard and another save refuse or ignore), so this needs no lock.
   const std::string path = RecordingPath(*data_dir_, recorder_.name());
   ReferenceRecorder::Map map;
-  map.options = options;
-  if (loaded) map.place_poses = loaded->place_poses();
-  // Built, saved, and only then forgotten: a save that fails keeps the recording, closed.
-  const auto keep = [&](const std::string& why) {
-    pending_reason_ = why;
-    return why + "; " + Summary() +
-           "; the recording is kept and takes no more descriptors: "
-           "call stop_recording again to retry, or stop_recording {discard: true} to drop it";
-  };
-  Saved saved;
+  map.options = job.options;
+  if (job.loaded) map.place_poses = job.loaded->place_poses();
   std::vector<int> source;
   try {
-    saved.set = recorder_.Build(descriptor_type_, map, &source);
-    saved.set.distance = ToString(distance);
-    if (loaded) loaded->CheckPlacePoses(saved.set.name, saved.set.place_ids, saved.set.poses);
+    job.saved.set = recorder_.Build(descriptor_type_, map, &source);
+    job.saved.set.distance = ToString(job.distance);
+    if (job.loaded) {
+      job.loaded->CheckPlacePoses(job.saved.set.name, job.saved.set.place_ids, job.saved.set.poses);
+    }
   } catch (const std::exception& e) {
-    throw std::invalid_argument(keep(std::string("the recording cannot be saved: ") + e.what()));
+    job.error = std::string("the recording cannot be saved: ") + e.what();
+    job.build_failed = true;
+    return;
   }
   try {
-    if (save_images_) saved.note = SaveImages(source, &saved.set);
-    SaveReferenceSet(*data_dir_, saved.set, path, overwrite_);
+    if (save_images_) job.saved.note = SaveImages(source, &job.saved.set);
+    SaveReferenceSet(*data_dir_, job.saved.set, path, overwrite_);
   } catch (const std::exception& e) {
-    throw std::runtime_error(keep(std::string("saving failed: ") + e.what()));
+    job.error = std::string("saving failed: ") + e.what();
+    return;
   }
-  End();
-  saved.path = data_dir_->path() + "/" + path;
-  return saved;
+  job.saved.path = data_dir_->path() + "/" + path;
+}
+
+Recording::Saved Recording::EndSave(SaveJob job) {
+  saving_ = false;
+  if (job.error.empty()) {
+    End();
+    return std::move(job.saved);
+  }
+  // A save that fails keeps the recording, closed.
+  pending_reason_ = job.error;
+  const std::string why =
+      job.error + "; " + Summary() +
+      "; the recording is kept and takes no more descriptors: "
+      "call stop_recording again to retry, or stop_recording {discard: true} to drop it";
+  if (job.build_failed) throw std::invalid_argument(why);
+  throw std::runtime_error(why);
 }
 
 void Recording::Discard() {
-  CheckRecording(recorder_);
+  CheckRecording(recorder_, saving_);
   End();
 }
 
@@ -217,6 +298,7 @@ void Recording::End() {
   stamps_.clear();
   images_.clear();
   early_images_.clear();
+  bytes_ = 0;
 }
 
 void Recording::CheckNotRecording(const std::string& set_name) const {
@@ -231,6 +313,9 @@ void Recording::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) co
                 ToString(recorder_.places()).c_str(), Summary().c_str());
     if (!pending_reason_.empty())
       status.add("recording pending after a failed stop", pending_reason_);
+    status.addf("recording size", "%d descriptors of %ld, %s of %s", recorder_.count(),
+                static_cast<long>(limits_.max_descriptors), Megabytes(bytes_).c_str(),
+                Megabytes(limits_.max_bytes).c_str());
   }
 }
 

@@ -9,7 +9,10 @@
 // or fix the folder and save again, or discard it; until then Start refuses with a message
 // saying so. A stop that finds nothing to keep ends the recording and says what arrived.
 //
-// Not thread-safe: the fusion node holds its lock.
+// A recording is bounded (RecordingLimits): it warns once at 90% of either limit and then
+// refuses descriptors (RecordingFull), counted as lost; what it holds stays to be saved.
+//
+// Not thread-safe: the fusion node holds its lock, except for RunSave (see BeginSave).
 #pragma once
 
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
@@ -17,7 +20,9 @@
 #include <Eigen/Core>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "bsf_vpr/core/distances.h"
@@ -27,11 +32,25 @@
 
 namespace bsf_vpr {
 
+// The most a recording holds: descriptors, and bytes (the descriptors' floats and the
+// images kept with them). About 0.9 GB an hour of 2048-d descriptors at 30 Hz.
+struct RecordingLimits {
+  int64_t max_descriptors = 200000;
+  int64_t max_bytes = int64_t{2000} * 1000000;
+};
+
+// A descriptor refused because the recording holds as much as its limits allow.
+class RecordingFull : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
 class Recording {
  public:
   // `data_dir` is not owned and must outlive this; null (no data directory configured)
   // refuses every Start.
-  explicit Recording(const DataDirectory* data_dir) : data_dir_(data_dir) {}
+  explicit Recording(const DataDirectory* data_dir, RecordingLimits limits = {})
+      : data_dir_(data_dir), limits_(limits) {}
 
   // Starts recording `name` (saved as `name`.yaml below the data directory), with the
   // dimension of the sets in `loaded` (any dimension while it holds none). Throws
@@ -56,9 +75,14 @@ class Recording {
   // `pose` (the robot's, in the map frame) is required when recording by pose, `localized`
   // (the accepted match) when recording by localisation. `stamp_s` pairs the descriptor
   // with its image (AddImage).
-  void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor, const std::string& descriptor_type,
-           const std::optional<PlacePose>& pose = std::nullopt,
-           const std::optional<LocalizedPlace>& localized = std::nullopt, double stamp_s = 0);
+  // Throws RecordingFull (counted as lost) once the recording holds what RecordingLimits
+  // allow. Returns a warning for the caller to log when this descriptor brings the
+  // recording to 90% of a limit (once a recording), else "".
+  std::string Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
+                  const std::string& descriptor_type,
+                  const std::optional<PlacePose>& pose = std::nullopt,
+                  const std::optional<LocalizedPlace>& localized = std::nullopt,
+                  double stamp_s = 0);
   // The encoded image (JPEG, PNG) the descriptor stamped `stamp_s` was described from, when
   // recording with save_images: kept with that descriptor whether it arrives before or
   // after it (an image no descriptor claims is forgotten after kEarlyImages others).
@@ -66,8 +90,11 @@ class Recording {
   // A descriptor that reached the recording but was not kept, and why (e.g. "no pose
   // received yet"): counted per cause for the stop's answer and diagnostics.
   void NoteLost(const std::string& cause);
-  // Whether descriptors are taken: a recording runs and no failed save closed it.
-  bool accepting() const { return recorder_.recording() && pending_reason_.empty(); }
+  // Whether descriptors are taken: a recording runs, is not being saved, and no failed save
+  // closed it.
+  bool accepting() const { return recorder_.recording() && pending_reason_.empty() && !saving_; }
+  // Why the recording is near or at its limits ("" when it is not), for diagnostics.
+  std::string LimitProblem() const;
 
   struct Saved {
     ReferenceSet set;  // as written, for the caller to load
@@ -93,13 +120,34 @@ class Recording {
   // whose poses contradict them (PlaceLayout::CheckPlacePoses) is refused before saving.
   Saved Save(DistanceMetric distance, const PlaceLayout* loaded = nullptr,
              const PlaceIndexOptions& options = {});
+
+  // Save in three steps, so that a caller's lock is held only for the first and the last
+  // (building and writing a large set takes a while, recognition must go on meanwhile):
+  // BeginSave (under the lock) checks as Save does and closes the recording (it takes no
+  // descriptor, and Start, Save, Discard refuse while it is being saved); RunSave (without
+  // the lock) builds and writes the set, reading what the recording holds and changing
+  // nothing of it; EndSave (under the lock) ends the recording, or keeps it pending, and
+  // returns or throws what Save would. `loaded` is kept alive by the job.
+  struct SaveJob {
+    DistanceMetric distance = DistanceMetric::kEuclidean;
+    std::shared_ptr<const PlaceLayout> loaded;  // may be null
+    PlaceIndexOptions options;
+    Saved saved;                // RunSave's result ...
+    std::string error;          // ... or why it failed
+    bool build_failed = false;  // the set could not be built (else: writing failed)
+  };
+  SaveJob BeginSave(DistanceMetric distance, std::shared_ptr<const PlaceLayout> loaded,
+                    const PlaceIndexOptions& options = {});
+  void RunSave(SaveJob& job) const;
+  Saved EndSave(SaveJob job);
+  bool saving() const { return saving_; }
   Saved Save(DistanceMetric distance, const ReferenceMap* loaded,
              const PlaceIndexOptions& options = {}) {
     return Save(distance, loaded ? &loaded->layout() : nullptr, options);
   }
 
   // Ends the recording and drops what it holds. Throws std::invalid_argument if no
-  // recording runs.
+  // recording runs, or while it is being saved.
   void Discard();
 
   // Throws std::invalid_argument if a set named `set_name` is being recorded: loading it
@@ -119,7 +167,11 @@ class Recording {
 
  private:
   const DataDirectory* data_dir_;
+  RecordingLimits limits_;
   ReferenceRecorder recorder_;
+  int64_t bytes_ = 0;          // the rows' floats and the images kept
+  bool limit_warned_ = false;  // the 90% warning was given
+  bool saving_ = false;        // between BeginSave and EndSave
   bool overwrite_ = false;  // the recording may replace a set on disk
   std::string descriptor_type_;
   Counts counts_;

@@ -379,10 +379,12 @@ TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics
   EXPECT_NO_THROW(rec.CheckNotRecording("day"));
   diagnostic_updater::DiagnosticStatusWrapper status;
   rec.Diagnose(status);
-  ASSERT_EQ(status.values.size(), 1u);
+  ASSERT_EQ(status.values.size(), 2u);
   EXPECT_EQ(status.values[0].key, "recording");
   EXPECT_EQ(status.values[0].value,
             "tonight (places by sequential): received 1 descriptor(s), 1 kept");
+  EXPECT_EQ(status.values[1].key, "recording size");
+  EXPECT_EQ(status.values[1].value, "1 descriptors of 200000, 0.0 MB of 2000.0 MB");
 }
 
 TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {

@@ -25,6 +25,13 @@ double NowS() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
+// The descriptor's L2 norm (it bounds a Euclidean distance: ShardDistancesProblem).
+double Norm(const Descriptor& descriptor) {
+  double sum = 0;
+  for (const float x : descriptor.data) sum += static_cast<double>(x) * x;
+  return std::sqrt(sum);
+}
+
 std::string SetList(const ShardInfo* info) {
   if (!info || info->sets.empty()) return "no sets";
   std::string out;
@@ -203,13 +210,11 @@ ShardedMap::~ShardedMap() {
 
 std::optional<MapBackend::Query> ShardedMap::Hear(const Descriptor& descriptor) {
   if (descriptor.header.stamp.isZero()) return std::nullopt;  // the shards' answers say so
-  double norm = 0;
-  for (const float x : descriptor.data) norm += static_cast<double>(x) * x;
   bool decided = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    std::vector<Join::Decision> decisions =
-        join_.Hear(static_cast<int64_t>(descriptor.header.stamp.toNSec()), std::sqrt(norm), NowS());
+    std::vector<Join::Decision> decisions = join_.Hear(
+        static_cast<int64_t>(descriptor.header.stamp.toNSec()), Norm(descriptor), NowS());
     decided = !decisions.empty();
     Queue(std::move(decisions));
   }
@@ -540,10 +545,8 @@ MapBackend::Query ShardedMap::Ask(const Descriptor& descriptor) {
                         names[k].c_str(), why.c_str());
     }
   }
-  double norm = 0;
-  for (const float x : descriptor.data) norm += static_cast<double>(x) * x;
   std::lock_guard<std::mutex> lock(mutex_);
-  return Assemble(descriptor.header, std::sqrt(norm), answers);
+  return Assemble(descriptor.header, Norm(descriptor), answers);
 }
 
 template <typename Service>

@@ -112,6 +112,24 @@ std::string Refusal(const std::string& yaml) {
   }
 }
 
+TEST_F(ReferenceSetIo, PosesThatAreNotFiniteOrAbsurdAreRefusedNamingFileRowPlaceAndValue) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  const std::string head = "name: route\ndescriptors: d.npy\nplace_ids: [7, 8, 9]\nposes: ";
+  for (const auto& [poses, value] : std::vector<std::pair<std::string, std::string>>{
+           {"[[0, 0, 0, 0], [.nan, 0, 0, 0], [2, 0, 0, 0]]", "x = nan"},
+           {"[[0, 0, 0, 0], [1, 0, 0, .inf], [2, 0, 0, 0]]", "yaw = inf"},
+           {"[[0, 0, 0, 0], [1e12, 0, 0, 0], [2, 0, 0, 0]]", "x = 1e+12"}}) {
+    WriteRaw("route.yaml", head + poses + "\n");
+    const std::string why = Refusal(Path("route.yaml"));
+    for (const std::string& part :
+         std::vector<std::string>{"route.yaml", "row 1", "place 8", value}) {
+      EXPECT_NE(why.find(part), std::string::npos) << part << " in: " << why;
+    }
+  }
+  WriteRaw("route.yaml", head + "[[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0]]\n");
+  EXPECT_EQ(LoadReferenceSetFile(Path("route.yaml"), "").poses.size(), 3u);
+}
+
 TEST_F(ReferenceSetIo, ImagesNameTheFolderAndRowKIsItsKthImageByName) {
   WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
   // Other files and folders, whatever their names, are not images of the set.

@@ -49,7 +49,8 @@ struct ReferenceSet {
   int dimension() const { return static_cast<int>(descriptors.cols()); }
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
-  // duplicated, negative or >= kMaxPlaces, poses of the wrong count, a descriptor that
+  // duplicated, negative or >= kMaxPlaces, poses of the wrong count or one that PoseProblem
+  // refuses (place_layout.h: not finite, or beyond kMaxPoseCoordinateM), a descriptor that
   // DescriptorProblem refuses, image_files neither empty nor one per row, images given
   // without image_files or the other way round, an image file that ImageFileProblem refuses.
   void Validate() const;

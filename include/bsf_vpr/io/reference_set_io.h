@@ -9,7 +9,8 @@
 //   descriptors: winter.npy           # required; relative paths are relative to this file
 //                                     # (saving names it winter.<content hash>.npy)
 //   place_ids: [0, 1, 2]              # optional; default 0 .. N_u-1
-//   poses: [[x, y, z, yaw], ...]      # optional; one per row, metres and radians
+//   poses: [[x, y, z, yaw], ...]      # optional; one per row, metres and radians, finite,
+//                                     # |x|, |y|, |z| <= kMaxPoseCoordinateM (place_layout.h)
 //   images: winter_images             # optional: the folder of the rows' images, relative
 //                                     # to this file (or absolute); row k shows the k-th
 //                                     # image file of the folder in name order

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "bsf_vpr/core/reference_recorder.h"
 
 namespace bsf_vpr {
@@ -22,6 +24,11 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.recording());
   EXPECT_EQ(rec.count(), 2);
   EXPECT_THROW(rec.Add(Eigen::VectorXf::Constant(4, 3.0e38f)), std::invalid_argument);
+  // A broken pose of the robot is refused with its descriptor (its NaN would be the place's).
+  for (const PlacePose& bad :
+       {PlacePose{NAN, 0, 0, 0}, PlacePose{0, 0, 1e12, 0}, PlacePose{0, 0, 0, -INFINITY}}) {
+    EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(4), bad), std::invalid_argument);
+  }
   const ReferenceSet s = rec.Finish("test_4");
   EXPECT_FALSE(rec.recording());
   EXPECT_EQ(s.name, "today");

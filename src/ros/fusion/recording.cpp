@@ -27,6 +27,9 @@ std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
   return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
 }
 
+// The cause a descriptor with a broken robot pose is counted under (Counts::lost).
+constexpr char kBadPoseCause[] = "robot pose not finite or out of bounds";
+
 void CheckRecording(const ReferenceRecorder& recorder) {
   if (!recorder.recording()) throw std::invalid_argument("no recording is running");
 }
@@ -75,6 +78,15 @@ void Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
   if (!pending_reason_.empty()) {
     throw std::invalid_argument("the recording '" + recorder_.name() +
                                 "' is pending after a failed stop and takes no descriptor");
+  }
+  // A broken pose (a localiser that lost itself, a garbage message) would become the place's
+  // pose and refuse the whole set at the stop: its descriptor is left out instead, counted
+  // under one cause whatever the value (the message names it).
+  const std::string pose_problem = pose ? PoseProblem(*pose) : "";
+  if (!pose_problem.empty() && recorder_.recording()) {
+    NoteLost(kBadPoseCause);
+    throw std::invalid_argument("the robot's pose for this descriptor " + pose_problem +
+                                "; the descriptor is not recorded");
   }
   try {
     recorder_.Add(descriptor, pose, localized);

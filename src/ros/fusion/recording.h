@@ -51,8 +51,9 @@ class Recording {
 
   // Adds one descriptor as the next place. `descriptor_type` "" says nothing; otherwise it
   // is the recorded set's type (the last one given wins). Throws std::invalid_argument if no
-  // recording runs or the descriptor is refused (another dimension, not finite); nothing is
-  // added then, and the type is not taken.
+  // recording runs or the descriptor is refused (another dimension, not finite, or a pose
+  // that PoseProblem refuses: counted as lost); nothing is added then, and the type is not
+  // taken.
   // `pose` (the robot's, in the map frame) is required when recording by pose, `localized`
   // (the accepted match) when recording by localisation. `stamp_s` pairs the descriptor
   // with its image (AddImage).

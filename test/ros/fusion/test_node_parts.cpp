@@ -423,5 +423,33 @@ TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
   EXPECT_EQ(loc.set.poses[0].x_m, 2.0);
 }
 
+TEST_F(RecordingTest, ARobotPoseNotFiniteOrAbsurdLeavesOutItsDescriptorAndTheRecordingGoesOn) {
+  Recording rec(dir_.get());
+  for (const RecordingPlaces places : {RecordingPlaces::kPose, RecordingPlaces::kSequential}) {
+    rec.Start("drive", "", /*overwrite=*/true, map_, places);
+    rec.Add(Row(1), "", PlacePose{0, 0, 0, 0});
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(2), "", PlacePose{NAN, 0, 0, 0});
+              }).find("x = nan"),
+              std::string::npos);
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(3), "", PlacePose{1, 1e12, 0, 0});
+              }).find("y = 1e+12"),
+              std::string::npos);
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(4), "", PlacePose{1, 0, 0, INFINITY});
+              }).find("yaw"),
+              std::string::npos);
+    rec.Add(Row(5), "", PlacePose{2, 0, 0, 0});
+    EXPECT_EQ(rec.count(), 2);
+    // One cause for every bad value: the counts stay a few lines.
+    EXPECT_EQ(rec.counts().lost.size(), 1u) << rec.Summary();
+    EXPECT_EQ(rec.counts().received, 5);
+    const Recording::Saved saved = rec.Save(DistanceMetric::kEuclidean);
+    EXPECT_EQ(saved.set.poses.size(), 2u) << ToString(places);
+    for (const PlacePose& p : saved.set.poses) EXPECT_EQ(PoseProblem(p), "");
+  }
+}
+
 }  // namespace
 }  // namespace bsf_vpr

@@ -138,6 +138,29 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   EXPECT_GT(info.memory_bytes, 6u * 3u * sizeof(float));
 }
 
+TEST(Conversions, APlacePoseThatIsNotFiniteIsLeftOutOfTheMatch) {
+  // The last guard before /match and tf: the sets' checks refuse such poses, so this is
+  // what a broken invariant would publish.
+  for (const PlacePose& bad : {PlacePose{NAN, 0, 0, 0}, PlacePose{0, INFINITY, 0, 0},
+                               PlacePose{0, 0, 0, NAN}, PlacePose{1e12, 0, 0, 0}}) {
+    Match m;
+    EXPECT_FALSE(ToMatchPose(bad, &m));
+    EXPECT_FALSE(m.has_pose);
+    for (const double v : {m.pose.position.x, m.pose.position.y, m.pose.position.z,
+                           m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z}) {
+      EXPECT_EQ(v, 0.0);
+    }
+    EXPECT_EQ(m.pose.orientation.w, 1.0);
+  }
+  Match good;
+  EXPECT_TRUE(ToMatchPose(PlacePose{1, 2, 3, 0}, &good));
+  EXPECT_TRUE(good.has_pose);
+  EXPECT_DOUBLE_EQ(good.pose.position.y, 2.0);
+  Match none;
+  EXPECT_TRUE(ToMatchPose(std::nullopt, &none));
+  EXPECT_FALSE(none.has_pose);
+}
+
 TEST(Conversions, ThePlaceTransformIsTheMatchedPoseInTheMatchFrame) {
   Match match;
   match.header.frame_id = "map";

@@ -23,6 +23,12 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// Throws std::runtime_error with SetNameProblem's answer for `name`, if any.
+void CheckName(const std::string& name) {
+  const std::string problem = SetNameProblem(name);
+  if (!problem.empty()) throw std::runtime_error(problem);
+}
+
 // Where the files of a reference set come from: the file system as the caller sees it
 // (command-line tools, the node's start-up configuration), or a data directory that no
 // request may leave (the node's services).
@@ -186,6 +192,7 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
   if (!root["name"]) throw std::runtime_error("missing required key 'name'");
   if (!root["descriptors"]) throw std::runtime_error("missing required key 'descriptors'");
   const std::string npy = files.resolve(yaml_path, root["descriptors"].as<std::string>());
+  CheckName(root["name"].as<std::string>());
   ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadDescriptors(files, npy));
   if (root["condition"]) set.condition = root["condition"].as<std::string>();
   if (root["descriptor_type"]) set.descriptor_type = root["descriptor_type"].as<std::string>();
@@ -235,6 +242,11 @@ ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
 
 ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
                      const std::string& name) {
+  try {
+    CheckName(name);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("'" + npy_path + "': " + e.what());
+  }
   ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
   try {
     set.Validate();
@@ -246,6 +258,13 @@ ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
 
 ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
+    if (!name.empty()) {
+      try {
+        CheckName(name);
+      } catch (const std::exception& e) {
+        throw std::runtime_error("reference set file '" + path + "': " + e.what());
+      }
+    }
     ReferenceSet set = LoadYaml(files, path);
     if (!name.empty()) set.name = name;
     return set;
@@ -310,6 +329,21 @@ std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
 
 }  // namespace
 
+std::string SetNameProblem(const std::string& name) {
+  const std::string rule =
+      " (a set's name is 1 to " + std::to_string(kMaxSetNameBytes) + " bytes of printable UTF-8)";
+  if (name.empty()) return "a reference set needs a non-empty name" + rule;
+  if (name.size() > kMaxSetNameBytes) {
+    // Shown cut short; the quote says its length.
+    return "set name " + QuotedForMessage(name, 40) + " is too long" + rule;
+  }
+  if (!IsPrintableUtf8(name)) {
+    return "set name " + QuotedForMessage(name) + " holds a control character or invalid UTF-8" +
+           rule;
+  }
+  return "";
+}
+
 ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
   return LoadYaml(Unconfined(), yaml_path);
 }
@@ -334,6 +368,8 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
 
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace) {
+  const std::string name_problem = SetNameProblem(set.name);
+  if (!name_problem.empty()) throw std::invalid_argument(name_problem);
   set.Validate();
   const std::string yaml = dir.Relative(yaml_request);
   if (!EndsWith(yaml, ".yaml")) {

@@ -1,6 +1,7 @@
 // Reference sets in files (reference_set_io.h): the YAML sidecar and its .npy.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -92,6 +93,61 @@ TEST_F(ReferenceSetIo, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
   }
   EXPECT_THROW(LoadReferenceSetFile(Path("d.txt"), "x"), std::runtime_error);
   EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
+}
+
+TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  WriteRaw("good.yaml", "name: good\ndescriptors: d.npy\n");
+  const std::string long_name(5000, 'n');
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"a\nb", "'a\\x0ab' holds a control character or invalid UTF-8"},
+      {"bell\a", "'bell\\x07'"},
+      {"\xff\xfe", "control character or invalid UTF-8"},
+      {long_name, "(5000 characters) is too long"},
+      {std::string(129, 'x'), "(129 characters) is too long"},
+  };
+  const DataDirectory dir(dir_);
+  const auto refusal = [](const auto& load) {
+    try {
+      load();
+      return std::string("accepted");
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+  for (const auto& [name, expect] : bad) {
+    // The YAML's own name, a caller's name for a YAML or an .npy (the command line, the
+    // configured sets), a service's request below the data directory, and a save.
+    std::string quoted = "\"";  // control characters as YAML escapes, other bytes as they are
+    for (const char c : name) {
+      char escape[8];
+      std::snprintf(escape, sizeof(escape), "\\x%02x", static_cast<unsigned char>(c));
+      quoted += static_cast<unsigned char>(c) < 0x20 ? std::string(escape) : std::string(1, c);
+    }
+    WriteRaw("named.yaml", "name: " + quoted + "\"\ndescriptors: d.npy\n");
+    const std::vector<std::string> refusals = {
+        refusal([&] { LoadReferenceSetFile(Path("named.yaml"), ""); }),
+        refusal([&] { LoadReferenceSetFile(Path("good.yaml"), name); }),
+        refusal([&] { LoadReferenceSetNpy(Path("d.npy"), name); }),
+        refusal([&] { LoadReferenceSetFile(dir, "good.yaml", name); }),
+        refusal([&] { LoadReferenceSetFile(dir, "named.yaml", ""); }),
+        refusal([&] {
+          SaveReferenceSet(MakeReferenceSet(name, testing::RandomMatrix(2, 4, 1)),
+                           Path("saved.yaml"));
+        })};
+    for (const std::string& why : refusals) {
+      EXPECT_NE(why.find(expect), std::string::npos) << why;
+      EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;
+      EXPECT_LT(why.size(), 600u) << "the name is shown cut short";
+    }
+  }
+  EXPECT_FALSE(fs::exists(Path("saved.yaml")));
+  // Printable UTF-8 of up to 128 bytes, spaces and folders included, is a name.
+  for (const std::string& name : std::vector<std::string>{
+           "nacht_\xc3\xa9t\xc3\xa9", "route a/tonight", std::string(128, 'x')}) {
+    EXPECT_EQ(SetNameProblem(name), "") << name;
+    EXPECT_EQ(LoadReferenceSetFile(Path("good.yaml"), name).name, name);
+  }
 }
 
 // A folder of image files (any content: only names and bytes matter here).

@@ -1,7 +1,7 @@
 // The reference-set YAML sidecar: a small text file describing one reference set and
 // pointing at its descriptor .npy.
 //
-//   name: winter                      # required
+//   name: winter                      # required; SetNameProblem (below) says the rule
 //   condition: snow                   # optional
 //   descriptor_type: patchnorm_64x32_p8  # optional
 //   dimension: 2048                   # optional; checked against the .npy when given
@@ -26,6 +26,7 @@
 // image_files).
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "bsf_vpr/core/reference_set.h"
@@ -33,12 +34,26 @@
 
 namespace bsf_vpr {
 
+// Longest name of a set, in bytes. A name becomes file names (NAME.yaml beside
+// NAME.<12 hex digits>.npy and the folder NAME_images, each within the 255 bytes a file name
+// may have) and is shown in every message, diagnostic and service answer about its set:
+// 128 bytes leave room for the suffixes and still say what a set is ("route_a/tonight_rain").
+constexpr size_t kMaxSetNameBytes = 128;
+
+// Why `name` cannot name a reference set ("" if it can), quoting it safely (QuotedForMessage)
+// and saying the rule: a set's name is 1 to kMaxSetNameBytes bytes of printable UTF-8 (no
+// control characters). Every way of naming a set meets it: the YAML's name, a caller's name
+// for a file (the loaders below, load_reference_set's request), a saved set and a recording.
+std::string SetNameProblem(const std::string& name);
+
 // Loads a reference set from a sidecar YAML. Throws std::runtime_error naming the file and
-// the problem (missing key, unknown key, unreadable .npy, dimension or count mismatch, no
-// descriptors). Only regular files are read.
+// the problem (missing key, unknown key, a name SetNameProblem refuses, unreadable .npy,
+// dimension or count mismatch, no descriptors). Only regular files are read.
 ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path);
 
-// Loads a descriptor .npy as a set named `name` whose row k is place k.
+// Loads a descriptor .npy as a set named `name` whose row k is place k. `name`, and the name
+// given to the functions below when not empty (it replaces a YAML's), must pass
+// SetNameProblem: std::runtime_error naming the file otherwise.
 ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name);
 
 // Dispatches on the extension: .yaml/.yml sidecar, or .npy (named `name`). Throws
@@ -68,7 +83,8 @@ std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirector
 // folders are created. A set with images names its folder relative to the YAML's folder
 // when it lies below it (or is it), else absolute, and lists image_files explicitly.
 // Throws std::invalid_argument for an invalid set
-// (ReferenceSet::Validate), std::runtime_error naming the file when writing fails (nothing
+// (ReferenceSet::Validate, SetNameProblem), std::runtime_error naming the file when writing
+// fails (nothing
 // is replaced then). A set a map holds is saved from StoredReferenceSet::ToReferenceSet(),
 // which refuses one held at reduced precision only.
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);

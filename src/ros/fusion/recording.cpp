@@ -10,9 +10,11 @@ namespace bsf_vpr {
 namespace {
 
 // The YAML a recording named `name` is saved to, below `dir`. Throws std::invalid_argument
-// for a name that is not a plain path of printable parts.
+// for a name that SetNameProblem refuses (the rule of every set's name) or that is not a
+// plain relative path (an empty, '.' or '..' part): the name is the set's and its files'.
 std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
-  if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
+  const std::string problem = SetNameProblem(name);
+  if (!problem.empty()) throw std::invalid_argument(problem);
   size_t start = 0;
   for (;;) {
     const size_t slash = name.find('/', start);
@@ -24,7 +26,7 @@ std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
     if (slash == std::string::npos) break;
     start = slash + 1;
   }
-  return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
+  return dir.Relative(name + ".yaml");
 }
 
 // The cause a descriptor with a broken robot pose is counted under (Counts::lost).

@@ -36,8 +36,8 @@ class Recording {
   // Starts recording `name` (saved as `name`.yaml below the data directory), with the
   // dimension of the sets in `loaded` (any dimension while it holds none). Throws
   // std::invalid_argument naming the problem, and changes nothing, if there is no data
-  // directory, the name is not a plain relative path (empty, '.' or '..' parts, control
-  // characters, invalid UTF-8), a set of that name is loaded, its YAML exists and
+  // directory, the name is refused by SetNameProblem (reference_set_io.h) or is not a plain
+  // relative path (empty, '.' or '..' parts), a set of that name is loaded, its YAML exists and
   // `overwrite` is false, or a recording runs already or is pending after a failed save (the
   // message says how to save or discard it).
   // `places` says how descriptors become places (reference_recorder.h); localized needs a

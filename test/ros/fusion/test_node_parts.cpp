@@ -323,6 +323,17 @@ TEST_F(RecordingTest, RefusesBadNamesTakenNamesAndNoDataDirectory) {
     EXPECT_THROW(rec.Start(bad, "", false, map_), std::invalid_argument) << bad;
     EXPECT_FALSE(rec.recording()) << bad;
   }
+  // The rule of every set's name (SetNameProblem), said and shown quoted.
+  for (const auto& [bad, expect] : std::vector<std::pair<std::string, std::string>>{
+           {"line\nbreak", "'line\\x0abreak' holds a control character"},
+           {std::string(200, 'x'), "(200 characters) is too long"},
+           {std::string(5000, 'y'), "(5000 characters) is too long"},
+           {"a/" + std::string(130, 'z') + "/b", "(134 characters) is too long"}}) {
+    const std::string why = Refusal([&] { rec.Start(bad, "", false, map_); });
+    EXPECT_NE(why.find(expect), std::string::npos) << why;
+    EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;
+    EXPECT_FALSE(rec.recording());
+  }
   EXPECT_NE(Refusal([&] { rec.Start("day", "", true, map_); }).find("already loaded"),
             std::string::npos);
   Recording off(nullptr);

@@ -3,7 +3,6 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -14,6 +13,7 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
+#include "src/io/internal/saved_descriptors.h"
 
 namespace bsf_vpr {
 namespace {
@@ -275,16 +275,6 @@ ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const st
                            " is neither a reference-set .yaml (.yml) nor a descriptor .npy");
 }
 
-// FNV-1a, 64 bits: names a descriptor file by its content.
-uint64_t ContentHash(const std::string& bytes) {
-  uint64_t h = 1469598103934665603ull;
-  for (const char c : bytes) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
 // How a sidecar in `yaml_folder` (absolute, links resolved: a data directory's path) names
 // the folder `images`: relative to yaml_folder when it lies below it (or is it), else
 // absolute. `images` is compared as given and with its links resolved.
@@ -385,9 +375,7 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   // one, so an interruption anywhere leaves either the old pair or the new pair whole.
   const std::string stem = yaml.substr(0, yaml.size() - 5);
   const std::string bytes = EncodeNpyMatrix(set.descriptors);
-  char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ContentHash(bytes)));
-  const std::string npy = stem + "." + std::string(hash, 12) + ".npy";
+  const std::string npy = SavedDescriptorPath(stem, bytes);
   std::string old_npy;
   if (dir.Exists(yaml)) {
     try {

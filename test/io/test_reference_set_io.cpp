@@ -1,9 +1,11 @@
 // Reference sets in files (reference_set_io.h): the YAML sidecar and its .npy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
@@ -148,6 +150,74 @@ TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
     EXPECT_EQ(SetNameProblem(name), "") << name;
     EXPECT_EQ(LoadReferenceSetFile(Path("good.yaml"), name).name, name);
   }
+}
+
+// The file names below `root` of the .npy files there, sorted.
+std::vector<std::string> NpyFiles(const std::string& root) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (e.path().extension() == ".npy") out.push_back(fs::relative(e.path(), root).string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST_F(ReferenceSetIo, OrphanedDescriptorsOfInterruptedSavesAreRemovedAndNoOtherFile) {
+  const DataDirectory dir(dir_);
+  const auto save = [&](const std::string& yaml, uint64_t seed) {
+    SaveReferenceSet(dir, MakeReferenceSet("s", testing::RandomMatrix(3, 4, seed)), yaml, true);
+  };
+  // A kept pair, and a pair in a folder.
+  save("kept.yaml", 1);
+  save("night/kept.yaml", 2);
+  const std::vector<std::string> kept = NpyFiles(dir_);
+  // A kill between the .npy's rename and the YAML's: a new set's .npy without its YAML, and
+  // a replaced set's new .npy beside the old YAML (simulated: the YAML is put back).
+  save("new.yaml", 3);
+  fs::remove(Path("new.yaml"));
+  const std::string old_yaml = ReadFile(Path("night/kept.yaml"));
+  const std::string old_npy = ReadFile(Path(kept[1]));
+  save("night/kept.yaml", 4);
+  WriteRaw("night/kept.yaml", old_yaml);
+  WriteRaw(kept[1], old_npy);
+  const std::vector<std::string> all = NpyFiles(dir_);
+  std::vector<std::string> orphans;
+  std::set_difference(all.begin(), all.end(), kept.begin(), kept.end(),
+                      std::back_inserter(orphans));
+  ASSERT_EQ(orphans.size(), 2u);
+  // A user's files: a plain .npy, one that only looks like a save's (its bytes hash to
+  // another name), and a save's name a hand-written YAML elsewhere names.
+  WriteNpyMatrix(Path("mine.npy"), testing::RandomMatrix(2, 4, 5));
+  WriteRaw("lookalike.0123456789ab.npy", ReadFile(Path("mine.npy")));
+  save("sets/x.yaml", 6);
+  fs::remove(Path("sets/x.yaml"));
+  std::vector<std::string> named;  // the save's .npy in sets/
+  for (const std::string& f : NpyFiles(dir_)) {
+    if (f.rfind("sets/", 0) == 0) named.push_back(f);
+  }
+  ASSERT_EQ(named.size(), 1u);
+  fs::create_directories(Path("other"));
+  WriteRaw("other/uses.yml", "name: u\ndescriptors: " + dir_ + "/" + named[0] + "\n");
+
+  // A YAML that cannot be parsed might name any of them: nothing goes.
+  WriteRaw("broken.yaml", "[1, 2");
+  try {
+    RemoveOrphanedDescriptors(dir);
+    ADD_FAILURE() << "a broken YAML did not stop the removal";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("broken.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(NpyFiles(dir_).size(), all.size() + 3);
+  fs::remove(Path("broken.yaml"));
+
+  EXPECT_EQ(RemoveOrphanedDescriptors(dir), orphans);
+  std::vector<std::string> expected = kept;
+  for (const std::string f : {"lookalike.0123456789ab.npy", "mine.npy"}) expected.push_back(f);
+  expected.push_back(named[0]);
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(NpyFiles(dir_), expected);
+  EXPECT_EQ(LoadReferenceSetFile(dir, "night/kept.yaml", "").size(), 3);
+  EXPECT_TRUE(RemoveOrphanedDescriptors(dir).empty());  // nothing left to remove
 }
 
 // A folder of image files (any content: only names and bytes matter here).

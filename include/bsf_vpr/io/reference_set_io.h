@@ -28,6 +28,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/io/data_directory.h"
@@ -93,5 +94,23 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
 // in .yaml). With `replace` false an existing YAML is never replaced.
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace);
+
+// Removes the descriptor files that interrupted saves left below `dir` and returns their
+// paths (relative to dir), for the caller to report each. SaveReferenceSet renames the new
+// `<stem>.<hash>.npy` into place before the YAML that names it, and removes the old one
+// after: a kill in between leaves a whole .npy that no YAML names, for ever.
+// Such a file is removed only when all of these hold, so that no user's file is touched:
+//  - its name has the save's form (`<stem>.<12 hex digits>.npy`);
+//  - its bytes hash to the digits in its name (the save's own writing, not a file that only
+//    looks like one);
+//  - no YAML (a regular .yaml or .yml file) anywhere below `dir` names a file of that file
+//    name in its `descriptors` (compared by file name alone, whatever folder or spelling the
+//    YAML uses, so that a file a YAML names is never taken for an orphan).
+// If a YAML below `dir` cannot be read or parsed, or a folder listed, nothing is removed and
+// std::runtime_error names it: what it would name is unknown. A file that cannot be read or
+// removed stays. YAMLs outside `dir` are not
+// seen. Call it at start-up, before anything saves below `dir` (as RemoveStaleTemporaries):
+// a save running meanwhile in another process could lose its new .npy.
+std::vector<std::string> RemoveOrphanedDescriptors(const DataDirectory& dir);
 
 }  // namespace bsf_vpr

@@ -51,7 +51,7 @@ void ReferenceRecorder::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                                 std::to_string(descriptor.size()) + ", expected " +
                                 std::to_string(dimension_));
   }
-  const std::string problem = DescriptorProblem(descriptor.transpose());
+  const std::string problem = QueryDescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("recorded descriptor " + problem);
   const std::string pose_problem = pose ? PoseProblem(*pose) : "";
   if (!pose_problem.empty()) {

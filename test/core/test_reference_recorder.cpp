@@ -24,6 +24,7 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.recording());
   EXPECT_EQ(rec.count(), 2);
   EXPECT_THROW(rec.Add(Eigen::VectorXf::Constant(4, 3.0e38f)), std::invalid_argument);
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Zero(4)), std::invalid_argument);  // no information
   // A broken pose of the robot is refused with its descriptor (its NaN would be the place's).
   for (const PlacePose& bad :
        {PlacePose{NAN, 0, 0, 0}, PlacePose{0, 0, 1e12, 0}, PlacePose{0, 0, 0, -INFINITY}}) {
@@ -42,8 +43,13 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.Finish().poses.empty());  // poses only when every descriptor had one
 }
 
-// Descriptor k of a recording holds the value k everywhere: a row says which it was.
-Eigen::VectorXf Numbered(int k) { return Eigen::VectorXf::Constant(4, static_cast<float>(k)); }
+// Descriptor k of a recording holds the value k first: a row says which it was. The ones
+// after it keep descriptor 0 from being all zeros (refused: it carries no information).
+Eigen::VectorXf Numbered(int k) {
+  Eigen::VectorXf d = Eigen::VectorXf::Ones(4);
+  d(0) = static_cast<float>(k);
+  return d;
+}
 
 // A map of 20 places one metre apart along x, heading east.
 ReferenceRecorder::Map StraightMap() {

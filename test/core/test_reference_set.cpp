@@ -206,6 +206,29 @@ TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
   EXPECT_EQ(map.set(0).image_files(), s.image_files);
 }
 
+TEST(ReferenceMap, AQueryOfZerosIsRefusedAsCarryingNoInformation) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));
+  try {
+    map.CheckQuery(Eigen::VectorXf::Zero(3));
+    ADD_FAILURE() << "a zero query was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("descriptor is all zeros: it carries no information"),
+              std::string::npos)
+        << e.what();
+  }
+  // Constant but not zero: an L2-normalised descriptor may be 1/sqrt(D) everywhere.
+  EXPECT_NO_THROW(map.CheckQuery(Eigen::VectorXf::Constant(3, 1 / std::sqrt(3.0f))));
+  Eigen::VectorXf tiny = Eigen::VectorXf::Zero(3);
+  tiny(1) = 1e-30f;  // its square underflows float32, not the check
+  EXPECT_NO_THROW(map.CheckQuery(tiny));
+  // A reference set's row of zeros (a black frame of a traversal) stays: dropping it would
+  // shift every later place, and its distances are finite.
+  RowMatrixXf black = testing::RandomMatrix(4, 3, 2);
+  black.row(2).setZero();
+  EXPECT_NO_THROW(map.Add(MakeReferenceSet("b", black)));
+}
+
 TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
   Eigen::RowVectorXf d = Eigen::RowVectorXf::Ones(8);
   EXPECT_EQ(DescriptorProblem(d), "");

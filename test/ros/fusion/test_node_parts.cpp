@@ -125,7 +125,7 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   PlaceRecognizer bare;
   bare.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3)));
   Match none;
-  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Zero(3), false), bare.map(), &none);
+  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Ones(3), false), bare.map(), &none);
   EXPECT_FALSE(none.has_pose);
   EXPECT_EQ(none.pose.orientation.w, 1.0);
   const ReferenceSetInfo info = ToInfoMsg(r.map().set(0));
@@ -429,10 +429,10 @@ TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
   Recording rec(dir_.get());
   rec.Start("by_pose", "", false, posed, RecordingPlaces::kPose);
   EXPECT_THROW(rec.Add(Row(9), ""), std::invalid_argument);  // no pose: left out
-  for (int i = 0; i <= 6; ++i) rec.Add(Row(float(i)), "t", PlacePose{0.5 * i, 0.1, 0, 0});
+  for (int i = 0; i <= 6; ++i) rec.Add(Row(float(i + 1)), "t", PlacePose{0.5 * i, 0.1, 0, 0});
   const Recording::Saved saved = rec.Save(DistanceMetric::kEuclidean, &posed, options);
   EXPECT_EQ(saved.set.place_ids, (std::vector<int>{0, 1, 2, 3}));
-  EXPECT_FLOAT_EQ(saved.set.descriptors(3, 0), 6.0f);  // the descriptor at x = 3
+  EXPECT_FLOAT_EQ(saved.set.descriptors(3, 0), 7.0f);  // the descriptor at x = 3
   EXPECT_EQ(saved.set.poses.size(), 4u);
   EXPECT_EQ(saved.set.descriptor_type, "t");
   // A sequential recording whose poses put place 2 at 500 m is refused, and kept.

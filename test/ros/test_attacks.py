@@ -125,14 +125,18 @@ class Attacks(unittest.TestCase):
             self.assertTrue(r.success, r.message)
 
     def diagnosed(self, since, level, fragment, node_fragment=""):
+        """Waits for a status of `level` (or of any of the levels in a tuple) saying
+        `fragment`, of a node whose name holds `node_fragment`."""
+        levels = level if isinstance(level, tuple) else (level,)
+
         def found():
             for array in self.diagnostics[since:]:
                 for s in array.status:
-                    if (s.level == level and fragment in s.message and
+                    if (s.level in levels and fragment in s.message and
                             node_fragment in s.name):
                         return True
             return False
-        wait_for(found, 20, "diagnostics level %d saying '%s'" % (level, fragment))
+        wait_for(found, 20, "diagnostics level %s saying '%s'" % (level, fragment))
 
     def set_config(self, **config):
         Client(NS + "fusion", timeout=30).update_configuration(config)
@@ -300,6 +304,25 @@ class Attacks(unittest.TestCase):
         self.ensure_day_loaded()
         n_match = len(self.matches)
         stamp = self.send(np.full(4096, 3.0e38))
+        self.still_serving()
+        self.assertFalse(any(b.header.stamp == stamp for b in self.beliefs))
+        self.assertFalse(any(m.header.stamp == stamp for m in self.matches[n_match:]))
+
+    def test_descriptors_without_information_are_dropped(self):
+        # Issue 28: a black image describes as zeros, which a filter accepted on its history.
+        self.ensure_day_loaded()
+        since, n_out = len(self.diagnostics), len(self.img_out)
+        black = Image()
+        black.height, black.width, black.step, black.encoding = 32, 64, 64 * 3, "bgr8"
+        black.data = bytes(32 * 64 * 3)
+        black.header.stamp = rospy.Time(888)
+        self.image.publish(black)
+        self.diagnosed(since, (1, 2), "is uniform", "img")
+        self.assertFalse(any(d.header.stamp == rospy.Time(888) for d in self.img_out[n_out:]))
+        n_match = len(self.matches)
+        stamp = self.send(np.zeros(4096))
+        # A warning, or an error if nothing else came in the diagnostics' period.
+        self.diagnosed(since, (1, 2), "all zeros: it carries no information", "fusion")
         self.still_serving()
         self.assertFalse(any(b.header.stamp == stamp for b in self.beliefs))
         self.assertFalse(any(m.header.stamp == stamp for m in self.matches[n_match:]))

@@ -177,6 +177,26 @@ class Attacks(unittest.TestCase):
         self.assertLess(len(r.message), 1000)
         self.still_serving()
 
+    def test_set_names_and_poses_that_cannot_be_are_refused(self):
+        # Issue 28: a set's name obeys one rule whatever names it; a NaN pose never loads.
+        self.ensure_day_loaded()
+        before = self.names()
+        for bad, fragment in [("a\nb", "'a\\x0ab' holds a control character"),
+                              ("n" * 5000, "(5000 characters) is too long")]:
+            r = self.load(path="day.yaml", name=bad, condition="")
+            self.assertFalse(r.success, repr(bad[:20]))
+            self.assertIn(fragment, r.message)
+            self.assertIn("1 to 128 bytes of printable UTF-8", r.message)
+            self.assertLess(len(r.message), 1000)
+        write_reference_set(self.data, "nan_pose", self.day[:3])
+        with open(os.path.join(self.data, "nan_pose.yaml"), "a") as f:
+            f.write("poses: [[0, 0, 0, 0], [.nan, 0, 0, 0], [2, 0, 0, 0]]\n")
+        r = self.load(path="nan_pose.yaml", name="", condition="")
+        self.assertFalse(r.success)
+        self.assertIn("the pose of row 1 (place 1) has x = nan", r.message)
+        self.assertEqual(self.names(), before)
+        self.still_serving()
+
     def test_load_runs_beside_recognition(self):
         self.ensure_day_loaded()
         big = np.tile(self.day, (60, 1))  # 12000 x 4096 float32: 197 MB

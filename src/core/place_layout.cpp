@@ -10,6 +10,31 @@
 
 namespace bsf_vpr {
 
+std::string PoseProblem(const PlacePose& pose) {
+  struct Field {
+    const char* name;
+    double value;
+    bool coordinate;  // bounded by kMaxPoseCoordinateM; the yaw only needs to be finite
+  };
+  const Field fields[] = {{"x", pose.x_m, true},
+                          {"y", pose.y_m, true},
+                          {"z", pose.z_m, true},
+                          {"yaw", pose.yaw_rad, false}};
+  for (const Field& f : fields) {
+    const bool finite = std::isfinite(f.value);
+    if (finite && !(f.coordinate && std::abs(f.value) > kMaxPoseCoordinateM)) continue;
+    std::ostringstream m;
+    m << "has " << f.name << " = " << f.value;
+    if (!finite) {
+      m << " (a pose must be finite)";
+    } else {
+      m << " m, beyond the " << kMaxPoseCoordinateM << " m any frame on Earth stays within";
+    }
+    return m.str();
+  }
+  return "";
+}
+
 void CheckPlaceRows(const std::string& who, const std::vector<int>& place_ids,
                     const std::vector<PlacePose>& poses, const std::string& images,
                     const std::vector<std::string>& image_files) {
@@ -27,6 +52,13 @@ void CheckPlaceRows(const std::string& who, const std::vector<int>& place_ids,
   if (!poses.empty() && poses.size() != place_ids.size()) {
     throw std::invalid_argument(who + " has " + std::to_string(poses.size()) + " poses for " +
                                 std::to_string(place_ids.size()) + " places");
+  }
+  for (size_t k = 0; k < poses.size(); ++k) {
+    const std::string problem = PoseProblem(poses[k]);
+    if (!problem.empty()) {
+      throw std::invalid_argument(who + ": the pose of row " + std::to_string(k) + " (place " +
+                                  std::to_string(place_ids[k]) + ") " + problem);
+    }
   }
   if (!image_files.empty() && image_files.size() != place_ids.size()) {
     throw std::invalid_argument(who + " has " + std::to_string(image_files.size()) +

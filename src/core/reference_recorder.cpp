@@ -51,8 +51,12 @@ void ReferenceRecorder::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                                 std::to_string(descriptor.size()) + ", expected " +
                                 std::to_string(dimension_));
   }
-  const std::string problem = DescriptorProblem(descriptor.transpose());
+  const std::string problem = QueryDescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("recorded descriptor " + problem);
+  const std::string pose_problem = pose ? PoseProblem(*pose) : "";
+  if (!pose_problem.empty()) {
+    throw std::invalid_argument("the robot's pose for the recorded descriptor " + pose_problem);
+  }
   dimension_ = static_cast<int>(descriptor.size());
   rows_.emplace_back(descriptor);
   poses_.push_back(pose);

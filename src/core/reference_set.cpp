@@ -34,12 +34,13 @@ void ReferenceSet::Validate() const {
   }
 }
 
-std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
-  // The distances square and sum float32 values: a finite descriptor whose squared norm
-  // overflows float32 would turn them into infinity or NaN.
-  // In double no finite float32 value overflows a square or a sum (at most kMaxDimension of
-  // them), so the sum is finite exactly when every value is: one branch-free pass with four
-  // sums in flight (this runs over every row of every set loaded and every query).
+namespace {
+
+// The squared L2 norm of `descriptor` in double: in double no finite float32 value
+// overflows a square or a sum (at most kMaxDimension of them), so the sum is finite exactly
+// when every value is. One branch-free pass with four sums in flight (this runs over every
+// row of every set loaded and every query).
+double SquaredNorm(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
   const float* x = descriptor.data();
   const Eigen::Index n = descriptor.size();
   double sums[4] = {0, 0, 0, 0};
@@ -48,13 +49,36 @@ std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descri
     for (int k = 0; k < 4; ++k) sums[k] += static_cast<double>(x[i + k]) * x[i + k];
   }
   for (; i < n; ++i) sums[0] += static_cast<double>(x[i]) * x[i];
-  const double squared_norm = (sums[0] + sums[1]) + (sums[2] + sums[3]);
+  return (sums[0] + sums[1]) + (sums[2] + sums[3]);
+}
+
+// DescriptorProblem of a descriptor of squared norm `squared_norm` (SquaredNorm).
+std::string NormProblem(double squared_norm) {
+  // The distances square and sum float32 values: a finite descriptor whose squared norm
+  // overflows float32 would turn them into infinity or NaN.
   if (!std::isfinite(squared_norm)) return "holds NaN or infinity";
   if (squared_norm > kMaxDescriptorSquaredNorm) {
     return "has a norm too large to compute distances with (squared norm " +
            std::to_string(squared_norm) + " > " + std::to_string(kMaxDescriptorSquaredNorm) + ")";
   }
   return "";
+}
+
+}  // namespace
+
+std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
+  return NormProblem(SquaredNorm(descriptor));
+}
+
+std::string QueryDescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor) {
+  const double squared_norm = SquaredNorm(descriptor);
+  // Exactly zero only when every value is (the squares of float32 values do not underflow
+  // in double).
+  if (squared_norm == 0) {
+    return "is all zeros: it carries no information (a uniform image, e.g. a black frame or a "
+           "covered lens, describes as zeros)";
+  }
+  return NormProblem(squared_norm);
 }
 
 std::string ImageFileProblem(const std::string& file) {
@@ -115,7 +139,7 @@ void ReferenceMap::CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descripto
                                 ", the reference sets have dimension " +
                                 std::to_string(dimension()));
   }
-  const std::string problem = DescriptorProblem(descriptor.transpose());
+  const std::string problem = QueryDescriptorProblem(descriptor.transpose());
   if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
 }
 

@@ -1,6 +1,7 @@
 #include "bsf_vpr/image/image_describer.h"
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -272,6 +273,21 @@ cv::Mat RunOnnxTensor(const std::string& model_path, const cv::Mat& input,
   cv::dnn::Net net = LoadNet(model_path);
   net.setInput(input);
   return (output_layer.empty() ? net.forward() : net.forward(output_layer)).clone();
+}
+
+std::string UniformImageProblem(const cv::Mat& image) {
+  if (image.empty()) return "";  // the describers refuse it, saying so
+  const size_t pixel = image.elemSize();
+  const uchar* first = image.ptr(0);
+  for (int y = 0; y < image.rows; ++y) {
+    const uchar* row = image.ptr(y);  // rows of a view need not follow each other
+    for (int x = 0; x < image.cols; ++x) {
+      if (std::memcmp(row + static_cast<size_t>(x) * pixel, first, pixel) != 0) return "";
+    }
+  }
+  return "is uniform (all " + std::to_string(image.cols) + " x " + std::to_string(image.rows) +
+         " pixels alike, as a covered or black camera gives): it shows nothing to recognise "
+         "a place by";
 }
 
 }  // namespace bsf_vpr

@@ -105,6 +105,41 @@ int RemoveTemporariesBelow(int dir_fd) {
   return removed;
 }
 
+// Appends to *out the regular files below the folder `dir_fd` (whose path below the data
+// directory is `prefix`, "" for the directory itself), descending into its folders without
+// following links.
+void AppendFilesBelow(int dir_fd, const std::string& prefix, std::vector<std::string>* out) {
+  const std::string shown = prefix.empty() ? "the data directory" : QuotedForMessage(prefix);
+  const int dup = fcntl(dir_fd, F_DUPFD_CLOEXEC, 0);
+  if (dup < 0) throw std::runtime_error("cannot list " + shown + ": " + std::strerror(errno));
+  DIR* d = fdopendir(dup);  // takes dup over: closedir closes it
+  if (d == nullptr) {
+    const int err = errno;
+    close(dup);
+    throw std::runtime_error("cannot list " + shown + ": " + std::strerror(err));
+  }
+  std::vector<std::string> folders;
+  errno = 0;
+  while (const dirent* e = readdir(d)) {
+    const std::string name = e->d_name;
+    struct stat st;
+    if (name != "." && name != ".." &&
+        fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0) {
+      if (S_ISDIR(st.st_mode)) folders.push_back(name);
+      if (S_ISREG(st.st_mode)) out->push_back(prefix + name);
+    }
+    errno = 0;
+  }
+  const int err = errno;
+  closedir(d);
+  if (err != 0) throw std::runtime_error("cannot list " + shown + ": " + std::strerror(err));
+  for (const std::string& f : folders) {
+    const Fd sub(openat(dir_fd, f.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
+    if (sub.get() < 0) throw std::runtime_error(SystemError("open the folder", prefix + f, errno));
+    AppendFilesBelow(sub.get(), prefix + f + "/", out);
+  }
+}
+
 }  // namespace
 
 DataDirectory::DataDirectory(const std::string& path, bool create) {
@@ -223,6 +258,14 @@ std::vector<std::string> DataDirectory::ListFiles(const std::string& relative_fo
   if (err != 0) throw std::runtime_error(SystemError("list", relative_folder, err));
   std::sort(names.begin(), names.end());
   return names;
+}
+
+std::vector<std::string> DataDirectory::ListFilesBelow() const {
+  const Fd root(OpenRoot());
+  std::vector<std::string> files;
+  AppendFilesBelow(root.get(), "", &files);
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 bool DataDirectory::Exists(const std::string& relative) const {

@@ -3,7 +3,6 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -14,6 +13,7 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
+#include "src/io/internal/saved_descriptors.h"
 
 namespace bsf_vpr {
 namespace {
@@ -21,6 +21,12 @@ namespace {
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// Throws std::runtime_error with SetNameProblem's answer for `name`, if any.
+void CheckName(const std::string& name) {
+  const std::string problem = SetNameProblem(name);
+  if (!problem.empty()) throw std::runtime_error(problem);
 }
 
 // Where the files of a reference set come from: the file system as the caller sees it
@@ -186,6 +192,7 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
   if (!root["name"]) throw std::runtime_error("missing required key 'name'");
   if (!root["descriptors"]) throw std::runtime_error("missing required key 'descriptors'");
   const std::string npy = files.resolve(yaml_path, root["descriptors"].as<std::string>());
+  CheckName(root["name"].as<std::string>());
   ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadDescriptors(files, npy));
   if (root["condition"]) set.condition = root["condition"].as<std::string>();
   if (root["descriptor_type"]) set.descriptor_type = root["descriptor_type"].as<std::string>();
@@ -235,6 +242,11 @@ ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
 
 ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
                      const std::string& name) {
+  try {
+    CheckName(name);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("'" + npy_path + "': " + e.what());
+  }
   ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
   try {
     set.Validate();
@@ -246,6 +258,13 @@ ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
 
 ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
+    if (!name.empty()) {
+      try {
+        CheckName(name);
+      } catch (const std::exception& e) {
+        throw std::runtime_error("reference set file '" + path + "': " + e.what());
+      }
+    }
     ReferenceSet set = LoadYaml(files, path);
     if (!name.empty()) set.name = name;
     return set;
@@ -254,16 +273,6 @@ ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const st
   files.read(path);  // a missing file is reported as missing
   throw std::runtime_error(QuotedForMessage(path) +
                            " is neither a reference-set .yaml (.yml) nor a descriptor .npy");
-}
-
-// FNV-1a, 64 bits: names a descriptor file by its content.
-uint64_t ContentHash(const std::string& bytes) {
-  uint64_t h = 1469598103934665603ull;
-  for (const char c : bytes) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ull;
-  }
-  return h;
 }
 
 // How a sidecar in `yaml_folder` (absolute, links resolved: a data directory's path) names
@@ -310,6 +319,21 @@ std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
 
 }  // namespace
 
+std::string SetNameProblem(const std::string& name) {
+  const std::string rule =
+      " (a set's name is 1 to " + std::to_string(kMaxSetNameBytes) + " bytes of printable UTF-8)";
+  if (name.empty()) return "a reference set needs a non-empty name" + rule;
+  if (name.size() > kMaxSetNameBytes) {
+    // Shown cut short; the quote says its length.
+    return "set name " + QuotedForMessage(name, 40) + " is too long" + rule;
+  }
+  if (!IsPrintableUtf8(name)) {
+    return "set name " + QuotedForMessage(name) + " holds a control character or invalid UTF-8" +
+           rule;
+  }
+  return "";
+}
+
 ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
   return LoadYaml(Unconfined(), yaml_path);
 }
@@ -334,6 +358,8 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
 
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace) {
+  const std::string name_problem = SetNameProblem(set.name);
+  if (!name_problem.empty()) throw std::invalid_argument(name_problem);
   set.Validate();
   const std::string yaml = dir.Relative(yaml_request);
   if (!EndsWith(yaml, ".yaml")) {
@@ -349,9 +375,7 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   // one, so an interruption anywhere leaves either the old pair or the new pair whole.
   const std::string stem = yaml.substr(0, yaml.size() - 5);
   const std::string bytes = EncodeNpyMatrix(set.descriptors);
-  char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ContentHash(bytes)));
-  const std::string npy = stem + "." + std::string(hash, 12) + ".npy";
+  const std::string npy = SavedDescriptorPath(stem, bytes);
   std::string old_npy;
   if (dir.Exists(yaml)) {
     try {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/sharding.h"
@@ -127,6 +128,38 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
   EXPECT_EQ(r.map().num_sets(), 1);
   EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
             std::vector<int>{0});
+}
+
+// A black or 1x1 image describes as zeros: its history alone must not make it a match.
+TEST(PlaceRecognizer, AZeroDescriptorIsRefusedNotFusedAndTheBeliefGoesOn) {
+  const SyntheticData data = Data();
+  for (const std::string method : {"bsf+filter+seq", "bsf+filter", "bsf", "nn:c0+seq"}) {
+    for (const DistanceMetric metric : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+      RecognizerOptions opt;
+      opt.method = method;
+      opt.metric = metric;
+      PlaceRecognizer r = Loaded(data, opt);
+      for (int q = 0; q < 30; ++q) r.Recognize(data.queries.row(q).transpose(), true);
+      std::optional<Recognition> zero;
+      std::string why;
+      try {
+        zero = r.Recognize(Eigen::VectorXf::Zero(16), true);
+      } catch (const std::invalid_argument& e) {
+        why = e.what();
+      }
+      EXPECT_FALSE(zero && zero->belief.accepted)
+          << method << ": a zero descriptor was accepted as place " << zero->belief.match
+          << " with confidence " << zero->belief.confidence;
+      EXPECT_NE(why.find("all zeros"), std::string::npos) << method << ": " << why;
+      // The refusal changed nothing: the next descriptor follows the first 30.
+      PlaceRecognizer fresh = Loaded(data, opt);
+      for (int q = 0; q < 30; ++q) fresh.Recognize(data.queries.row(q).transpose(), true);
+      const Eigen::VectorXf next = data.queries.row(30).transpose();
+      EXPECT_EQ(r.Recognize(next, true).belief.log_posterior,
+                fresh.Recognize(next, true).belief.log_posterior)
+          << method;
+    }
+  }
 }
 
 // The method is parsed once per change of the options or of the sets: the set it names is

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "bsf_vpr/core/reference_recorder.h"
 
 namespace bsf_vpr {
@@ -22,6 +24,12 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.recording());
   EXPECT_EQ(rec.count(), 2);
   EXPECT_THROW(rec.Add(Eigen::VectorXf::Constant(4, 3.0e38f)), std::invalid_argument);
+  EXPECT_THROW(rec.Add(Eigen::VectorXf::Zero(4)), std::invalid_argument);  // no information
+  // A broken pose of the robot is refused with its descriptor (its NaN would be the place's).
+  for (const PlacePose& bad :
+       {PlacePose{NAN, 0, 0, 0}, PlacePose{0, 0, 1e12, 0}, PlacePose{0, 0, 0, -INFINITY}}) {
+    EXPECT_THROW(rec.Add(Eigen::VectorXf::Ones(4), bad), std::invalid_argument);
+  }
   const ReferenceSet s = rec.Finish("test_4");
   EXPECT_FALSE(rec.recording());
   EXPECT_EQ(s.name, "today");
@@ -35,8 +43,13 @@ TEST(ReferenceRecorder, RecordsDescriptorsAsPlacesInOrder) {
   EXPECT_TRUE(rec.Finish().poses.empty());  // poses only when every descriptor had one
 }
 
-// Descriptor k of a recording holds the value k everywhere: a row says which it was.
-Eigen::VectorXf Numbered(int k) { return Eigen::VectorXf::Constant(4, static_cast<float>(k)); }
+// Descriptor k of a recording holds the value k first: a row says which it was. The ones
+// after it keep descriptor 0 from being all zeros (refused: it carries no information).
+Eigen::VectorXf Numbered(int k) {
+  Eigen::VectorXf d = Eigen::VectorXf::Ones(4);
+  d(0) = static_cast<float>(k);
+  return d;
+}
 
 // A map of 20 places one metre apart along x, heading east.
 ReferenceRecorder::Map StraightMap() {

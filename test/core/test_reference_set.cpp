@@ -124,6 +124,46 @@ TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
   EXPECT_EQ(map.num_places(), 4);
 }
 
+TEST(ReferenceMap, RefusesPosesThatAreNotFiniteOrBeyondAnyEarthFrameNamingThePlace) {
+  ReferenceMap map;
+  ReferenceSet s = MakeReferenceSet("route", testing::RandomMatrix(3, 2, 1));
+  s.place_ids = {4, 5, 6};
+  // A southern UTM northing (false northing 1e7 m) and an ECEF coordinate are real poses.
+  s.poses = {{5.0e5, 9.99e6, 0, 0}, {-6.4e6, 1e7, 100, -3}, {0, 0, 0, 12.0}};
+  const auto refusal = [&map](const ReferenceSet& set) {
+    try {
+      ReferenceMap(map).Add(set);
+      return std::string("accepted");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+  };
+  EXPECT_EQ(refusal(s), "accepted");
+  for (const auto& [pose, value] :
+       std::vector<std::pair<PlacePose, std::string>>{{{NAN, 0, 0, 0}, "x = nan"},
+                                                      {{0, 0, 0, INFINITY}, "yaw = inf"},
+                                                      {{0, 1e12, 0, 0}, "y = 1e+12"},
+                                                      {{0, 0, -2e8, 0}, "z = -2e+08"}}) {
+    ReferenceSet bad = s;
+    bad.poses[1] = pose;
+    const std::string why = refusal(bad);
+    for (const std::string& part :
+         std::vector<std::string>{"reference set 'route'", "row 1", "place 5", value}) {
+      EXPECT_NE(why.find(part), std::string::npos) << part << " in: " << why;
+    }
+    // A layout alone (a shard's set in a sharded map's combiner) refuses it too.
+    SetLayout layout;
+    layout.name = "route";
+    layout.dimension = 2;
+    layout.place_ids = bad.place_ids;
+    layout.poses = bad.poses;
+    PlaceLayout combiner;
+    EXPECT_THROW(combiner.Add(layout), std::invalid_argument) << value;
+    EXPECT_EQ(combiner.num_sets(), 0);
+  }
+  EXPECT_EQ(PoseProblem(PlacePose{1, 2, 3, 4}), "");
+}
+
 TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
   ReferenceMap map;
   auto expect_refused = [&](const ReferenceSet& s, const std::string& fragment) {
@@ -164,6 +204,29 @@ TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
   map.Add(s);
   EXPECT_EQ(map.set(0).images(), "/data/i");
   EXPECT_EQ(map.set(0).image_files(), s.image_files);
+}
+
+TEST(ReferenceMap, AQueryOfZerosIsRefusedAsCarryingNoInformation) {
+  ReferenceMap map;
+  map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));
+  try {
+    map.CheckQuery(Eigen::VectorXf::Zero(3));
+    ADD_FAILURE() << "a zero query was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("descriptor is all zeros: it carries no information"),
+              std::string::npos)
+        << e.what();
+  }
+  // Constant but not zero: an L2-normalised descriptor may be 1/sqrt(D) everywhere.
+  EXPECT_NO_THROW(map.CheckQuery(Eigen::VectorXf::Constant(3, 1 / std::sqrt(3.0f))));
+  Eigen::VectorXf tiny = Eigen::VectorXf::Zero(3);
+  tiny(1) = 1e-30f;  // its square underflows float32, not the check
+  EXPECT_NO_THROW(map.CheckQuery(tiny));
+  // A reference set's row of zeros (a black frame of a traversal) stays: dropping it would
+  // shift every later place, and its distances are finite.
+  RowMatrixXf black = testing::RandomMatrix(4, 3, 2);
+  black.row(2).setZero();
+  EXPECT_NO_THROW(map.Add(MakeReferenceSet("b", black)));
 }
 
 TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {

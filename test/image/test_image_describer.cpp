@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/image/image_describer.h"
 #include "bsf_vpr/io/npy.h"
 
@@ -162,6 +163,33 @@ TEST(Hog, DescribesImagesWithTheDocumentedDimension) {
   o.hog.cell_px = 7;
   EXPECT_THROW(MakeImageDescriber(o), std::invalid_argument);
   EXPECT_EQ(d->descriptor_type(), "hog_64x32_c8_b9");
+}
+
+TEST(Describers, AUniformImageIsSaidToShowNothingAndItsDescriptorIsNoQuery) {
+  const cv::Mat nordland = cv::imread(kNordland + "summer/images-01000.png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(nordland.empty());
+  EXPECT_EQ(UniformImageProblem(nordland), "");
+  cv::Mat one_pixel = cv::Mat::zeros(480, 640, CV_8UC3);
+  one_pixel.at<cv::Vec3b>(479, 639) = cv::Vec3b(0, 0, 1);
+  EXPECT_EQ(UniformImageProblem(one_pixel), "");
+  for (const cv::Mat& uniform :
+       {cv::Mat(cv::Mat::zeros(32, 64, CV_8UC1)), cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 20, 7)),
+        cv::Mat(1, 1, CV_8UC3, cv::Scalar(200, 10, 10)), cv::Mat(1, 1, CV_8UC4, cv::Scalar::all(3)),
+        cv::Mat(nordland, cv::Rect(0, 0, 1, 1))}) {
+    const std::string why = UniformImageProblem(uniform);
+    EXPECT_NE(why.find("uniform"), std::string::npos) << uniform.size << ": " << why;
+    // What the patch-normalised descriptor and HOG make of it is refused as a query.
+    for (const ImageDescriberKind kind :
+         {ImageDescriberKind::kPatchNorm, ImageDescriberKind::kHog}) {
+      ImageDescriberOptions o;
+      o.kind = kind;
+      const auto describer = MakeImageDescriber(o);
+      ReferenceMap map;
+      map.Add(MakeReferenceSet("r", RowMatrixXf::Ones(2, describer->dimension())));
+      const Eigen::VectorXf d = describer->Describe(uniform);
+      EXPECT_THROW(map.CheckQuery(d), std::invalid_argument) << ToString(kind);
+    }
+  }
 }
 
 }  // namespace

@@ -125,6 +125,18 @@ TEST_F(DataDir, RemovesStaleTemporariesOnly) {
   EXPECT_FALSE(fs::exists(Data(".a.yaml.bsf_tmp.abcdefgh")));
 }
 
+TEST_F(DataDir, ListsTheRegularFilesBelowItWithoutFollowingLinks) {
+  Write(Data("b.yaml"), "");
+  fs::create_directories(Data("sets/night"));
+  Write(Data("sets/night/a.npy"), "");
+  Write(Data("sets/.hidden"), "");
+  fs::create_directories(Data("empty"));
+  fs::create_symlink(Data("b.yaml"), Data("link.yaml"));
+  fs::create_directory_symlink(root_ + "/outside", Data("out"));
+  EXPECT_EQ(dir_->ListFilesBelow(),
+            (std::vector<std::string>{"b.yaml", "sets/.hidden", "sets/night/a.npy"}));
+}
+
 TEST_F(DataDir, ReferenceSetYamlCannotReachOutside) {
   const auto bad = [&](const std::string& field) {
     Write(Data("bad.yaml"), "name: bad\ndescriptors: " + field + "\n");

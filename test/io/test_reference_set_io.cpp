@@ -1,8 +1,12 @@
 // Reference sets in files (reference_set_io.h): the YAML sidecar and its .npy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
@@ -94,6 +98,137 @@ TEST_F(ReferenceSetIo, ReferenceSetYamlRefusesBadFilesNamingTheProblem) {
   EXPECT_THROW(LoadReferenceSetYaml(Path("none.yaml")), std::runtime_error);
 }
 
+TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  WriteRaw("good.yaml", "name: good\ndescriptors: d.npy\n");
+  const std::string long_name(5000, 'n');
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"a\nb", "'a\\x0ab' holds a control character or invalid UTF-8"},
+      {"bell\a", "'bell\\x07'"},
+      {"\xff\xfe", "control character or invalid UTF-8"},
+      {long_name, "(5000 characters) is too long"},
+      {std::string(129, 'x'), "(129 characters) is too long"},
+  };
+  const DataDirectory dir(dir_);
+  const auto refusal = [](const auto& load) {
+    try {
+      load();
+      return std::string("accepted");
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+  for (const auto& [name, expect] : bad) {
+    // The YAML's own name, a caller's name for a YAML or an .npy (the command line, the
+    // configured sets), a service's request below the data directory, and a save.
+    std::string quoted = "\"";  // control characters as YAML escapes, other bytes as they are
+    for (const char c : name) {
+      char escape[8];
+      std::snprintf(escape, sizeof(escape), "\\x%02x", static_cast<unsigned char>(c));
+      quoted += static_cast<unsigned char>(c) < 0x20 ? std::string(escape) : std::string(1, c);
+    }
+    WriteRaw("named.yaml", "name: " + quoted + "\"\ndescriptors: d.npy\n");
+    const std::vector<std::string> refusals = {
+        refusal([&] { LoadReferenceSetFile(Path("named.yaml"), ""); }),
+        refusal([&] { LoadReferenceSetFile(Path("good.yaml"), name); }),
+        refusal([&] { LoadReferenceSetNpy(Path("d.npy"), name); }),
+        refusal([&] { LoadReferenceSetFile(dir, "good.yaml", name); }),
+        refusal([&] { LoadReferenceSetFile(dir, "named.yaml", ""); }),
+        refusal([&] {
+          SaveReferenceSet(MakeReferenceSet(name, testing::RandomMatrix(2, 4, 1)),
+                           Path("saved.yaml"));
+        })};
+    for (const std::string& why : refusals) {
+      EXPECT_NE(why.find(expect), std::string::npos) << why;
+      EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;
+      EXPECT_LT(why.size(), 600u) << "the name is shown cut short";
+    }
+  }
+  EXPECT_FALSE(fs::exists(Path("saved.yaml")));
+  // Printable UTF-8 of up to 128 bytes, spaces and folders included, is a name.
+  for (const std::string& name : std::vector<std::string>{
+           "nacht_\xc3\xa9t\xc3\xa9", "route a/tonight", std::string(128, 'x')}) {
+    EXPECT_EQ(SetNameProblem(name), "") << name;
+    EXPECT_EQ(LoadReferenceSetFile(Path("good.yaml"), name).name, name);
+  }
+}
+
+// The file names below `root` of the .npy files there, sorted.
+std::vector<std::string> NpyFiles(const std::string& root) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (e.path().extension() == ".npy") out.push_back(fs::relative(e.path(), root).string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST_F(ReferenceSetIo, OrphanedDescriptorsOfInterruptedSavesAreRemovedAndNoOtherFile) {
+  const DataDirectory dir(dir_);
+  const auto save = [&](const std::string& yaml, uint64_t seed) {
+    SaveReferenceSet(dir, MakeReferenceSet("s", testing::RandomMatrix(3, 4, seed)), yaml, true);
+  };
+  // A kept pair, and a pair in a folder.
+  save("kept.yaml", 1);
+  save("night/kept.yaml", 2);
+  const std::vector<std::string> kept = NpyFiles(dir_);
+  // A kill between the .npy's rename and the YAML's: a new set's .npy without its YAML, and
+  // a replaced set's new .npy beside the old YAML (simulated: the YAML is put back).
+  save("new.yaml", 3);
+  fs::remove(Path("new.yaml"));
+  const std::string old_yaml = ReadFile(Path("night/kept.yaml"));
+  const std::string old_npy = ReadFile(Path(kept[1]));
+  save("night/kept.yaml", 4);
+  WriteRaw("night/kept.yaml", old_yaml);
+  WriteRaw(kept[1], old_npy);
+  const std::vector<std::string> all = NpyFiles(dir_);
+  std::vector<std::string> orphans;
+  std::set_difference(all.begin(), all.end(), kept.begin(), kept.end(),
+                      std::back_inserter(orphans));
+  ASSERT_EQ(orphans.size(), 2u);
+  // A user's files: a plain .npy, one that only looks like a save's (its bytes hash to
+  // another name), and a save's name a hand-written YAML elsewhere names.
+  WriteNpyMatrix(Path("mine.npy"), testing::RandomMatrix(2, 4, 5));
+  WriteRaw("lookalike.0123456789ab.npy", ReadFile(Path("mine.npy")));
+  save("sets/x.yaml", 6);
+  fs::remove(Path("sets/x.yaml"));
+  std::vector<std::string> named;  // the save's .npy in sets/
+  for (const std::string& f : NpyFiles(dir_)) {
+    if (f.rfind("sets/", 0) == 0) named.push_back(f);
+  }
+  ASSERT_EQ(named.size(), 1u);
+  fs::create_directories(Path("other"));
+  WriteRaw("other/uses.yml", "name: u\ndescriptors: " + dir_ + "/" + named[0] + "\n");
+
+  // A YAML that cannot be parsed might name any of them: nothing goes.
+  WriteRaw("broken.yaml", "[1, 2");
+  try {
+    RemoveOrphanedDescriptors(dir);
+    ADD_FAILURE() << "a broken YAML did not stop the removal";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("broken.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(NpyFiles(dir_).size(), all.size() + 3);
+  fs::remove(Path("broken.yaml"));
+
+  // Written a moment ago: each might be the new .npy of a save running beside this one.
+  EXPECT_TRUE(RemoveOrphanedDescriptors(dir).empty());
+  EXPECT_EQ(NpyFiles(dir_).size(), all.size() + 3);
+  for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
+    if (entry.is_regular_file()) {
+      fs::last_write_time(entry.path(), fs::file_time_type::clock::now() - std::chrono::hours(1));
+    }
+  }
+  EXPECT_EQ(RemoveOrphanedDescriptors(dir), orphans);
+  std::vector<std::string> expected = kept;
+  for (const std::string f : {"lookalike.0123456789ab.npy", "mine.npy"}) expected.push_back(f);
+  expected.push_back(named[0]);
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(NpyFiles(dir_), expected);
+  EXPECT_EQ(LoadReferenceSetFile(dir, "night/kept.yaml", "").size(), 3);
+  EXPECT_TRUE(RemoveOrphanedDescriptors(dir).empty());  // nothing left to remove
+}
+
 // A folder of image files (any content: only names and bytes matter here).
 void MakeImages(const std::string& folder, const std::vector<std::string>& names) {
   fs::create_directories(folder);
@@ -110,6 +245,24 @@ std::string Refusal(const std::string& yaml) {
   } catch (const std::runtime_error& e) {
     return e.what();
   }
+}
+
+TEST_F(ReferenceSetIo, PosesThatAreNotFiniteOrAbsurdAreRefusedNamingFileRowPlaceAndValue) {
+  WriteNpyMatrix(Path("d.npy"), testing::RandomMatrix(3, 4, 5));
+  const std::string head = "name: route\ndescriptors: d.npy\nplace_ids: [7, 8, 9]\nposes: ";
+  for (const auto& [poses, value] : std::vector<std::pair<std::string, std::string>>{
+           {"[[0, 0, 0, 0], [.nan, 0, 0, 0], [2, 0, 0, 0]]", "x = nan"},
+           {"[[0, 0, 0, 0], [1, 0, 0, .inf], [2, 0, 0, 0]]", "yaw = inf"},
+           {"[[0, 0, 0, 0], [1e12, 0, 0, 0], [2, 0, 0, 0]]", "x = 1e+12"}}) {
+    WriteRaw("route.yaml", head + poses + "\n");
+    const std::string why = Refusal(Path("route.yaml"));
+    for (const std::string& part :
+         std::vector<std::string>{"route.yaml", "row 1", "place 8", value}) {
+      EXPECT_NE(why.find(part), std::string::npos) << part << " in: " << why;
+    }
+  }
+  WriteRaw("route.yaml", head + "[[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0]]\n");
+  EXPECT_EQ(LoadReferenceSetFile(Path("route.yaml"), "").poses.size(), 3u);
 }
 
 TEST_F(ReferenceSetIo, ImagesNameTheFolderAndRowKIsItsKthImageByName) {

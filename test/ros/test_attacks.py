@@ -125,14 +125,18 @@ class Attacks(unittest.TestCase):
             self.assertTrue(r.success, r.message)
 
     def diagnosed(self, since, level, fragment, node_fragment=""):
+        """Waits for a status of `level` (or of any of the levels in a tuple) saying
+        `fragment`, of a node whose name holds `node_fragment`."""
+        levels = level if isinstance(level, tuple) else (level,)
+
         def found():
             for array in self.diagnostics[since:]:
                 for s in array.status:
-                    if (s.level == level and fragment in s.message and
+                    if (s.level in levels and fragment in s.message and
                             node_fragment in s.name):
                         return True
             return False
-        wait_for(found, 20, "diagnostics level %d saying '%s'" % (level, fragment))
+        wait_for(found, 20, "diagnostics level %s saying '%s'" % (level, fragment))
 
     def set_config(self, **config):
         Client(NS + "fusion", timeout=30).update_configuration(config)
@@ -171,6 +175,26 @@ class Attacks(unittest.TestCase):
         r = self.load(path="p" * 10000000, name="", condition="")
         self.assertFalse(r.success)
         self.assertLess(len(r.message), 1000)
+        self.still_serving()
+
+    def test_set_names_and_poses_that_cannot_be_are_refused(self):
+        # Issue 28: a set's name obeys one rule whatever names it; a NaN pose never loads.
+        self.ensure_day_loaded()
+        before = self.names()
+        for bad, fragment in [("a\nb", "'a\\x0ab' holds a control character"),
+                              ("n" * 5000, "(5000 characters) is too long")]:
+            r = self.load(path="day.yaml", name=bad, condition="")
+            self.assertFalse(r.success, repr(bad[:20]))
+            self.assertIn(fragment, r.message)
+            self.assertIn("1 to 128 bytes of printable UTF-8", r.message)
+            self.assertLess(len(r.message), 1000)
+        write_reference_set(self.data, "nan_pose", self.day[:3])
+        with open(os.path.join(self.data, "nan_pose.yaml"), "a") as f:
+            f.write("poses: [[0, 0, 0, 0], [.nan, 0, 0, 0], [2, 0, 0, 0]]\n")
+        r = self.load(path="nan_pose.yaml", name="", condition="")
+        self.assertFalse(r.success)
+        self.assertIn("the pose of row 1 (place 1) has x = nan", r.message)
+        self.assertEqual(self.names(), before)
         self.still_serving()
 
     def test_load_runs_beside_recognition(self):
@@ -328,6 +352,25 @@ class Attacks(unittest.TestCase):
         self.ensure_day_loaded()
         n_match = len(self.matches)
         stamp = self.send(np.full(4096, 3.0e38))
+        self.still_serving()
+        self.assertFalse(any(b.header.stamp == stamp for b in self.beliefs))
+        self.assertFalse(any(m.header.stamp == stamp for m in self.matches[n_match:]))
+
+    def test_descriptors_without_information_are_dropped(self):
+        # Issue 28: a black image describes as zeros, which a filter accepted on its history.
+        self.ensure_day_loaded()
+        since, n_out = len(self.diagnostics), len(self.img_out)
+        black = Image()
+        black.height, black.width, black.step, black.encoding = 32, 64, 64 * 3, "bgr8"
+        black.data = bytes(32 * 64 * 3)
+        black.header.stamp = rospy.Time(888)
+        self.image.publish(black)
+        self.diagnosed(since, (1, 2), "is uniform", "img")
+        self.assertFalse(any(d.header.stamp == rospy.Time(888) for d in self.img_out[n_out:]))
+        n_match = len(self.matches)
+        stamp = self.send(np.zeros(4096))
+        # A warning, or an error if nothing else came in the diagnostics' period.
+        self.diagnosed(since, (1, 2), "all zeros: it carries no information", "fusion")
         self.still_serving()
         self.assertFalse(any(b.header.stamp == stamp for b in self.beliefs))
         self.assertFalse(any(m.header.stamp == stamp for m in self.matches[n_match:]))

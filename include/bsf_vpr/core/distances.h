@@ -2,7 +2,8 @@
 //
 // All distances returned here are NOT squared: Euclidean is ||q - r||_2 (the paper's), and
 // cosine is 1 - <q, r> / (||q|| ||r||), in [0, 2]. A zero-norm vector has cosine
-// similarity 0 to everything (distance 1). Both are non-negative.
+// similarity 0 to everything (distance 1), never NaN; a query of zeros is refused before
+// it is recognised (ReferenceMap::CheckQuery). Both are non-negative.
 #pragma once
 
 #include <string>

@@ -31,11 +31,22 @@ struct SetLayout {
   int size() const { return static_cast<int>(place_ids.size()); }
 };
 
+// Largest |x|, |y| or |z| of a pose, in metres. Every frame a robot localises in on Earth
+// stays below it with room to spare (UTM northings reach 1e7 m south of the equator, ECEF
+// coordinates 6.4e6 m), so a larger coordinate is a broken pose (a unit or sign error, a
+// garbage value), not a place.
+constexpr double kMaxPoseCoordinateM = 1e8;
+
+// Why `pose` cannot be a place's pose or the robot's ("" if it can): a coordinate or yaw
+// that is NaN or infinite, or a coordinate beyond kMaxPoseCoordinateM. Names the field and
+// its value ("x = nan").
+std::string PoseProblem(const PlacePose& pose);
+
 // Throws std::invalid_argument naming `who` and the problem when the rows' place ids, poses
 // or image files cannot describe N_u = place_ids.size() rows: none, a negative, duplicated
-// or too large (kMaxPlaces) place id, poses or image files neither empty nor one per row,
-// an images folder without files or the other way round, an image file that
-// ImageFileProblem refuses.
+// or too large (kMaxPlaces) place id, poses or image files neither empty nor one per row, a
+// pose that PoseProblem refuses (naming its row and place), an images folder without files
+// or the other way round, an image file that ImageFileProblem refuses.
 void CheckPlaceRows(const std::string& who, const std::vector<int>& place_ids,
                     const std::vector<PlacePose>& poses, const std::string& images,
                     const std::vector<std::string>& image_files);

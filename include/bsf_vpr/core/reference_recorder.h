@@ -48,8 +48,9 @@ class ReferenceRecorder {
 
   // Adds one descriptor, with the robot's pose if known (required by kPose) and the place
   // the localisation accepted for it (required by kLocalized). Throws
-  // std::invalid_argument if no recording runs, for a wrong dimension or a non-finite
-  // value, or without what the mode needs (nothing is added).
+  // std::invalid_argument if no recording runs, for a wrong dimension, a descriptor that
+  // QueryDescriptorProblem refuses (not finite, all zeros), a pose that PoseProblem refuses
+  // (place_layout.h), or without what the mode needs (nothing is added).
   void Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
            const std::optional<PlacePose>& pose = std::nullopt,
            const std::optional<LocalizedPlace>& localized = std::nullopt);

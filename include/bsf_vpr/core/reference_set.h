@@ -49,7 +49,8 @@ struct ReferenceSet {
   int dimension() const { return static_cast<int>(descriptors.cols()); }
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
-  // duplicated, negative or >= kMaxPlaces, poses of the wrong count, a descriptor that
+  // duplicated, negative or >= kMaxPlaces, poses of the wrong count or one that PoseProblem
+  // refuses (place_layout.h: not finite, or beyond kMaxPoseCoordinateM), a descriptor that
   // DescriptorProblem refuses, image_files neither empty nor one per row, images given
   // without image_files or the other way round, an image file that ImageFileProblem refuses.
   void Validate() const;
@@ -58,6 +59,17 @@ struct ReferenceSet {
 // Why a descriptor cannot be used ("" if it can): a NaN or infinite value, or a norm so
 // large (finite values near 3.4e38) that float32 distances would overflow.
 std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor);
+
+// Why `descriptor` cannot be a query or a recorded place ("" if it can): DescriptorProblem's
+// reasons, or a descriptor of all zeros, which carries no information. Such a descriptor is
+// what the patch-normalised descriptor and HOG give for a uniform image (a black frame, a
+// covered lens, a 1x1 image); it has cosine distance 1 to every reference (no similarity is
+// defined) and Euclidean distance |r| to reference r, which favours references of small norm
+// whatever the place, so fused it would be matched on the filter's history alone. A constant
+// non-zero descriptor passes: an L2-normalised one may be constant (1/sqrt(D) each), and
+// patch normalisation never gives one (each patch has zero mean). A reference set's rows
+// are not held to it: a set's row k is its place, and a black frame stays a (distant) place.
+std::string QueryDescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor);
 
 // Why `file` cannot name a set's image below its folder ("" if it can): empty, absolute,
 // or with a ".." part (it would climb out of the folder).
@@ -94,7 +106,8 @@ class ReferenceMap {
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);
   // Throws std::invalid_argument naming the problem when `descriptor` cannot be compared
-  // with the sets: none is loaded, it has another dimension, or DescriptorProblem refuses it.
+  // with the sets: none is loaded, it has another dimension, or QueryDescriptorProblem
+  // refuses it (not finite, too large, or all zeros).
   void CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descriptor) const;
 
   int num_sets() const { return static_cast<int>(sets_.size()); }

@@ -90,6 +90,13 @@ class ImageDescriber {
   virtual std::string descriptor_type() const = 0;  // e.g. "hog_64x32_c8_b9"
 };
 
+// Why `image` (8-bit, any channel count) shows nothing to recognise a place by ("" if it
+// shows something): every pixel of it is alike, as a covered or black camera or a 1x1 image
+// gives. Its descriptor carries no information: the patch-normalised one and HOG are all
+// zeros (refused as queries, QueryDescriptorProblem), and a network gives one vector for
+// every such image. Returns at the first pixel that differs, so a real image costs little.
+std::string UniformImageProblem(const cv::Mat& image);
+
 // Builds the describer; an ONNX model is loaded and run once on a blank image, so that a
 // missing, unreadable or incompatible model fails here (at start-up) with a message naming
 // the file and the problem (std::runtime_error), not on the first image.

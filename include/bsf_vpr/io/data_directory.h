@@ -49,6 +49,11 @@ class DataDirectory {
   // is not a valid relative path.
   std::vector<std::string> ListFiles(const std::string& relative_folder) const;
 
+  // The paths (as Relative gives them) of the regular files anywhere below the folder,
+  // sorted. Folders are walked like ListFiles' one, without following links; links are not
+  // listed. Throws std::runtime_error naming a folder that cannot be opened or listed.
+  std::vector<std::string> ListFilesBelow() const;
+
   // Whether an entry (file, folder or link) exists at `relative`. Links are not followed.
   bool Exists(const std::string& relative) const;
 

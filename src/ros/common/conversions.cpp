@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/sharding.h"
 
 namespace bsf_vpr {
@@ -64,14 +65,19 @@ geometry_msgs::Pose ToPoseMsg(const PlacePose& pose) {
   return p;
 }
 
-void ToMatchMsg(const Recognition& r, const PlaceLayout& map, Match* out) {
+bool ToMatchMsg(const Recognition& r, const PlaceLayout& map, Match* out) {
   out->place_id = r.belief.match;
   out->confidence = r.belief.confidence;
   out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name : "";
-  const std::optional<PlacePose> pose = map.PoseOf(r.belief.match);
-  out->has_pose = pose.has_value();
-  out->pose = pose ? ToPoseMsg(*pose) : geometry_msgs::Pose();
-  if (!pose) out->pose.orientation.w = 1;
+  return ToMatchPose(map.PoseOf(r.belief.match), out);
+}
+
+bool ToMatchPose(const std::optional<PlacePose>& pose, Match* out) {
+  const bool refused = pose && !PoseProblem(*pose).empty();
+  out->has_pose = pose && !refused;
+  out->pose = out->has_pose ? ToPoseMsg(*pose) : geometry_msgs::Pose();
+  if (!out->has_pose) out->pose.orientation.w = 1;
+  return !refused;
 }
 
 void ToPoseWithCovarianceMsg(const PoseEstimate& e, geometry_msgs::PoseWithCovariance* out) {

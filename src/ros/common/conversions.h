@@ -33,8 +33,14 @@ void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDec
 void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
                  Belief* out);
 
-// Fills `out` (header left to the caller) for the match of `r`.
-void ToMatchMsg(const Recognition& r, const PlaceLayout& layout, Match* out);
+// Fills `out` (header left to the caller) for the match of `r`, its pose by ToMatchPose
+// from the layout's pose of the matched place; returns what ToMatchPose returns.
+bool ToMatchMsg(const Recognition& r, const PlaceLayout& layout, Match* out);
+// Fills out->has_pose and out->pose from the matched place's pose `pose`: has_pose false and
+// the identity pose without one, or with one that PoseProblem refuses (place_layout.h). The
+// sets' checks keep such poses out of a layout; this is the last guard before /match and
+// tf, which must never carry NaN. Returns false for a refused pose, for the caller to report.
+bool ToMatchPose(const std::optional<PlacePose>& pose, Match* out);
 
 geometry_msgs::Pose ToPoseMsg(const PlacePose& pose);
 

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/io/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/common/image_problem.h"
@@ -40,6 +41,15 @@ void FusionNode::Start() {
     if (stale > 0) {
       ROS_WARN("bsf_vpr: removed %d temporary file(s) left in %s by an interrupted save", stale,
                data_dir_->path().c_str());
+    }
+    try {
+      for (const std::string& orphan : RemoveOrphanedDescriptors(*data_dir_)) {
+        ROS_WARN("bsf_vpr: removed %s/%s: descriptors an interrupted save left that no YAML names",
+                 data_dir_->path().c_str(), orphan.c_str());
+      }
+    } catch (const std::exception& e) {
+      ROS_WARN("bsf_vpr: kept every descriptor file in %s: %s", data_dir_->path().c_str(),
+               e.what());
     }
   }
   recording_ = std::make_unique<Recording>(

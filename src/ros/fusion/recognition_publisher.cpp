@@ -1,9 +1,11 @@
 #include "src/ros/fusion/recognition_publisher.h"
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <ros/console.h>
 
 #include <utility>
 
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/pose_estimate.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
@@ -35,13 +37,19 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
     auto match = boost::make_shared<Match>();
     match->header = header;
     match->header.frame_id = options_.map_frame;
-    ToMatchMsg(r, layout, match.get());
+    const bool pose_ok = ToMatchMsg(r, layout, match.get());
+    if (!pose_ok) {
+      ROS_ERROR_THROTTLE(1.0,
+                         "bsf_vpr: place %d's pose %s: its match is published without a pose, "
+                         "and neither tf nor the robot's pose is sent",
+                         r.belief.match, PoseProblem(*layout.PoseOf(r.belief.match)).c_str());
+    }
     match_pub_.publish(match);
     if (tf_ && match->has_pose) {
       const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
       tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
     }
-    if (options_.publish_pose) PublishPose(header, r, layout, decider);
+    if (options_.publish_pose && pose_ok) PublishPose(header, r, layout, decider);
   }
   view_.Show(*belief, r, layout, decider);
 }

@@ -3,7 +3,9 @@
 // the place has a pose, and the robot's pose with its covariance (pose_estimate.h) for a
 // localiser to fuse; and what rviz shows of it (belief_view.h: markers, view frame, match
 // image) while someone listens. Topics are names.h's, advertised in the namespace of the node
-// handle given (the match image in the private one).
+// handle given (the match image in the private one). Nothing non-finite is published: a
+// matched place whose pose ToMatchPose refuses gets its match without a pose, no tf and no
+// robot's pose, and a throttled error.
 //
 // Not thread-safe: the fusion node holds its lock.
 #pragma once

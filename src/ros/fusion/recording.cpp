@@ -10,9 +10,11 @@ namespace bsf_vpr {
 namespace {
 
 // The YAML a recording named `name` is saved to, below `dir`. Throws std::invalid_argument
-// for a name that is not a plain path of printable parts.
+// for a name that SetNameProblem refuses (the rule of every set's name) or that is not a
+// plain relative path (an empty, '.' or '..' part): the name is the set's and its files'.
 std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
-  if (name.empty()) throw std::invalid_argument("a recording needs a non-empty name");
+  const std::string problem = SetNameProblem(name);
+  if (!problem.empty()) throw std::invalid_argument(problem);
   size_t start = 0;
   for (;;) {
     const size_t slash = name.find('/', start);
@@ -24,8 +26,11 @@ std::string RecordingPath(const DataDirectory& dir, const std::string& name) {
     if (slash == std::string::npos) break;
     start = slash + 1;
   }
-  return dir.Relative(name + ".yaml");  // refuses control characters and invalid UTF-8
+  return dir.Relative(name + ".yaml");
 }
+
+// The cause a descriptor with a broken robot pose is counted under (Counts::lost).
+constexpr char kBadPoseCause[] = "robot pose not finite or out of bounds";
 
 void CheckRecording(const ReferenceRecorder& recorder, bool saving) {
   if (!recorder.recording()) throw std::invalid_argument("no recording is running");
@@ -102,6 +107,15 @@ std::string Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                         "; recording_max_descriptors " + std::to_string(limits_.max_descriptors) +
                         ", recording_max_megabytes " + Megabytes(limits_.max_bytes) +
                         "): this descriptor is not recorded; stop_recording saves what it holds");
+  }
+  // A broken pose (a localiser that lost itself, a garbage message) would become the place's
+  // pose and refuse the whole set at the stop: its descriptor is left out instead, counted
+  // under one cause whatever the value (the message names it).
+  const std::string pose_problem = pose ? PoseProblem(*pose) : "";
+  if (!pose_problem.empty() && recorder_.recording()) {
+    NoteLost(kBadPoseCause);
+    throw std::invalid_argument("the robot's pose for this descriptor " + pose_problem +
+                                "; the descriptor is not recorded");
   }
   try {
     recorder_.Add(descriptor, pose, localized);

@@ -55,8 +55,8 @@ class Recording {
   // Starts recording `name` (saved as `name`.yaml below the data directory), with the
   // dimension of the sets in `loaded` (any dimension while it holds none). Throws
   // std::invalid_argument naming the problem, and changes nothing, if there is no data
-  // directory, the name is not a plain relative path (empty, '.' or '..' parts, control
-  // characters, invalid UTF-8), a set of that name is loaded, its YAML exists and
+  // directory, the name is refused by SetNameProblem (reference_set_io.h) or is not a plain
+  // relative path (empty, '.' or '..' parts), a set of that name is loaded, its YAML exists and
   // `overwrite` is false, or a recording runs already or is pending after a failed save (the
   // message says how to save or discard it).
   // `places` says how descriptors become places (reference_recorder.h); localized needs a
@@ -70,8 +70,9 @@ class Recording {
 
   // Adds one descriptor as the next place. `descriptor_type` "" says nothing; otherwise it
   // is the recorded set's type (the last one given wins). Throws std::invalid_argument if no
-  // recording runs or the descriptor is refused (another dimension, not finite); nothing is
-  // added then, and the type is not taken.
+  // recording runs or the descriptor is refused (another dimension, not finite, or a pose
+  // that PoseProblem refuses: counted as lost); nothing is added then, and the type is not
+  // taken.
   // `pose` (the robot's, in the map frame) is required when recording by pose, `localized`
   // (the accepted match) when recording by localisation. `stamp_s` pairs the descriptor
   // with its image (AddImage).

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/place_index.h"
+#include "bsf_vpr/core/place_layout.h"
 
 namespace bsf_vpr {
 namespace {
@@ -44,7 +45,7 @@ const EnumNames<PoseLoss>& PoseLossNames() {
       {PoseLoss::kGap, "gap in the poses around the stamp"},
       {PoseLoss::kFrame, "pose message in another frame"},
       {PoseLoss::kType, "pose message of another type"},
-      {PoseLoss::kNotFinite, "pose not finite"},
+      {PoseLoss::kBadPose, "pose not finite or out of bounds"},
   };
   return kNames;
 }
@@ -132,9 +133,10 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
                    options_.map_frame + "'";
     return;
   }
-  if (!IsFinite(pose)) {
-    bad_loss_ = PoseLoss::kNotFinite;
-    bad_message_ = sub_.getTopic() + " sent a pose with NaN or infinity";
+  const std::string problem = PoseProblem(pose);
+  if (!problem.empty()) {
+    bad_loss_ = PoseLoss::kBadPose;
+    bad_message_ = sub_.getTopic() + " sent a pose that " + problem;
     return;
   }
   if (!samples_.empty() && header.stamp < samples_.back().stamp) {
@@ -204,7 +206,9 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
     const auto& v = t.transform.translation;
     const auto& q = t.transform.rotation;
     const PlacePose p = ToPlacePose(v.x, v.y, v.z, q.x, q.y, q.z, q.w);
-    if (!IsFinite(p)) return {std::nullopt, PoseLoss::kNotFinite, "tf gave NaN or infinity"};
+    const std::string problem = PoseProblem(p);
+    if (!problem.empty())
+      return {std::nullopt, PoseLoss::kBadPose, "tf gave a pose that " + problem};
     out.pose = p;
   } catch (const tf2::TransformException& e) {
     out.loss = PoseLoss::kWaited;

@@ -56,7 +56,7 @@ enum class PoseLoss {
   kGap,       // the poses around (or before) the stamp are farther apart than max_gap_s
   kFrame,     // a message in another frame than map_frame
   kType,      // pose_topic carries another message type
-  kNotFinite  // a pose with NaN or infinity
+  kBadPose    // a pose PoseProblem refuses (NaN, infinity, a coordinate beyond 1e8 m)
 };
 // The causes as the diagnostics count them ("no pose received yet").
 const EnumNames<PoseLoss>& PoseLossNames();

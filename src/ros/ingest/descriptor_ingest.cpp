@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/param_util.h"
 
@@ -171,6 +172,8 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
         cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
+    const std::string uniform = UniformImageProblem(cv->image);
+    if (!uniform.empty()) return Reject("image " + uniform);
     const auto t0 = std::chrono::steady_clock::now();
     const Eigen::VectorXf d = describer_->Describe(cv->image);
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -242,12 +245,12 @@ std::string DescriptorIngest::Problem(const Descriptor& d, double* squared_norm)
     return "descriptor has dimension " + std::to_string(n) + ", expected " +
            std::to_string(params_.expected_dimension);
   }
-  double sq = 0;
-  for (float v : d.data) {
-    if (!std::isfinite(v)) return "descriptor holds NaN or infinity";
-    sq += static_cast<double>(v) * v;
-  }
-  *squared_norm = sq;
+  // The fusion node's own rule for a query (not finite, too large, all zeros), said here
+  // where the descriptor comes in.
+  const Eigen::Map<const Eigen::RowVectorXf> v(d.data.data(), static_cast<Eigen::Index>(n));
+  const std::string problem = QueryDescriptorProblem(v);
+  if (!problem.empty()) return "descriptor " + problem;
+  *squared_norm = v.cast<double>().squaredNorm();
   return "";
 }
 

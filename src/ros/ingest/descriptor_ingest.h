@@ -1,13 +1,15 @@
 // descriptor_ingest: turns images (described with one of the core's image descriptors:
 // patch-normalised, HOG or an ONNX network) or descriptor messages from another node (NetVLAD, ...)
-// into validated bsf_vpr/Descriptor messages: non-empty, finite, of the expected dimension,
-// optionally L2-normalised. Descriptors may come as bsf_vpr/Descriptor or
-// std_msgs/Float32MultiArray (a 1-D array, as a Python node publishes it) on the same topic. Bad
-// input (an image whose sizes do not fit its data, a message of another type) is dropped with a
-// throttled error and counted in diagnostics. It subscribes to its input only while someone listens
-// to its output (a pure transform). With images it also publishes, while someone listens, the
-// seconds each image took to describe on ~describe_time (std_msgs/Float64), before that image's
-// descriptor: the core's own time for it, as Belief.processing_time is the fusion node's.
+// into validated bsf_vpr/Descriptor messages: non-empty, finite, not all zeros
+// (QueryDescriptorProblem), of the expected dimension, optionally L2-normalised. Descriptors
+// may come as bsf_vpr/Descriptor or std_msgs/Float32MultiArray (a 1-D array, as a Python node
+// publishes it) on the same topic. Bad input (an image whose sizes do not fit its data, a
+// uniform image that shows nothing (UniformImageProblem), a message of another type) is
+// dropped with a throttled error and counted in diagnostics. It subscribes to its input only while
+// someone listens to its output (a pure transform). With images it also publishes, while someone
+// listens, the seconds each image took to describe on ~describe_time (std_msgs/Float64), before
+// that image's descriptor: the core's own time for it, as Belief.processing_time is the fusion
+// node's.
 #pragma once
 
 #include <bsf_vpr/Descriptor.h>

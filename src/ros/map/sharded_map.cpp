@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/io/reference_set_io.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/map/set_loading.h"
@@ -319,6 +320,9 @@ PlaceLayout ShardedMap::LayoutWith(int k, const ShardInfo& info, DistanceMetric*
                                   shards_[j].name + ")");
     }
     for (const ShardSet& s : infos[j]->sets) {
+      if (const std::string bad = SetNameProblem(s.name); !bad.empty()) {
+        throw std::invalid_argument("shard " + shards_[j].name + " holds a set " + bad);
+      }
       if (layout.IndexOf(s.name) >= 0) {
         throw std::invalid_argument("set '" + s.name + "' is held by two shards");
       }

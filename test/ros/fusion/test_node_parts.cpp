@@ -125,7 +125,7 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   PlaceRecognizer bare;
   bare.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3)));
   Match none;
-  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Zero(3), false), bare.map(), &none);
+  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Ones(3), false), bare.map(), &none);
   EXPECT_FALSE(none.has_pose);
   EXPECT_EQ(none.pose.orientation.w, 1.0);
   const ReferenceSetInfo info = ToInfoMsg(r.map().set(0));
@@ -136,6 +136,29 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   EXPECT_EQ(info.dimension, 3);
   EXPECT_EQ(info.storage, "float32");
   EXPECT_GT(info.memory_bytes, 6u * 3u * sizeof(float));
+}
+
+TEST(Conversions, APlacePoseThatIsNotFiniteIsLeftOutOfTheMatch) {
+  // The last guard before /match and tf: the sets' checks refuse such poses, so this is
+  // what a broken invariant would publish.
+  for (const PlacePose& bad : {PlacePose{NAN, 0, 0, 0}, PlacePose{0, INFINITY, 0, 0},
+                               PlacePose{0, 0, 0, NAN}, PlacePose{1e12, 0, 0, 0}}) {
+    Match m;
+    EXPECT_FALSE(ToMatchPose(bad, &m));
+    EXPECT_FALSE(m.has_pose);
+    for (const double v : {m.pose.position.x, m.pose.position.y, m.pose.position.z,
+                           m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z}) {
+      EXPECT_EQ(v, 0.0);
+    }
+    EXPECT_EQ(m.pose.orientation.w, 1.0);
+  }
+  Match good;
+  EXPECT_TRUE(ToMatchPose(PlacePose{1, 2, 3, 0}, &good));
+  EXPECT_TRUE(good.has_pose);
+  EXPECT_DOUBLE_EQ(good.pose.position.y, 2.0);
+  Match none;
+  EXPECT_TRUE(ToMatchPose(std::nullopt, &none));
+  EXPECT_FALSE(none.has_pose);
 }
 
 TEST(Conversions, ThePlaceTransformIsTheMatchedPoseInTheMatchFrame) {
@@ -300,6 +323,17 @@ TEST_F(RecordingTest, RefusesBadNamesTakenNamesAndNoDataDirectory) {
     EXPECT_THROW(rec.Start(bad, "", false, map_), std::invalid_argument) << bad;
     EXPECT_FALSE(rec.recording()) << bad;
   }
+  // The rule of every set's name (SetNameProblem), said and shown quoted.
+  for (const auto& [bad, expect] : std::vector<std::pair<std::string, std::string>>{
+           {"line\nbreak", "'line\\x0abreak' holds a control character"},
+           {std::string(200, 'x'), "(200 characters) is too long"},
+           {std::string(5000, 'y'), "(5000 characters) is too long"},
+           {"a/" + std::string(130, 'z') + "/b", "(134 characters) is too long"}}) {
+    const std::string why = Refusal([&] { rec.Start(bad, "", false, map_); });
+    EXPECT_NE(why.find(expect), std::string::npos) << why;
+    EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;
+    EXPECT_FALSE(rec.recording());
+  }
   EXPECT_NE(Refusal([&] { rec.Start("day", "", true, map_); }).find("already loaded"),
             std::string::npos);
   Recording off(nullptr);
@@ -397,10 +431,10 @@ TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
   Recording rec(dir_.get());
   rec.Start("by_pose", "", false, posed, RecordingPlaces::kPose);
   EXPECT_THROW(rec.Add(Row(9), ""), std::invalid_argument);  // no pose: left out
-  for (int i = 0; i <= 6; ++i) rec.Add(Row(float(i)), "t", PlacePose{0.5 * i, 0.1, 0, 0});
+  for (int i = 0; i <= 6; ++i) rec.Add(Row(float(i + 1)), "t", PlacePose{0.5 * i, 0.1, 0, 0});
   const Recording::Saved saved = rec.Save(DistanceMetric::kEuclidean, &posed, options);
   EXPECT_EQ(saved.set.place_ids, (std::vector<int>{0, 1, 2, 3}));
-  EXPECT_FLOAT_EQ(saved.set.descriptors(3, 0), 6.0f);  // the descriptor at x = 3
+  EXPECT_FLOAT_EQ(saved.set.descriptors(3, 0), 7.0f);  // the descriptor at x = 3
   EXPECT_EQ(saved.set.poses.size(), 4u);
   EXPECT_EQ(saved.set.descriptor_type, "t");
   // A sequential recording whose poses put place 2 at 500 m is refused, and kept.
@@ -423,6 +457,34 @@ TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
   const Recording::Saved loc = rec.Save(DistanceMetric::kEuclidean, &posed, options);
   EXPECT_EQ(loc.set.place_ids, std::vector<int>{2});
   EXPECT_EQ(loc.set.poses[0].x_m, 2.0);
+}
+
+TEST_F(RecordingTest, ARobotPoseNotFiniteOrAbsurdLeavesOutItsDescriptorAndTheRecordingGoesOn) {
+  Recording rec(dir_.get());
+  for (const RecordingPlaces places : {RecordingPlaces::kPose, RecordingPlaces::kSequential}) {
+    rec.Start("drive", "", /*overwrite=*/true, map_, places);
+    rec.Add(Row(1), "", PlacePose{0, 0, 0, 0});
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(2), "", PlacePose{NAN, 0, 0, 0});
+              }).find("x = nan"),
+              std::string::npos);
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(3), "", PlacePose{1, 1e12, 0, 0});
+              }).find("y = 1e+12"),
+              std::string::npos);
+    EXPECT_NE(Refusal([&] {
+                rec.Add(Row(4), "", PlacePose{1, 0, 0, INFINITY});
+              }).find("yaw"),
+              std::string::npos);
+    rec.Add(Row(5), "", PlacePose{2, 0, 0, 0});
+    EXPECT_EQ(rec.count(), 2);
+    // One cause for every bad value: the counts stay a few lines.
+    EXPECT_EQ(rec.counts().lost.size(), 1u) << rec.Summary();
+    EXPECT_EQ(rec.counts().received, 5);
+    const Recording::Saved saved = rec.Save(DistanceMetric::kEuclidean);
+    EXPECT_EQ(saved.set.poses.size(), 2u) << ToString(places);
+    for (const PlacePose& p : saved.set.poses) EXPECT_EQ(PoseProblem(p), "");
+  }
 }
 
 }  // namespace

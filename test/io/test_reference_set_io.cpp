@@ -118,7 +118,9 @@ TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
       return std::string(e.what());
     }
   };
-  for (const auto& [name, expect] : bad) {
+  for (const auto& entry : bad) {
+    // Copies, not structured bindings: a C++17 lambda cannot capture a binding (clang).
+    const std::string name = entry.first, expect = entry.second;
     // The YAML's own name, a caller's name for a YAML or an .npy (the command line, the
     // configured sets), a service's request below the data directory, and a save.
     std::string quoted = "\"";  // control characters as YAML escapes, other bytes as they are

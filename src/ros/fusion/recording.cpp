@@ -139,11 +139,8 @@ std::string Recording::Add(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
       }
     }
   }
-  if (limit_warned_ ||
-      (10 * static_cast<int64_t>(recorder_.count()) < 9 * limits_.max_descriptors &&
-       10 * bytes_ < 9 * limits_.max_bytes)) {
-    return "";
-  }
+  // 90% of a limit: said once a recording.
+  if (limit_warned_ || LimitProblem().empty()) return "";
   limit_warned_ = true;
   return "the recording '" + recorder_.name() + "' is at 90% of its limits (" + LimitProblem() +
          "): stop_recording soon, or it refuses descriptors";

@@ -182,6 +182,15 @@ class ShardJoin {
              "node and the shard listen to different descriptors): refused");
   }
 
+  // Refuses every answer of the pending stamp at `it` (no descriptor had it); the next entry.
+  typename std::map<int64_t, Pending>::iterator RefusePending(
+      typename std::map<int64_t, Pending>::iterator it) {
+    for (size_t k = 0; k < shards_.size(); ++k) {
+      if (it->second.answers[k]) RefuseUnheard(static_cast<int>(k), it->first);
+    }
+    return pending_.erase(it);
+  }
+
   void MarkAnswering(int k, double now_s) {
     ShardCounts& shard = shards_[static_cast<size_t>(k)];
     if (shard.missing) {
@@ -199,10 +208,7 @@ class ShardJoin {
       for (auto back = pending_.end(); pending_.size() > queue_size_ && back != pending_.begin();) {
         --back;
         if (heard_.count(back->first)) continue;
-        for (size_t k = 0; k < shards_.size(); ++k) {
-          if (back->second.answers[k]) RefuseUnheard(static_cast<int>(k), back->first);
-        }
-        back = pending_.erase(back);
+        back = RefusePending(back);
       }
       auto it = pending_.begin();
       Pending& p = it->second;
@@ -214,10 +220,7 @@ class ShardJoin {
         // first (descriptors arrive in the order published).
         const bool in_flight = !heard_any_ || latest_heard_ < it->first;
         if (in_flight && !timed_out && !overflow) return;
-        for (size_t k = 0; k < shards_.size(); ++k) {
-          if (p.answers[k]) RefuseUnheard(static_cast<int>(k), it->first);
-        }
-        pending_.erase(it);
+        RefusePending(it);
         continue;
       }
       bool waiting = false;

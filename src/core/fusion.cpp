@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/distances.h"
+#include "src/core/internal/fusion_parts.h"
 #include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
@@ -22,8 +23,12 @@ int CheckedPlace(const SetDistances& d, int k, int num_places) {
   return place;
 }
 
-// Whether value k is the distance to place k for every place (no ids, or ids 0, 1, ...).
-bool CoversEachPlaceInOrder(const SetDistances& d) {
+}  // namespace
+
+namespace internal {
+
+bool CoversEachPlaceInOrder(const SetDistances& d, int num_places) {
+  if (d.count != num_places) return false;
   if (d.place_ids == nullptr) return true;
   for (int k = 0; k < d.count; ++k) {
     if (d.place_ids[k] != k) return false;
@@ -31,7 +36,7 @@ bool CoversEachPlaceInOrder(const SetDistances& d) {
   return true;
 }
 
-}  // namespace
+}  // namespace internal
 
 double Threshold::LogOdds() const {
   if (kind == Kind::kLogOdds) return value;
@@ -111,9 +116,8 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places) {
   if (!any) throw std::invalid_argument("prior gives every place probability zero");
 }
 
-namespace {
+namespace internal {
 
-// Starts a log posterior from the prior (null: uniform).
 void StartFromPrior(const Eigen::VectorXd* log_prior, int num_places, PlaceBelief* out) {
   if (log_prior) {
     ValidateLogPrior(*log_prior, num_places);
@@ -123,36 +127,9 @@ void StartFromPrior(const Eigen::VectorXd* log_prior, int num_places, PlaceBelie
   }
 }
 
-// Each of the sets `use`'s log-likelihoods (ll[i] for set use[i], one entry per value),
-// with the statistics stats_of(u); in parallel when there is enough work. `shifted` false
-// leaves out the per-set constant where it cancels (a set that covers every place once).
-template <typename StatsOf>
-std::vector<std::vector<double>> SetLogLikelihoods(const std::vector<SetDistances>& sets,
-                                                   const std::vector<int>& use, int num_places,
-                                                   const LikelihoodOptions& likelihood,
-                                                   const StatsOf& stats_of, bool shifted) {
-  std::vector<std::vector<double>> ll(use.size());
-  const auto likelihood_of = [&](int i) {
-    const int u = use[static_cast<size_t>(i)];
-    const SetDistances& d = sets.at(static_cast<size_t>(u));
-    std::vector<double>& l = ll[static_cast<size_t>(i)];
-    l.resize(static_cast<size_t>(d.count));
-    if (!shifted && d.count == num_places && CoversEachPlaceInOrder(d)) {
-      UnnormalisedPlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
-    } else {
-      PlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
-    }
-  };
-  int64_t work = 0;
-  for (int u : use) work += sets.at(static_cast<size_t>(u)).count;
-  RunParallel(static_cast<int>(use.size()), work >= 50000 ? DistanceThreads() : 1, likelihood_of);
-  return ll;
-}
-
-// Adds log-likelihood values (one per value of d) at their places.
 void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int num_places,
                  Eigen::VectorXd* to) {
-  if (d.count == num_places && CoversEachPlaceInOrder(d)) {
+  if (internal::CoversEachPlaceInOrder(d, num_places)) {
     *to += Eigen::Map<const Eigen::VectorXd>(values.data(), d.count);
   } else {
     for (int k = 0; k < d.count; ++k) {
@@ -161,8 +138,6 @@ void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int n
   }
 }
 
-// The decision from an unnormalised log posterior in out->log_posterior: match, confidence,
-// accepted, top places; then normalises it and sets the cost.
 void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
   if (out->log_posterior.hasNaN()) {
     // Only values out of range can get here (descriptors are checked on the way in); a NaN
@@ -190,6 +165,60 @@ void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
   out->cost = -out->log_posterior;
 }
 
+Groups GroupSets(const std::vector<SetDistances>& sets, const std::vector<double>& weights) {
+  if (weights.size() != sets.size()) {
+    throw std::invalid_argument("fusion: " + std::to_string(weights.size()) + " weights for " +
+                                std::to_string(sets.size()) + " sets");
+  }
+  Groups groups;
+  for (size_t u = 0; u < sets.size(); ++u) {
+    if (!(weights[u] >= 0 && weights[u] <= 1)) {
+      throw std::invalid_argument("fusion: weight " + std::to_string(weights[u]) + " of set " +
+                                  std::to_string(u) + " is not in [0, 1]");
+    }
+    const auto it = std::find(groups.ids.begin(), groups.ids.end(), sets[u].group);
+    const size_t g = static_cast<size_t>(it - groups.ids.begin());
+    if (it == groups.ids.end()) {
+      groups.ids.push_back(sets[u].group);
+      groups.members.emplace_back();
+      groups.components.emplace_back();
+    }
+    groups.members[g].push_back(static_cast<int>(u));
+    if (weights[u] > 0) groups.components[g].push_back(static_cast<int>(u));
+  }
+  return groups;
+}
+
+}  // namespace internal
+
+namespace {
+
+// Each of the sets `use`'s log-likelihoods (ll[i] for set use[i], one entry per value),
+// with the statistics stats_of(u); in parallel when there is enough work. `shifted` false
+// leaves out the per-set constant where it cancels (a set that covers every place once).
+template <typename StatsOf>
+std::vector<std::vector<double>> SetLogLikelihoods(const std::vector<SetDistances>& sets,
+                                                   const std::vector<int>& use, int num_places,
+                                                   const LikelihoodOptions& likelihood,
+                                                   const StatsOf& stats_of, bool shifted) {
+  std::vector<std::vector<double>> ll(use.size());
+  const auto likelihood_of = [&](int i) {
+    const int u = use[static_cast<size_t>(i)];
+    const SetDistances& d = sets.at(static_cast<size_t>(u));
+    std::vector<double>& l = ll[static_cast<size_t>(i)];
+    l.resize(static_cast<size_t>(d.count));
+    if (!shifted && internal::CoversEachPlaceInOrder(d, num_places)) {
+      UnnormalisedPlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
+    } else {
+      PlaceMatchLogLikelihood(d, stats_of(u), likelihood, l.data());
+    }
+  };
+  int64_t work = 0;
+  for (int u : use) work += sets.at(static_cast<size_t>(u)).count;
+  RunParallel(static_cast<int>(use.size()), work >= 50000 ? DistanceThreads() : 1, likelihood_of);
+  return ll;
+}
+
 // The statistics of all the distances of the sets `members` together, from theirs: the
 // count-weighted mean, and the variance as the mean of the sets' variances plus the spread
 // of their means.
@@ -215,8 +244,68 @@ DistanceStats PooledStats(const std::vector<SetDistances>& sets,
 
 }  // namespace
 
+namespace internal {
+
+std::vector<DistanceStats> PooledGroupStats(const std::vector<SetDistances>& sets,
+                                            const Groups& groups,
+                                            const std::vector<DistanceStats>& set_stats) {
+  if (set_stats.size() != sets.size()) {
+    throw std::invalid_argument("fusion: " + std::to_string(set_stats.size()) +
+                                " set statistics for " + std::to_string(sets.size()) + " sets");
+  }
+  std::vector<DistanceStats> pooled(sets.size());
+  for (size_t g = 0; g < groups.ids.size(); ++g) {
+    const DistanceStats p = PooledStats(sets, set_stats, groups.members[g]);
+    for (int u : groups.components[g]) pooled[static_cast<size_t>(u)] = p;
+  }
+  return pooled;
+}
+
+std::vector<Eigen::VectorXd> PooledLogLikelihoods(const std::vector<SetDistances>& sets,
+                                                  const Groups& groups, int num_places,
+                                                  const LikelihoodOptions& likelihood,
+                                                  const std::vector<DistanceStats>& set_stats) {
+  const std::vector<DistanceStats> pooled = PooledGroupStats(sets, groups, set_stats);
+  std::vector<int> use;
+  for (const std::vector<int>& c : groups.components) use.insert(use.end(), c.begin(), c.end());
+  std::sort(use.begin(), use.end());
+  const std::vector<std::vector<double>> ll = SetLogLikelihoods(
+      sets, use, num_places, likelihood, [&](int u) { return pooled[static_cast<size_t>(u)]; },
+      true);
+  std::vector<Eigen::VectorXd> columns(sets.size());
+  for (size_t i = 0; i < use.size(); ++i) {
+    const size_t u = static_cast<size_t>(use[i]);
+    columns[u] = Eigen::VectorXd::Zero(num_places);
+    AddAtPlaces(sets[u], ll[i], num_places, &columns[u]);
+  }
+  return columns;
+}
+
+Eigen::ArrayXd LogMixture(const std::vector<Eigen::VectorXd>& columns,
+                          const std::vector<int>& members, const std::vector<double>& weights) {
+  double total = 0;
+  for (int u : members) total += weights[static_cast<size_t>(u)];
+  const Eigen::Index n = columns[static_cast<size_t>(members.front())].size();
+  Eigen::MatrixXd l(n, static_cast<Eigen::Index>(members.size()));
+  for (size_t j = 0; j < members.size(); ++j) {  // log(w_u / W) + log L_u(i): no weight underflows
+    const size_t u = static_cast<size_t>(members[j]);
+    l.col(static_cast<Eigen::Index>(j)) = columns[u];
+    l.col(static_cast<Eigen::Index>(j)).array() += std::log(weights[u] / total);
+  }
+  // Per place top + log sum_j exp(l_j - top), a column at a time: vectorised exp and log
+  // (a scalar exp per place and set was most of the mixture's time, much of it in the
+  // underflow path for components far below the top).
+  const Eigen::ArrayXd top = l.rowwise().maxCoeff().array();
+  Eigen::ArrayXd sum = Eigen::ArrayXd::Zero(n);
+  for (Eigen::Index j = 0; j < l.cols(); ++j) sum += (l.col(j).array() - top).exp();
+  return top + sum.log();
+}
+
+}  // namespace internal
+
 const EnumNames<FusionRule>& FusionRuleNames() {
-  static const EnumNames<FusionRule> kNames{{FusionRule::kMixture, "mixture"},
+  static const EnumNames<FusionRule> kNames{{FusionRule::kAdaptive, "adaptive"},
+                                            {FusionRule::kMixture, "mixture"},
                                             {FusionRule::kProduct, "product"}};
   return kNames;
 }
@@ -235,7 +324,7 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
     throw std::invalid_argument("FuseBayes: " + std::to_string(set_stats->size()) +
                                 " set statistics for " + std::to_string(sets.size()) + " sets");
   }
-  StartFromPrior(log_prior, num_places, out);
+  internal::StartFromPrior(log_prior, num_places, out);
   // Added in set order, so the sum is the same on any number of threads.
   const std::vector<std::vector<double>> ll = SetLogLikelihoods(
       sets, use, num_places, likelihood,
@@ -245,87 +334,29 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
       },
       false);
   for (size_t i = 0; i < use.size(); ++i) {
-    AddAtPlaces(sets.at(static_cast<size_t>(use[i])), ll[i], num_places, &out->log_posterior);
+    internal::AddAtPlaces(sets.at(static_cast<size_t>(use[i])), ll[i], num_places,
+                          &out->log_posterior);
   }
-  Decide(threshold, top_k, out);
+  internal::Decide(threshold, top_k, out);
 }
 
 void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double>& weights,
                  int num_places, const LikelihoodOptions& likelihood,
                  const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
                  PlaceBelief* out, const std::vector<DistanceStats>& set_stats) {
-  if (weights.size() != sets.size() || set_stats.size() != sets.size()) {
-    throw std::invalid_argument("FuseMixture: " + std::to_string(weights.size()) + " weights and " +
-                                std::to_string(set_stats.size()) + " set statistics for " +
-                                std::to_string(sets.size()) + " sets");
-  }
-  StartFromPrior(log_prior, num_places, out);
-  // The groups, in order of first appearance; per group all its sets (for the pooled
-  // statistics) and those of non-zero weight (the mixture's components).
-  std::vector<int> group_ids;
-  std::vector<std::vector<int>> members, components;
-  for (size_t u = 0; u < sets.size(); ++u) {
-    if (!(weights[u] >= 0 && weights[u] <= 1)) {
-      throw std::invalid_argument("FuseMixture: weight " + std::to_string(weights[u]) + " of set " +
-                                  std::to_string(u) + " is not in [0, 1]");
-    }
-    const auto it = std::find(group_ids.begin(), group_ids.end(), sets[u].group);
-    const size_t g = static_cast<size_t>(it - group_ids.begin());
-    if (it == group_ids.end()) {
-      group_ids.push_back(sets[u].group);
-      members.emplace_back();
-      components.emplace_back();
-    }
-    members[g].push_back(static_cast<int>(u));
-    if (weights[u] > 0) components[g].push_back(static_cast<int>(u));
-  }
-  std::vector<DistanceStats> pooled(sets.size());
-  std::vector<int> use;
-  for (size_t g = 0; g < group_ids.size(); ++g) {
-    const DistanceStats p = PooledStats(sets, set_stats, members[g]);
-    for (int u : components[g]) {
-      pooled[static_cast<size_t>(u)] = p;
-      use.push_back(u);
-    }
-  }
-  std::sort(use.begin(), use.end());
-  const std::vector<std::vector<double>> ll = SetLogLikelihoods(
-      sets, use, num_places, likelihood, [&](int u) { return pooled[static_cast<size_t>(u)]; },
-      true);
-  std::vector<size_t> slot(sets.size());  // set u's entry in `use` and `ll`
-  for (size_t i = 0; i < use.size(); ++i) slot[static_cast<size_t>(use[i])] = i;
-  // Per group: log sum_u (w_u / W) L_u(i), with L_u(i) = 1 (log 0) where u does not cover i.
-  Eigen::MatrixXd l(num_places, 1);
-  for (size_t g = 0; g < group_ids.size(); ++g) {
-    const std::vector<int>& c = components[g];
+  const internal::Groups groups = internal::GroupSets(sets, weights);
+  const std::vector<Eigen::VectorXd> columns =
+      internal::PooledLogLikelihoods(sets, groups, num_places, likelihood, set_stats);
+  internal::StartFromPrior(log_prior, num_places, out);
+  for (const std::vector<int>& c : groups.components) {
     if (c.empty()) continue;
     if (c.size() == 1) {  // one component: its own likelihood
-      AddAtPlaces(sets[static_cast<size_t>(c[0])], ll[slot[static_cast<size_t>(c[0])]], num_places,
-                  &out->log_posterior);
-      continue;
+      out->log_posterior += columns[static_cast<size_t>(c[0])];
+    } else {
+      out->log_posterior.array() += internal::LogMixture(columns, c, weights);
     }
-    double total = 0;
-    for (int u : c) total += weights[static_cast<size_t>(u)];
-    l.setZero(num_places, static_cast<Eigen::Index>(c.size()));
-    for (size_t j = 0; j < c.size(); ++j) {
-      Eigen::VectorXd column = Eigen::VectorXd::Zero(num_places);
-      AddAtPlaces(sets[static_cast<size_t>(c[j])], ll[slot[static_cast<size_t>(c[j])]], num_places,
-                  &column);
-      l.col(static_cast<Eigen::Index>(j)) = column;
-    }
-    for (size_t j = 0; j < c.size(); ++j) {  // log(w_u / W) + log L_u(i): no weight underflows
-      l.col(static_cast<Eigen::Index>(j)).array() +=
-          std::log(weights[static_cast<size_t>(c[j])] / total);
-    }
-    // Per place top + log sum_j exp(l_j - top), a column at a time: vectorised exp and log
-    // (a scalar exp per place and set was most of the mixture's time, much of it in the
-    // underflow path for components far below the top).
-    const Eigen::ArrayXd top = l.rowwise().maxCoeff().array();
-    Eigen::ArrayXd sum = Eigen::ArrayXd::Zero(num_places);
-    for (Eigen::Index j = 0; j < l.cols(); ++j) sum += (l.col(j).array() - top).exp();
-    out->log_posterior.array() += top + sum.log();
   }
-  Decide(threshold, top_k, out);
+  internal::Decide(threshold, top_k, out);
 }
 
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,

@@ -22,12 +22,14 @@ void MethodRunner::SetOptions(const MethodOptions& options) {
                              a.standardize == b.standardize &&
                              a.use_partial_sequences == b.use_partial_sequences;
   if (!same_sequence) sequence_ = SequenceMatcher(options.sequence);
+  if (options.fusion != options_.fusion) adaptive_.Reset();
   options_ = options;
 }
 
 void MethodRunner::Reset() {
   sequence_.Reset();
   last_log_posterior_.resize(0);
+  adaptive_.Reset();
 }
 
 namespace {
@@ -35,7 +37,8 @@ namespace {
 // RunMethod on the available sets alone, its belief re-indexed to every set of `sets`.
 PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>& sets,
                            const std::vector<bool>& available, int num_places,
-                           const MethodOptions& options, const Eigen::VectorXd* log_prior) {
+                           const MethodOptions& options, const Eigen::VectorXd* log_prior,
+                           FusionStream stream) {
   if (available.size() != sets.size()) {
     throw std::invalid_argument("availability given for " + std::to_string(available.size()) +
                                 " set(s), the query has " + std::to_string(sets.size()));
@@ -57,7 +60,8 @@ PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>
     }
     m.set_index = static_cast<int>(it - index.begin());
   }
-  PlaceBelief b = RunMethod(m, present, num_places, options, log_prior);
+  stream.set_ids = &index;
+  PlaceBelief b = RunMethod(m, present, num_places, options, log_prior, &stream);
   const auto to_full = [&index](std::vector<int>* v) {
     for (int& u : *v) u = index.at(static_cast<size_t>(u));
   };
@@ -92,8 +96,13 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
   const bool all =
       !available || (available->size() == sets.size() &&
                      std::find(available->begin(), available->end(), false) == available->end());
-  PlaceBelief b = all ? RunMethod(method_, sets, num_places, options_, log_prior)
-                      : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior);
+  FusionStream stream;
+  stream.state = &adaptive_;
+  stream.step_places = step_places;
+  stream.update_state = update_state;
+  PlaceBelief b =
+      all ? RunMethod(method_, sets, num_places, options_, log_prior, &stream)
+          : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior, stream);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace

@@ -132,11 +132,20 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               SelectionOptionsTable(), [](auto& o) -> auto& { return o.selection; })
           .AddChoice(
               "fusion", [](auto& o) -> auto& { return o.fusion; },
-              "how bsf fuses the sets: mixture (sets of one descriptor are alternative "
-              "conditions of the query: their likelihoods are mixed, weighted by the soft form "
-              "of the selection rule, with the non-match statistics pooled; docs/method.md) or "
-              "product (exactly the paper: the selected sets' likelihoods multiply)",
+              "how bsf fuses the sets: adaptive (Bayesian model averaging over the queries "
+              "so far of three hypotheses: the query shows one set's condition, one of them "
+              "uncertainly (the mixture), or the sets are independent evidence (their "
+              "product), each weighted by how well it predicted the queries; docs/method.md), "
+              "mixture (sets of one descriptor are alternative conditions of the query: their "
+              "likelihoods are mixed, weighted by the soft form of the selection rule, with "
+              "the non-match statistics pooled) or product (exactly the paper: the selected "
+              "sets' likelihoods multiply)",
               FusionRuleNames(), kLive)
+          .Add(
+              "fusion_memory_queries", [](auto& o) -> auto& { return o.fusion_memory_queries; },
+              "fusion adaptive: the queries over which a hypothesis's predictions count (its "
+              "score forgets by 1 - 1 / this per query)",
+              "queries", AtLeast(1), kLive)
           .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
@@ -173,13 +182,36 @@ void MethodOptions::Validate() const {
   sequence.Validate();
 }
 
+bool Method::CarriesState(const MethodOptions& options) const {
+  return temporal_filter || sequence ||
+         (kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive);
+}
+
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
-                      const MethodOptions& options, const Eigen::VectorXd* log_prior) {
+                      const MethodOptions& options, const Eigen::VectorXd* log_prior,
+                      const FusionStream* stream) {
   PlaceBelief out;
-  const bool mixture = method.kind == MethodKind::kBsf && options.fusion == FusionRule::kMixture;
+  const bool adaptive = method.kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive;
+  const bool mixture =
+      method.kind == MethodKind::kBsf && (options.fusion == FusionRule::kMixture || adaptive);
   // Selection is computed for every method: it is cheap and its statistics (u*, min D^u)
   // are reported with every belief. The mixture selects within each descriptor group.
   out.selection = SelectReferenceSets(sets, options.selection, mixture);
+  if (adaptive) {
+    const std::vector<double> weights =
+        ConditionWeights(sets, out.selection.set_stats, options.selection);
+    AdaptiveFusion first;  // without a stream: the first query of one
+    AdaptiveFusionOptions adaptive_options;
+    adaptive_options.memory_queries = options.fusion_memory_queries;
+    adaptive_options.filter = options.filter;
+    const FusionStream none;
+    const FusionStream& s = stream ? *stream : none;
+    (s.state ? s.state : &first)
+        ->Fuse(sets, s.set_ids, weights, num_places, options.likelihood, log_prior,
+               options.threshold, options.top_k, adaptive_options, s.step_places, s.update_state,
+               &out, out.selection.set_stats);
+    return out;
+  }
   if (mixture) {
     out.set_weights = ConditionWeights(sets, out.selection.set_stats, options.selection);
     for (size_t u = 0; u < sets.size(); ++u) {

@@ -51,7 +51,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         o.accepted = b.accepted;
         o.top_places = b.top_places;
       };
-      if (methods[k].temporal_filter || methods[k].sequence) {
+      if (methods[k].CarriesState(options)) {
         for (int q = begin; q < end; ++q) run(runners[k], q);  // carries state: in order
         continue;
       }

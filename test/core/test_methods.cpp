@@ -219,12 +219,13 @@ TEST(Methods, MixtureFusionMatchesItsEquation) {
     Eigen::VectorXd prior(n);
     for (int i = 0; i < n; ++i) prior(i) = -0.01 * i;
     MethodOptions options;
+    options.fusion = FusionRule::kMixture;
     options.selection.gamma_fraction = 0.05;
     const std::vector<std::string> names = {"a", "b", "c", "d"};
     const PlaceBelief b = RunMethod(ParseMethod("bsf", names), views, n, options, &prior);
 
     Eigen::VectorXd expected = prior;
-    for (const std::vector<int> group : {std::vector<int>{0, 1, 2}, std::vector<int>{3}}) {
+    for (const std::vector<int>& group : {std::vector<int>{0, 1, 2}, std::vector<int>{3}}) {
       double sum = 0, count = 0;
       for (int u : group) {
         for (float v : d[u]) sum += v, ++count;
@@ -297,6 +298,7 @@ TEST(Methods, TheMixtureRefusesNaNDistancesAndSurvivesATinyWeight) {
   Data far(50, 4);
   for (float& v : far.d[2]) v *= 9.0f;
   MethodOptions o;
+  o.fusion = FusionRule::kMixture;
   o.selection.gamma_fraction = 0.01;
   const PlaceBelief b = RunMethod(ParseMethod("bsf", kNames), far.views, 50, o);
   EXPECT_TRUE(b.log_posterior.allFinite());

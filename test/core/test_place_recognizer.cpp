@@ -4,6 +4,7 @@
 #include <cstring>
 #include <optional>
 
+#include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/evaluation/synthetic.h"
@@ -33,11 +34,13 @@ TEST(PlaceRecognizer, MatchesTheOfflineMethodForEveryQuery) {
   PlaceRecognizer r = Loaded(data);
   const std::vector<RowMatrixXf> all =
       ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
-  const Method bsf = ParseMethod("bsf", data.map.SetNames());
+  // Offline as the evaluator runs it: one runner, the queries in order (the default fusion
+  // carries its hypotheses' scores from query to query).
+  MethodRunner runner(ParseMethod("bsf", data.map.SetNames()), {});
   for (int q = 0; q < 30; ++q) {
     const Recognition online = r.Recognize(data.queries.row(q).transpose(), true);
-    const PlaceBelief offline =
-        RunMethod(bsf, QueryRowViews(all, q, {nullptr, nullptr}), data.map.num_places(), {});
+    const PlaceBelief offline = runner.Step(QueryRowViews(all, q, {nullptr, nullptr}),
+                                            data.map.num_places(), nullptr, std::nullopt, true);
     EXPECT_EQ(online.belief.match, offline.match);
     EXPECT_EQ(online.belief.confidence, offline.confidence);  // bitwise: the same distances
     ASSERT_GE(online.closest_set, 0);

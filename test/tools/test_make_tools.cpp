@@ -1,5 +1,5 @@
 // End-to-end tests of the tools that make bsf_vpr's inputs (bsf_make_reference,
-// bsf_make_bag, bsf_make_synthetic), run as a user would run them.
+// bsf_make_bag, bsf_make_synthetic, bsf_make_views), run as a user would run them.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -261,6 +261,48 @@ TEST_F(MakeTools, MakeSyntheticRefusesABadNumberList) {
       RunCommand(std::string(BSF_MAKE_SYNTHETIC_PATH) + " --out " + dir_ + "/s --set-noise 0.1,x");
   EXPECT_EQ(syn.exit_code, 2);
   EXPECT_NE(syn.output.find("--set-noise expects a number"), std::string::npos) << syn.output;
+}
+
+// The width and height a PNG's header declares.
+std::pair<int, int> PngSize(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char h[24] = {};
+  in.read(reinterpret_cast<char*>(h), sizeof h);
+  const auto be = [&](int at) {
+    return (h[at] << 24) | (h[at + 1] << 16) | (h[at + 2] << 8) | h[at + 3];
+  };
+  return {be(16), be(20)};
+}
+
+TEST_F(MakeTools, MakeViewsCropsEveryFrameSidewaysOrRefusesACropOutOfTheFrame) {
+  const std::string tool = BSF_MAKE_VIEWS_PATH;
+  const std::string frames = kSource + "/data/nordland_subset100/256x144/fall";
+  const Result r =
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/left --shift -0.05");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("wrote 100 views"), std::string::npos) << r.output;
+  ASSERT_TRUE(fs::exists(dir_ + "/left/000.png"));
+  EXPECT_TRUE(fs::exists(dir_ + "/left/099.png"));
+  EXPECT_EQ(PngSize(dir_ + "/left/000.png"), std::make_pair(179, 100));  // 70% of 256 x 144
+  ASSERT_EQ(
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/half --crop 0.5").exit_code,
+      0);
+  EXPECT_EQ(PngSize(dir_ + "/half/000.png"), std::make_pair(128, 72));
+  // Views from two sides are other images, not copies.
+  std::ifstream a(dir_ + "/left/000.png", std::ios::binary),
+      b(dir_ + "/half/000.png", std::ios::binary);
+  const std::string bytes_a((std::istreambuf_iterator<char>(a)), {}),
+      bytes_b((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_NE(bytes_a, bytes_b);
+  ExpectOneLineRefusal(
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/x --shift 0.2"),
+      "moves the crop out of the frame", "--shift 0.2");
+  ExpectOneLineRefusal(
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/x --crop 1.5"),
+      "--crop must be in (0, 1]", "--crop 1.5");
+  ExpectOneLineRefusal(RunCommand(tool + " --images " + dir_ + "/nothing --out " + dir_ + "/x"),
+                       "no folder", "a missing folder");
+  EXPECT_FALSE(fs::exists(dir_ + "/x"));  // nothing written on a refusal
 }
 
 }  // namespace

@@ -141,10 +141,14 @@ TEST_F(RealData, CorridorFusesTenTechniquesWithTheirOwnScales) {
               {"nn:HybridNet", 0.8441},
               {"nn:NetVLAD", 0.5553}},
              "corridor, relative selection");
-  // The default mixture: each technique its own descriptor group, so the ten multiply
-  // (bayes_full); declared one descriptor, they are mixed and weighed by raw minima.
-  ExpectAucs(args, {{"bsf", 0.9013}}, "corridor, mixture", "");
+  // The default: each technique its own descriptor group, so the ten multiply (bayes_full).
+  // Declared one descriptor, the mixture weighs them by raw minima (0.250); the default's
+  // hypotheses over the stream recover most of what the product of ten independent
+  // techniques gives.
+  ExpectAucs(args, {{"bsf", 0.9013}}, "corridor, default", "");
   ExpectAucs(args, {{"bsf", 0.2500}}, "corridor, mixture of one descriptor",
+             " --same-descriptor true --fusion mixture");
+  ExpectAucs(args, {{"bsf", 0.6926}}, "corridor, default, one descriptor",
              " --same-descriptor true");
   const testing::Result refused =
       Evaluate(" --reference a=" + kData + "gardens_point_hdc_delf/day_left.npy --query " + kData +
@@ -210,7 +214,7 @@ TEST_F(RealData, TheDefaultFusionIsWithinOneHundredthOfTheBestAlternativeEverywh
   };
   std::vector<RealCase> cases;
   const std::map<std::string, std::pair<double, double>> n100_pins = {
-      {"winter/patchnorm", {0.4877, 0.18}}, {"winter/hog", {0.8903, 0.31}},
+      {"winter/patchnorm", {0.4843, 0.22}}, {"winter/hog", {0.8893, 0.30}},
       {"summer/patchnorm", {1.0, 1.0}},     {"summer/hog", {1.0, 1.0}},
       {"fall/patchnorm", {1.0, 1.0}},       {"fall/hog", {1.0, 1.0}}};
   for (const std::string query : {"winter", "summer", "fall"}) {
@@ -245,6 +249,8 @@ TEST_F(RealData, TheDefaultFusionIsWithinOneHundredthOfTheBestAlternativeEverywh
       }
     }
     const double mine = fused.at("bsf").at("auc");
+    std::printf("%-28s default %.4f / %.2f, best alternative %.4f (%s)\n", c.name.c_str(), mine,
+                fused.at("bsf").at("r_at_100p"), best, best_name.c_str());
     EXPECT_GE(mine, best - 0.01) << c.name << ": default bsf " << mine << ", " << best_name << " "
                                  << best;
     EXPECT_NEAR(mine, c.auc, kTolerance) << c.name;
@@ -255,6 +261,119 @@ TEST_F(RealData, TheDefaultFusionIsWithinOneHundredthOfTheBestAlternativeEverywh
   const double n = static_cast<double>(cases.size());
   EXPECT_GT(sum_default / n, sum_med / n + 0.02)  // measured 0.799 and 0.762
       << "mean AUC: default " << sum_default / n << ", med " << sum_med / n;
+}
+
+// Issue 29: cases where the sets are alternative conditions and cases where they are
+// complementary evidence, from real frames. Three traversals of Nordland-100 (winter,
+// summer, fall; data/nordland_subset100/256x144), each seen from a viewpoint of its own:
+// a crop of 70% of each frame (bsf_make_views), centred (c), moved 2.5% of the width left
+// or right (l, r) or 5% (L, R); or the 64x32 frames as shipped (o). Each traversal in turn
+// is the query against the other two. The sets that share the query's viewpoint and those
+// that share its season are then wrong in their own ways. The rule was designed on the
+// patch-normalised cases and these HOG cases were first run once it was fixed
+// (docs/results.md, Study 7).
+//
+// The figure of merit of each case: the default's AUC below the best of the paper's bsf,
+// bayes_full, med, med_selective and the best single reference (nn: or bayes:), all under
+// the paper's options, run here. Pinned: the default's mean AUC and worst regret. Checked:
+// the default's mean AUC is above every alternative's (the best single is chosen per case,
+// with hindsight).
+TEST_F(RealData, TheDefaultFusionAcrossViewpointsAndSeasons) {
+  const std::string frames = kData + "nordland_subset100/256x144/";
+  const std::vector<std::string> seasons = {"winter", "summer", "fall"};
+  // A family of cases: how the views are cut from the frames, and the descriptor.
+  struct Family {
+    std::string name;
+    double crop, shift;  // l and r move the crop by `shift` widths, L and R by twice that
+    std::string descriptor;
+    bool held_out;                  // first run with the rule fixed
+    double mean_auc, worst_regret;  // the default's, pinned
+  };
+  const std::vector<Family> families = {
+      {"patchnorm", 0.7, 0.025, " --image-descriptor patchnorm", false, 0.6896, 0.0789},
+      {"hog", 0.7, 0.025, " --image-descriptor hog", false, 0.9102, 0.0557},
+      {"patchnorm 32x16", 0.7, 0.025,
+       " --image-descriptor patchnorm --patch-width-px 32 --patch-height-px 16", false, 0.6569,
+       0.0658},
+      {"patchnorm, 80% crops", 0.8, 0.0375, " --image-descriptor patchnorm", true, 0.6150, 0.3058},
+      {"hog 32x16", 0.7, 0.025,
+       " --image-descriptor hog --hog-width-px 32 --hog-height-px 16 --hog-cell-px 4", true, 0.8464,
+       0.0223},
+  };
+  const auto folder = [&](const Family& f, const std::string& season, char view) {
+    if (view == 'o') return kData + "nordland_subset100/64x32/" + season;
+    const double steps = view == 'c' ? 0
+                                     : (view == 'l'   ? -1
+                                        : view == 'r' ? 1
+                                        : view == 'L' ? -2
+                                                      : 2);
+    const std::string out = dir_ + "/views/" + std::to_string(f.crop) + "_" +
+                            std::to_string(f.shift) + "/" + season + "_" + view;
+    if (!fs::exists(out)) {
+      const testing::Result r = testing::RunCommand(
+          std::string(BSF_MAKE_VIEWS_PATH) + " --images " + frames + season + " --out " + out +
+          " --crop " + std::to_string(f.crop) + " --shift " + std::to_string(steps * f.shift));
+      EXPECT_EQ(r.exit_code, 0) << r.output;
+    }
+    return out;
+  };
+  // The viewpoints of winter, summer and fall.
+  const std::vector<std::string> patterns = {"ccr", "crc", "rcc", "ccL", "Lcc",
+                                             "cLc", "lcr", "ccc", "ooo"};
+  const std::vector<std::string> alternatives = {"bsf (paper)", "bayes_full", "med",
+                                                 "med_selective", "best single"};
+  for (const Family& family : families) {
+    std::map<std::string, double> sum;
+    double worst = -1;
+    int cases = 0;
+    for (const std::string& pattern : patterns) {
+      for (size_t q = 0; q < seasons.size(); ++q) {
+        std::string args = " --query " + folder(family, seasons[q], pattern[q]);
+        std::string name = seasons[q] + "_" + pattern[q] + " <-";
+        for (size_t r = 0; r < seasons.size(); ++r) {
+          if (r == q) continue;
+          const std::string set = seasons[r] + "_" + pattern[r];
+          args += " --reference " + set + "=" + folder(family, seasons[r], pattern[r]);
+          name += " " + set;
+        }
+        args += family.descriptor + " --distance cosine --tolerance 2";
+        const auto paper = Run(args + " --methods all" + kPaperMode);
+        const auto fused = Run(args + " --methods bsf");
+        ASSERT_TRUE(paper.count("bsf") && fused.count("bsf")) << name;
+        std::map<std::string, double> auc = {{"bsf (paper)", paper.at("bsf").at("auc")},
+                                             {"best single", 0.0}};
+        for (const auto& [method, row] : paper) {
+          if (method.rfind("nn:", 0) == 0 || method.rfind("bayes:", 0) == 0) {
+            auc["best single"] = std::max(auc["best single"], row.at("auc"));
+          } else if (method != "bsf") {
+            auc[method] = row.at("auc");
+          }
+        }
+        double best = 0;
+        for (const std::string& a : alternatives) {
+          best = std::max(best, auc.at(a));
+          sum[a] += auc.at(a);
+        }
+        const double mine = fused.at("bsf").at("auc");
+        sum["default"] += mine;
+        worst = std::max(worst, best - mine);
+        ++cases;
+        std::printf("%-22s %-28s default %.3f best %.3f regret %+.3f\n", family.name.c_str(),
+                    name.c_str(), mine, best, best - mine);
+      }
+    }
+    const double mean = sum["default"] / cases;
+    std::printf("%s%s: default mean AUC %.4f, worst regret %.4f", family.name.c_str(),
+                family.held_out ? " (held out)" : "", mean, worst);
+    for (const std::string& a : alternatives) std::printf("; %s %.4f", a.c_str(), sum[a] / cases);
+    std::printf("\n");
+    for (const std::string& a : alternatives) {
+      if (a == "best single") continue;  // chosen per case with hindsight: reported
+      EXPECT_GT(mean, sum[a] / cases) << family.name << ": mean AUC of the default and " << a;
+    }
+    EXPECT_NEAR(mean, family.mean_auc, kTolerance) << family.name;
+    EXPECT_NEAR(worst, family.worst_regret, kTolerance) << family.name;
+  }
 }
 
 }  // namespace

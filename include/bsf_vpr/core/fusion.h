@@ -35,10 +35,15 @@ const EnumNames<Threshold::Kind>& ThresholdKindNames();
 Threshold::Kind ParseThresholdKind(const std::string& name);  // throws naming the choices
 std::string ToString(Threshold::Kind kind);
 
-// How bsf fuses the sets it relies on (MethodOptions::fusion; docs/method.md, "Fusion that never
-// loses").
+// How bsf fuses the sets it relies on (MethodOptions::fusion; docs/method.md, "Fusion that
+// adapts").
 enum class FusionRule {
-  // The default. Sets of one descriptor are alternative conditions of the query: the query
+  // The default: Bayesian model averaging, over the stream of queries, of three ways the sets
+  // of one descriptor may relate to the query: it shows one set's condition, one of them
+  // uncertainly (kMixture), or they are independent evidence (the product of all), each
+  // weighted by how well it predicted the queries so far (adaptive_fusion.h).
+  kAdaptive,
+  // Sets of one descriptor are alternative conditions of the query: the query
   // shows (at most) one of them, which one is uncertain, so their likelihoods are mixed,
   // weighted by ConditionWeights (the soft form of the selection rule), with the non-match
   // statistics pooled over the group (FuseMixture). Groups of different descriptors are

@@ -1,5 +1,6 @@
 // Runs one method query after query, carrying what its +filter and +seq suffixes need from
-// one query to the next (the previous posterior, the last L cost vectors). The offline
+// one query to the next (the previous posterior, the last L cost vectors), and the adaptive
+// fusion's hypotheses. The offline
 // evaluator and the online recogniser both use it, so a replay gives the offline results.
 //
 // Not thread-safe: callers serialise access.
@@ -46,6 +47,7 @@ class MethodRunner {
   MethodOptions options_;
   SequenceMatcher sequence_;
   Eigen::VectorXd last_log_posterior_;  // for +filter; empty before the first query
+  AdaptiveFusion adaptive_;             // for bsf with fusion adaptive
 };
 
 }  // namespace bsf_vpr

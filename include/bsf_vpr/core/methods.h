@@ -15,15 +15,19 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/adaptive_fusion.h"
 #include "bsf_vpr/core/fusion.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/sequence_matcher.h"
 #include "bsf_vpr/core/temporal_filter.h"
 
 namespace bsf_vpr {
+
+struct MethodOptions;
 
 enum class MethodKind { kNearestNeighbour, kBayesSingle, kMed, kMedSelective, kBayesFull, kBsf };
 
@@ -36,6 +40,9 @@ struct Method {
 
   std::string Name() const;  // e.g. "bsf", "nn:winter", "bsf+filter+seq"
   bool IsBayesian() const;
+  // Whether a query's result depends on the queries before it (+filter, +seq, or bsf with
+  // fusion adaptive): such a method sees the queries in traversal order, one at a time.
+  bool CarriesState(const MethodOptions& options) const;
   std::string BaseName() const;  // without suffixes
 };
 
@@ -52,7 +59,9 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
 struct MethodOptions {
   SelectionOptions selection;
   LikelihoodOptions likelihood;
-  FusionRule fusion = FusionRule::kMixture;  // how bsf fuses the sets (fusion.h)
+  FusionRule fusion = FusionRule::kAdaptive;  // how bsf fuses the sets (fusion.h)
+  // fusion adaptive: the queries over which a hypothesis's predictions count (adaptive_fusion.h)
+  double fusion_memory_queries = 10;
   // What makes a match accepted (PlaceBelief::accepted), per kind of method:
   Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
   // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of
@@ -75,7 +84,17 @@ const OptionTable<MethodOptions>& MethodOptionsTable();
 // only the Bayesian methods use it. The returned belief keeps apart what the selection rule
 // chose (selection.selected, computed for every method) and the sets the method fused
 // (used_sets).
+//
+// bsf with fusion adaptive scores its hypotheses over the stream: `stream` carries that
+// state (MethodRunner holds it); null runs the query as the first of a stream.
+struct FusionStream {
+  AdaptiveFusion* state = nullptr;
+  std::optional<double> step_places;          // odometry, for the hypotheses' filters
+  bool update_state = true;                   // false: `state` is left as it was
+  const std::vector<int>* set_ids = nullptr;  // each set's index in the map (null: 0, 1, ...)
+};
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
-                      const MethodOptions& options, const Eigen::VectorXd* log_prior = nullptr);
+                      const MethodOptions& options, const Eigen::VectorXd* log_prior = nullptr,
+                      const FusionStream* stream = nullptr);
 
 }  // namespace bsf_vpr

@@ -37,5 +37,10 @@ const OptionTable<TemporalFilterOptions>& TemporalFilterOptionsTable();
 Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
                                 const TemporalFilterOptions& options,
                                 std::optional<double> step_mean = std::nullopt);
+// The same in probabilities: the prior from `posterior` (N non-negative entries, of any
+// total: the moved mass is normalised), N positive entries summing to 1. PredictLogPrior(l) is the
+// log of PredictPrior(exp(l)).
+Eigen::VectorXd PredictPrior(const Eigen::VectorXd& posterior, const TemporalFilterOptions& options,
+                             std::optional<double> step_mean = std::nullopt);
 
 }  // namespace bsf_vpr

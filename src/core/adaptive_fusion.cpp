@@ -1,0 +1,312 @@
+#include "bsf_vpr/core/adaptive_fusion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "src/core/internal/fusion_parts.h"
+#include "src/core/internal/worker_pool.h"
+
+namespace bsf_vpr {
+namespace {
+
+constexpr int kMixture = -1;
+constexpr int kProduct = -2;
+
+constexpr double kLikelihoodFloor = 1e-300;
+// Below this many values the likelihoods and the filters run on the calling thread alone.
+constexpr int64_t kParallelWork = 50000;
+
+// Linear likelihood values (one per value of d) laid out over the places: 1 where d does not
+// cover a place, the product of its values where it covers it more than once.
+Eigen::ArrayXd LayOutLinear(const SetDistances& d, const Eigen::ArrayXd& values, int num_places) {
+  if (internal::CoversEachPlaceInOrder(d, num_places)) return values;
+  Eigen::ArrayXd out = Eigen::ArrayXd::Ones(num_places);
+  for (int k = 0; k < d.count; ++k) out(d.PlaceAt(k)) *= values(k);  // ids checked before
+  return out;
+}
+
+// Per place, the distance of set d's nearest row there (NaN where it has none).
+Eigen::ArrayXd DistancesAtPlaces(const SetDistances& d, int num_places) {
+  Eigen::ArrayXd out =
+      Eigen::ArrayXd::Constant(num_places, std::numeric_limits<double>::quiet_NaN());
+  for (int k = 0; k < d.count; ++k) {
+    const int place = d.PlaceAt(k);
+    if (place < 0 || place >= num_places) {
+      throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
+                                  std::to_string(num_places - 1));
+    }
+    double& v = out(place);
+    if (!(v <= d.values[k])) v = d.values[k];  // NaN or larger
+  }
+  return out;
+}
+
+// Pearson's correlation of x and y over the entries where both are numbers; 0 where it is
+// undefined (fewer than two such entries, or no spread).
+double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
+  double n = 0, sx = 0, sy = 0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (std::isnan(x(i)) || std::isnan(y(i))) continue;
+    n += 1;
+    sx += x(i);
+    sy += y(i);
+  }
+  if (n < 2) return 0;
+  const double mx = sx / n, my = sy / n;
+  double sxx = 0, syy = 0, sxy = 0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (std::isnan(x(i)) || std::isnan(y(i))) continue;
+    const double dx = x(i) - mx, dy = y(i) - my;
+    sxx += dx * dx;
+    syy += dy * dy;
+    sxy += dx * dy;
+  }
+  return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
+}
+
+// Per set of `members`: 1 / sum_v max(rho_uv, 0), rho the correlation of the two sets'
+// distances over the places (rho_uu = 1). Sets that say the same thing (rho near 1) share
+// one vote between them; independent ones (rho <= 0) keep a whole vote each.
+std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
+                                          const std::vector<DistanceStats>& stats,
+                                          const std::vector<int>& members, int num_places) {
+  const size_t m = members.size();
+  bool in_order = true;
+  for (int u : members) {
+    const SetDistances& d = sets[static_cast<size_t>(u)];
+    in_order = in_order && internal::CoversEachPlaceInOrder(d, num_places);
+  }
+  // Standardised columns: with every place covered once, rho_uv is their dot product.
+  std::vector<Eigen::ArrayXd> z(m);
+  for (size_t j = 0; j < m; ++j) {
+    const SetDistances& d = sets[static_cast<size_t>(members[j])];
+    if (in_order) {
+      const DistanceStats& st = stats[static_cast<size_t>(members[j])];
+      const double norm = st.stddev * std::sqrt(static_cast<double>(d.count));
+      z[j] =
+          norm > 0
+              ? Eigen::ArrayXd(
+                    (Eigen::Map<const Eigen::ArrayXf>(d.values, d.count).cast<double>() - st.mean) /
+                    norm)
+              : Eigen::ArrayXd::Zero(num_places);
+    } else {
+      z[j] = DistancesAtPlaces(d, num_places);
+    }
+  }
+  std::vector<double> effect(m, 1.0);
+  for (size_t j = 0; j < m; ++j) {
+    for (size_t k = j + 1; k < m; ++k) {
+      const double rho = in_order ? (z[j] * z[k]).sum() : Correlation(z[j], z[k]);
+      const double shared = std::isfinite(rho) ? std::clamp(rho, 0.0, 1.0) : 0.0;
+      effect[j] += shared;
+      effect[k] += shared;
+    }
+  }
+  for (double& e : effect) e = 1.0 / e;
+  return effect;
+}
+
+}  // namespace
+
+void AdaptiveFusion::Reset() {
+  num_places_ = -1;
+  groups_.clear();
+}
+
+AdaptiveFusion::GroupState& AdaptiveFusion::StateOf(int group) {
+  for (GroupState& g : groups_) {
+    if (g.group == group) return g;
+  }
+  groups_.emplace_back();
+  groups_.back().group = group;
+  return groups_.back();
+}
+
+std::vector<double> AdaptiveFusion::LastWeights(int group) const {
+  for (const GroupState& g : groups_) {
+    if (g.group == group) return g.last_weights;
+  }
+  return {};
+}
+
+void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
+                          const std::vector<double>& weights, int num_places,
+                          const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
+                          const Threshold& threshold, int top_k,
+                          const AdaptiveFusionOptions& options, std::optional<double> step_places,
+                          bool update_state, PlaceBelief* out,
+                          const std::vector<DistanceStats>& set_stats) {
+  if (set_ids != nullptr && set_ids->size() != sets.size()) {
+    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(set_ids->size()) +
+                                " set ids for " + std::to_string(sets.size()) + " sets");
+  }
+  if (!(options.memory_queries >= 1)) {
+    throw std::invalid_argument("fusion_memory_queries must be at least 1, got " +
+                                std::to_string(options.memory_queries));
+  }
+  const internal::Groups groups = internal::GroupSets(sets, weights);
+  // Every set's likelihood with its group's pooled statistics (the singles and the product
+  // use them all; the mixture those of non-zero weight), as a log column (0 where the set
+  // does not cover a place) and as a linear one (1 there), each of mean 1 over the places.
+  internal::Groups all = groups;
+  all.components = all.members;
+  const std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, all, set_stats);
+  std::vector<Eigen::VectorXd> log_l(sets.size());
+  std::vector<Eigen::ArrayXd> lin_l(sets.size());
+  const auto likelihood_of = [&](int k) {
+    const size_t u = static_cast<size_t>(k);
+    const SetDistances& d = sets[u];
+    std::vector<double> l(static_cast<size_t>(d.count));
+    UnnormalisedPlaceMatchLogLikelihood(d, pooled[u], likelihood, l.data());
+    Eigen::Map<Eigen::ArrayXd> values(l.data(), d.count);
+    const double top = values.maxCoeff();
+    Eigen::ArrayXd e = (values - top).exp();
+    const double mean = e.sum() / d.count;
+    e /= mean;
+    values -= top + std::log(mean);
+    if (internal::CoversEachPlaceInOrder(d, num_places)) {
+      log_l[u] = values.matrix();
+      lin_l[u] = std::move(e);
+    } else {
+      log_l[u] = Eigen::VectorXd::Zero(num_places);
+      internal::AddAtPlaces(d, l, num_places, &log_l[u]);  // checks the place ids
+      lin_l[u] = LayOutLinear(d, e, num_places);
+    }
+  };
+  int64_t work = 0;
+  for (const SetDistances& d : sets) work += d.count;
+  RunParallel(static_cast<int>(sets.size()), work >= kParallelWork ? DistanceThreads() : 1,
+              likelihood_of);
+  internal::StartFromPrior(log_prior, num_places, out);
+  const auto id_of = [&](int u) { return set_ids ? (*set_ids)[static_cast<size_t>(u)] : u; };
+  if (update_state && num_places != num_places_) {
+    Reset();
+    num_places_ = num_places;
+  }
+  // The state of this query's groups, as it would be after it (kept only with update_state).
+  std::vector<GroupState> next = groups_;
+  const bool known_places = num_places == num_places_;
+  const double lambda = 1.0 - 1.0 / options.memory_queries;
+  const double uniform = 1.0 / static_cast<double>(num_places);
+  out->set_weights.assign(sets.size(), 0.0);
+  for (size_t g = 0; g < groups.ids.size(); ++g) {
+    const std::vector<int>& members = groups.members[g];
+    const std::vector<int>& components = groups.components[g];
+    if (members.size() == 1) {  // one set: the three hypotheses are its likelihood
+      out->log_posterior += log_l[static_cast<size_t>(members[0])];
+      out->set_weights[static_cast<size_t>(members[0])] = 1.0;
+      continue;
+    }
+    GroupState* state = nullptr;
+    for (GroupState& s : next) {
+      if (s.group == groups.ids[g]) state = &s;
+    }
+    if (state == nullptr || !known_places) {
+      next.emplace_back();
+      next.back().group = groups.ids[g];
+      state = &next.back();
+    }
+    // This query's hypotheses: the singles of the sets present, the mixture, the product;
+    // a new one starts at the mean score of those the group already has.
+    std::vector<int> hyp_ids;
+    for (int u : members) hyp_ids.push_back(id_of(u));
+    hyp_ids.push_back(kMixture);
+    hyp_ids.push_back(kProduct);
+    double mean_score = 0;
+    for (const Hypothesis& h : state->hypotheses) mean_score += h.score;
+    if (!state->hypotheses.empty()) mean_score /= static_cast<double>(state->hypotheses.size());
+    const auto find = [state](int id) {
+      return std::find_if(state->hypotheses.begin(), state->hypotheses.end(),
+                          [id](const Hypothesis& h) { return h.set_id == id; });
+    };
+    for (int id : hyp_ids) {
+      if (find(id) == state->hypotheses.end()) {
+        Hypothesis h;
+        h.set_id = id;
+        h.score = mean_score;
+        state->hypotheses.push_back(h);
+      }
+    }
+    std::vector<Hypothesis*> hyp;  // taken once the vector no longer grows
+    for (int id : hyp_ids) hyp.push_back(&*find(id));
+    // The hypotheses' likelihoods L_h, linear, each of mean 1 over the places. The product's
+    // is formed from the logs (a product of many small factors underflows) and normalised.
+    const size_t m = members.size();
+    std::vector<const Eigen::ArrayXd*> l(m + 2);
+    for (size_t j = 0; j < m; ++j) l[j] = &lin_l[static_cast<size_t>(members[j])];
+    Eigen::ArrayXd mixture = Eigen::ArrayXd::Zero(num_places);
+    double component_weight = 0;
+    for (int u : components) component_weight += weights[static_cast<size_t>(u)];
+    for (int u : components) {
+      mixture +=
+          (weights[static_cast<size_t>(u)] / component_weight) * lin_l[static_cast<size_t>(u)];
+    }
+    l[m] = &mixture;
+    // The product counts each set once per independent piece of evidence it carries: set u's
+    // log-likelihood is divided by its design effect sum_v max(rho_uv, 0).
+    const std::vector<double> exponent =
+        IndependenceExponents(sets, set_stats, members, num_places);
+    Eigen::ArrayXd product = Eigen::ArrayXd::Zero(num_places);
+    for (size_t j = 0; j < m; ++j) {
+      product += exponent[j] * log_l[static_cast<size_t>(members[j])].array();
+    }
+    product = (product - product.maxCoeff()).exp();
+    product /= product.sum() * uniform;
+    l[m + 1] = &product;
+    // Each hypothesis's predictive likelihood of this query (sum_i prior_h(i) L_h(i)), its
+    // score, and (to keep) its belief moved on to the next query; in parallel when there is
+    // enough work (the same bits either way).
+    std::vector<double> score(hyp.size());
+    std::vector<Eigen::VectorXd> predicted(hyp.size());
+    const auto one = [&](int k) {
+      const size_t h = static_cast<size_t>(k);
+      const bool has_prior = hyp[h]->prior.size() == num_places;
+      const double predictive =
+          has_prior ? (hyp[h]->prior.array() * *l[h]).sum() : l[h]->sum() * uniform;
+      score[h] = lambda * hyp[h]->score + std::log(predictive);
+      if (update_state) {
+        // The posterior up to a factor, which the prediction normalises away.
+        const Eigen::VectorXd posterior = has_prior ? Eigen::VectorXd(hyp[h]->prior.array() * *l[h])
+                                                    : Eigen::VectorXd(l[h]->matrix());
+        predicted[h] = PredictPrior(posterior, options.filter, step_places);
+      }
+    };
+    const int64_t filter_work = static_cast<int64_t>(hyp.size()) * num_places;
+    RunParallel(static_cast<int>(hyp.size()), filter_work >= kParallelWork ? DistanceThreads() : 1,
+                one);
+    // a_h = softmax of the scores; the group's likelihood sum_h a_h L_h.
+    const double top = *std::max_element(score.begin(), score.end());
+    std::vector<double> a(hyp.size());
+    double total = 0;
+    for (size_t h = 0; h < hyp.size(); ++h) total += a[h] = std::exp(score[h] - top);
+    Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(num_places);
+    for (size_t h = 0; h < hyp.size(); ++h) {
+      a[h] /= total;
+      if (a[h] > 0) fused += a[h] * *l[h];
+    }
+    // Where every hypothesis's likelihood underflowed, a floor keeps the log finite (such
+    // places are e^-690 below the mean: no belief or confidence depends on them).
+    out->log_posterior.array() += fused.max(kLikelihoodFloor).log();
+    for (size_t j = 0; j < m; ++j) {
+      const size_t u = static_cast<size_t>(members[j]);
+      const double as_component = weights[u] > 0 ? a[m] * weights[u] / component_weight : 0.0;
+      out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
+    }
+    state->last_weights = a;
+    for (size_t h = 0; h < hyp.size(); ++h) {
+      hyp[h]->score = score[h];
+      if (update_state) hyp[h]->prior = std::move(predicted[h]);
+    }
+  }
+  for (size_t u = 0; u < sets.size(); ++u) {
+    if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
+  }
+  if (update_state) groups_ = std::move(next);
+  internal::Decide(threshold, top_k, out);
+}
+
+}  // namespace bsf_vpr

@@ -1,0 +1,270 @@
+// The adaptive fusion (adaptive_fusion.h) against its equations, computed here the slow way;
+// what it learns from a stream; and what it must leave alone.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "bsf_vpr/core/adaptive_fusion.h"
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/method_runner.h"
+#include "bsf_vpr/core/temporal_filter.h"
+
+namespace bsf_vpr {
+namespace {
+
+// A route of n places seen by `sets` reference sets: query t is at place t. Set u's distance
+// to the query's place dips by depth[u] below noise of spread 1 around 5; a set of depth 0
+// tells nothing. `shared` of the noise is common to all sets (their errors alike).
+struct Stream {
+  int n;
+  std::vector<std::vector<std::vector<float>>> d;  // d[t][u][i]
+  Stream(int places, int queries, const std::vector<double>& depth, double shared, uint64_t seed)
+      : n(places) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> g(0.0, 1.0);
+    for (int t = 0; t < queries; ++t) {
+      std::vector<double> common(static_cast<size_t>(n));
+      for (double& c : common) c = g(rng);
+      d.emplace_back();
+      for (double dip : depth) {
+        std::vector<float> v(static_cast<size_t>(n));
+        for (int i = 0; i < n; ++i) {
+          const double noise =
+              std::sqrt(shared) * common[static_cast<size_t>(i)] + std::sqrt(1 - shared) * g(rng);
+          v[static_cast<size_t>(i)] = static_cast<float>(5 + noise - (i == t % n ? dip : 0.0));
+        }
+        d.back().push_back(v);
+      }
+    }
+  }
+  std::vector<SetDistances> Views(int t) const {
+    std::vector<SetDistances> views;
+    for (const auto& v : d[static_cast<size_t>(t)]) views.push_back({v.data(), nullptr, n});
+    return views;
+  }
+};
+
+std::vector<std::string> Names(size_t m) {
+  std::vector<std::string> names;
+  for (size_t u = 0; u < m; ++u) names.push_back("s" + std::to_string(u));
+  return names;
+}
+
+double LogSumExp(const Eigen::VectorXd& v) {
+  const double top = v.maxCoeff();
+  return top + std::log((v.array() - top).exp().sum());
+}
+
+// The rule of adaptive_fusion.h for one group of sets covering every place, each hypothesis
+// filtered in log space with PredictLogPrior.
+class Oracle {
+ public:
+  explicit Oracle(const MethodOptions& o) : o_(o) {}
+  Eigen::VectorXd Step(const std::vector<SetDistances>& sets, int n) {
+    const size_t m = sets.size();
+    std::vector<DistanceStats> stats;
+    for (const SetDistances& d : sets) stats.push_back(ComputeDistanceStats(d));
+    // Pooled statistics: all distances together.
+    double sum = 0, count = 0;
+    for (const SetDistances& d : sets) {
+      for (int i = 0; i < n; ++i) sum += d.values[i], count += 1;
+    }
+    DistanceStats pooled;
+    pooled.mean = sum / count;
+    double ss = 0;
+    for (const SetDistances& d : sets) {
+      for (int i = 0; i < n; ++i) ss += (d.values[i] - pooled.mean) * (d.values[i] - pooled.mean);
+    }
+    pooled.stddev = std::sqrt(ss / count);
+    std::vector<Eigen::VectorXd> l;  // log L_h, mean 1 in exp
+    for (const SetDistances& d : sets) {
+      Eigen::VectorXd v(n);
+      PlaceMatchLogLikelihood(d, pooled, o_.likelihood, v.data());
+      l.push_back(v);
+    }
+    const std::vector<double> w = ConditionWeights(sets, stats, o_.selection);
+    const double wsum = std::accumulate(w.begin(), w.end(), 0.0);
+    Eigen::VectorXd mix(n);
+    for (int i = 0; i < n; ++i) {
+      double s = 0;
+      for (size_t u = 0; u < m; ++u) s += w[u] / wsum * std::exp(l[u](i));
+      mix(i) = std::log(s);
+    }
+    Eigen::VectorXd prod = Eigen::VectorXd::Zero(n);
+    for (size_t u = 0; u < m; ++u) {
+      double effect = 0;
+      for (size_t v = 0; v < m; ++v) {
+        Eigen::VectorXd a(n), b(n);
+        for (int i = 0; i < n; ++i) a(i) = sets[u].values[i], b(i) = sets[v].values[i];
+        a.array() -= a.mean();
+        b.array() -= b.mean();
+        effect += std::max(0.0, a.dot(b) / std::sqrt(a.squaredNorm() * b.squaredNorm()));
+      }
+      prod += l[u] / effect;
+    }
+    prod.array() -= LogSumExp(prod) - std::log(n);
+    l.push_back(mix);
+    l.push_back(prod);
+    if (log_prior_.empty()) {
+      log_prior_.assign(l.size(), Eigen::VectorXd::Constant(n, -std::log(n)));
+      score_.assign(l.size(), 0.0);
+    }
+    const double lambda = 1 - 1 / o_.fusion_memory_queries;
+    std::vector<double> a(l.size());
+    for (size_t h = 0; h < l.size(); ++h) {
+      const Eigen::VectorXd post = log_prior_[h] + l[h];
+      const double predictive = LogSumExp(post);
+      score_[h] = lambda * score_[h] + predictive;
+      log_prior_[h] = PredictLogPrior(post.array() - predictive, o_.filter);
+    }
+    const double top = *std::max_element(score_.begin(), score_.end());
+    double total = 0;
+    for (size_t h = 0; h < l.size(); ++h) total += a[h] = std::exp(score_[h] - top);
+    Eigen::VectorXd fused(n);
+    for (int i = 0; i < n; ++i) {
+      double s = 0;
+      for (size_t h = 0; h < l.size(); ++h) s += a[h] / total * std::exp(l[h](i));
+      fused(i) = std::log(s);
+    }
+    return fused.array() - LogSumExp(fused);
+  }
+
+ private:
+  MethodOptions o_;
+  std::vector<Eigen::VectorXd> log_prior_;
+  std::vector<double> score_;
+};
+
+TEST(AdaptiveFusion, MatchesItsEquationsOverAStream) {
+  for (const LikelihoodVariant variant :
+       {LikelihoodVariant::kOneSided, LikelihoodVariant::kTwoSided}) {
+    const Stream s(60, 25, {3.0, 2.0, 0.0}, 0.3, 7);
+    MethodOptions o;
+    o.likelihood.variant = variant;
+    MethodRunner runner(ParseMethod("bsf", Names(3)), o);
+    Oracle oracle(o);
+    for (int t = 0; t < 25; ++t) {
+      const PlaceBelief b = runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true);
+      const Eigen::VectorXd expected = oracle.Step(s.Views(t), s.n);
+      ASSERT_EQ(b.log_posterior.size(), s.n);
+      for (int i = 0; i < s.n; ++i) {
+        ASSERT_NEAR(b.log_posterior(i), expected(i), 1e-9) << "query " << t << " place " << i;
+      }
+    }
+  }
+}
+
+TEST(AdaptiveFusion, LearnsToTrustTheSetThatTracksTheRouteAndToMultiplyIndependentOnes) {
+  AdaptiveFusionOptions options;
+  const auto weights_after = [&](const Stream& s) {
+    AdaptiveFusion f;
+    MethodOptions mo;
+    for (int t = 0; t < static_cast<int>(s.d.size()); ++t) {
+      const std::vector<SetDistances> views = s.Views(t);
+      std::vector<DistanceStats> stats;
+      for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
+      PlaceBelief b;
+      f.Fuse(views, nullptr, ConditionWeights(views, stats, mo.selection), s.n, mo.likelihood,
+             nullptr, mo.threshold, 5, options, std::nullopt, true, &b, stats);
+    }
+    return f.LastWeights(0);  // s0, s1, mixture, product
+  };
+  // Set 1 tells nothing: the single of set 0 wins, set 1's single loses.
+  const std::vector<double> one = weights_after(Stream(80, 60, {2.5, 0.0}, 0.0, 3));
+  ASSERT_EQ(one.size(), 4u);
+  EXPECT_GT(one[0], 0.5);
+  EXPECT_LT(one[1], 0.01);
+  // Two weak sets with independent errors: their product predicts best.
+  const std::vector<double> both = weights_after(Stream(80, 60, {1.5, 1.5}, 0.0, 5));
+  EXPECT_GT(both[3], 0.5);
+}
+
+TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
+  // Two identical sets: the product of the two is one set's likelihood (exponents 1/2), and
+  // so are the singles and the mixture: the belief is bayes: of that set.
+  const Stream s(50, 8, {2.0}, 0.0, 11);
+  MethodOptions o;
+  MethodRunner runner(ParseMethod("bsf", Names(2)), o);
+  for (int t = 0; t < 8; ++t) {
+    std::vector<SetDistances> twice = s.Views(t);
+    twice.push_back(twice[0]);
+    const PlaceBelief b = runner.Step(twice, s.n, nullptr, std::nullopt, true);
+    const PlaceBelief one = RunMethod(ParseMethod("bayes:s0", Names(2)), twice, s.n, o);
+    for (int i = 0; i < s.n; ++i) ASSERT_NEAR(b.log_posterior(i), one.log_posterior(i), 1e-9);
+    EXPECT_NEAR(b.set_weights[0], b.set_weights[1], 1e-12);
+  }
+}
+
+TEST(AdaptiveFusion, GroupsOfOneSetMultiplyAsBayesFull) {
+  const Stream s(40, 5, {2.0, 1.0, 0.5}, 0.2, 13);
+  MethodRunner runner(ParseMethod("bsf", Names(3)), {});
+  for (int t = 0; t < 5; ++t) {
+    std::vector<SetDistances> views = s.Views(t);
+    for (size_t u = 0; u < views.size(); ++u) views[u].group = static_cast<int>(u);
+    const PlaceBelief b = runner.Step(views, s.n, nullptr, std::nullopt, true);
+    const PlaceBelief full = RunMethod(ParseMethod("bayes_full", Names(3)), views, s.n, {});
+    EXPECT_EQ(b.match, full.match);
+    for (int i = 0; i < s.n; ++i) ASSERT_NEAR(b.log_posterior(i), full.log_posterior(i), 1e-9);
+  }
+}
+
+TEST(AdaptiveFusion, AWhatIfQueryLeavesTheStateAndThreadsLeaveTheBits) {
+  const Stream s(30000, 3, {3.0, 1.0}, 0.2, 17);  // large enough to run on several threads
+  const Method bsf = ParseMethod("bsf", Names(2));
+  const auto run = [&](int threads, bool what_if) {
+    SetDistanceThreads(threads);
+    MethodRunner runner(bsf, {});
+    std::vector<PlaceBelief> out;
+    for (int t = 0; t < 3; ++t) {
+      if (what_if) runner.Step(s.Views(2 - t), s.n, nullptr, std::nullopt, false);
+      out.push_back(runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true));
+    }
+    SetDistanceThreads(0);
+    return out;
+  };
+  const std::vector<PlaceBelief> plain = run(1, false), what_if = run(1, true), two = run(2, false);
+  for (int t = 0; t < 3; ++t) {
+    EXPECT_EQ(plain[t].log_posterior, what_if[t].log_posterior) << t;
+    EXPECT_EQ(plain[t].log_posterior, two[t].log_posterior) << t;
+    EXPECT_EQ(plain[t].confidence, two[t].confidence) << t;
+  }
+}
+
+TEST(AdaptiveFusion, AMissingSetIsLeftOutAndItsRecordKept) {
+  const Stream s(50, 12, {6.0, 5.0, 0.0}, 0.2, 19);
+  MethodRunner runner(ParseMethod("bsf", Names(3)), {});
+  for (int t = 0; t < 12; ++t) {
+    const std::vector<bool> available = {true, t % 3 != 1, true};  // set 1 drops out at times
+    const PlaceBelief b = runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true, &available);
+    EXPECT_TRUE(b.log_posterior.allFinite());
+    if (!available[1]) {
+      EXPECT_EQ(b.set_weights[1], 0.0);
+      EXPECT_EQ(std::count(b.used_sets.begin(), b.used_sets.end(), 1), 0);
+    }
+    EXPECT_EQ(b.match, t) << "query " << t;  // two of the sets see the route clearly
+  }
+}
+
+TEST(AdaptiveFusion, PartialSetsAreCorrelatedOverThePlacesTheyShare) {
+  // Two sets covering alternate places plus one covering all: no throw, finite, and the
+  // places of the full set's dip win.
+  const Stream s(40, 6, {6.0, 6.0, 6.0}, 0.2, 23);
+  std::vector<int> even, odd;
+  for (int i = 0; i < 40; ++i) (i % 2 ? odd : even).push_back(i);
+  MethodRunner runner(ParseMethod("bsf", Names(3)), {});
+  for (int t = 0; t < 6; ++t) {
+    std::vector<std::vector<float>> part(2);
+    for (int i : even) part[0].push_back(s.d[static_cast<size_t>(t)][0][static_cast<size_t>(i)]);
+    for (int i : odd) part[1].push_back(s.d[static_cast<size_t>(t)][1][static_cast<size_t>(i)]);
+    std::vector<SetDistances> views = {
+        {part[0].data(), even.data(), 20}, {part[1].data(), odd.data(), 20}, s.Views(t)[2]};
+    const PlaceBelief b = runner.Step(views, s.n, nullptr, std::nullopt, true);
+    EXPECT_TRUE(b.log_posterior.allFinite());
+    EXPECT_EQ(b.match, t);
+  }
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -105,7 +105,7 @@ class ScopedDistanceKernel {
 
 TEST(ApproximateIndex, RerankingEveryRowGivesExactSearchBitForBit) {
   const ScopedDistanceKernel kernel;
-  for (const std::string name : {"portable", "avx2", "avx512"}) {
+  for (const std::string name : {"portable", "avx2", "avx512", "avx512_vnni"}) {
     if (!kernel.Set(name)) continue;  // not on this CPU
     for (StoragePrecision precision : kPrecisions) {
       const ReferenceMap map = ThreeSets(precision);

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "bsf_vpr/core/distances.h"
+#include "src/core/internal/distance_kernels.h"
 #include "test/core/test_util.h"
 
 namespace bsf_vpr {
@@ -102,10 +103,10 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// The portable kernel, and AVX2 and AVX-512 where the CPU has them.
+// The portable kernel, and AVX2, AVX-512 and AVX-512 VNNI where the CPU has them.
 std::vector<std::string> AvailableKernels() {
   std::vector<std::string> out = {"portable"};
-  for (const std::string& k : {"avx2", "avx512"}) {
+  for (const std::string k : {"avx2", "avx512", "avx512_vnni"}) {
     try {
       SetDistanceKernel(k);
       out.push_back(k);
@@ -170,6 +171,49 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
   }
   SetDistanceKernel("auto");
   EXPECT_THROW(SetDistanceKernel("sse9"), std::invalid_argument);
+}
+
+// int8 rows are summed exactly in integers: every kernel the CPU has (VNNI's 32 products an
+// instruction, AVX2's 16, the portable loop) gives the same inner products, bit for bit, for
+// every tile shape and row length (whole 32-element steps or a tail); the distances too on
+// the vector kernels (the portable one rounds the query's float norm in another order).
+TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
+  const std::vector<std::string> kernels = AvailableKernels();
+  for (const int d : {8, 31, 32, 33, 256, 1029, 4096}) {
+    const RowMatrixXf q = testing::RandomMatrix(11, d, 21);
+    const RowMatrixXf rows = testing::RandomMatrix(100, d, 22);
+    std::vector<int8_t> codes(static_cast<size_t>(rows.size()));
+    for (Eigen::Index k = 0; k < rows.size(); ++k) {
+      codes[static_cast<size_t>(k)] = static_cast<int8_t>(std::lround(rows.data()[k] * 127));
+    }
+    kernels::RefRows refs;
+    refs.precision = StoragePrecision::kInt8;
+    refs.data = codes.data();
+    refs.cols = d;
+    refs.scale = 1.0f / 127;
+    ReferenceMap map;
+    map.SetStoragePrecision(StoragePrecision::kInt8);
+    map.Add(MakeReferenceSet("a", rows));
+    std::vector<float> first;
+    RowMatrixXf first_distances;
+    for (const std::string& kernel : kernels) {
+      SetDistanceKernel(kernel);
+      for (int nq : {1, 11}) {  // one query (tiles of 1 x 6) and a batch (4 x 3)
+        const kernels::Queries prepared = kernels::PrepareQueries(q.data(), nq, d, d, true);
+        std::vector<float> dots(static_cast<size_t>(nq) * 100);
+        kernels::Dots(refs, 0, 100, prepared, dots.data(), 100);
+        if (first.size() < dots.size()) first = dots;
+        for (size_t k = 0; k < dots.size(); ++k) {
+          ASSERT_EQ(dots[k], first[k]) << kernel << " d=" << d << " Q=" << nq << " entry " << k;
+        }
+      }
+      if (kernel == "portable") continue;
+      const RowMatrixXf distances = ComputeDistances(DistanceMetric::kEuclidean, q, map.set(0));
+      if (first_distances.size() == 0) first_distances = distances;
+      EXPECT_TRUE((distances.array() == first_distances.array()).all()) << kernel << " d=" << d;
+    }
+  }
+  SetDistanceKernel("auto");
 }
 
 TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {

@@ -19,14 +19,17 @@ namespace {
 
 // ---- driver: tiles over a block of rows that stays in cache ---------------------------
 
-enum class Isa { kPortable, kAvx2, kAvx512 };
+// In order of what they add: each runs whatever the one before it runs.
+enum class Isa { kPortable, kAvx2, kAvx512, kAvx512Vnni };
 std::atomic<int> g_forced{-1};  // -1: by CPU
 
 Isa CurrentIsa() {
   const int forced = g_forced.load();
   if (forced >= 0) return static_cast<Isa>(forced);
-  static const Isa by_cpu =
-      CpuHasAvx512() ? Isa::kAvx512 : (CpuHasAvx2() ? Isa::kAvx2 : Isa::kPortable);
+  static const Isa by_cpu = CpuHasAvx512Vnni() ? Isa::kAvx512Vnni
+                            : CpuHasAvx512()   ? Isa::kAvx512
+                            : CpuHasAvx2()     ? Isa::kAvx2
+                                               : Isa::kPortable;
   return by_cpu;
 }
 
@@ -34,6 +37,7 @@ template <class T, int NQ, int NR>
 void Tile(Isa isa, const TileArgs& a, const T* r, int r_stride) {
   if constexpr (std::is_same_v<T, int8_t>) {
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
+    if (isa == Isa::kAvx512Vnni) return TileInt8Vnni<NQ, NR>(a, r, r_stride);
     if (isa != Isa::kPortable) return TileInt8Avx2<NQ, NR>(a, r, r_stride);
 #endif
     TileInt8Portable<NQ, NR>(a, r, r_stride);
@@ -101,7 +105,7 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
   }
   // The AVX-512 tiles (8 queries x 6 rows) were measured with passes of 256 to 4096 on a
   // 2-core AMD EPYC (Zen 4): 1024 and longer equally fast, 256 and 512 slower.
-  const bool pairs = std::is_same_v<T, float> && isa == Isa::kAvx512 && !queries.pairs.empty();
+  const bool pairs = std::is_same_v<T, float> && isa >= Isa::kAvx512 && !queries.pairs.empty();
   const int chunk = num_queries >= kBatchQueries && !int8_rows ? 1024 : d;
   std::vector<float> lanes(chunk < d ? static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes : 0);
   const int lanes_stride = kRowBlock * kLanes;
@@ -161,7 +165,7 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
   out.rows = rows;
   out.cols = cols;
   out.stride = stride;
-  if (rows >= kBatchQueries && CurrentIsa() == Isa::kAvx512) {
+  if (rows >= kBatchQueries && CurrentIsa() >= Isa::kAvx512) {
     // Pairs of queries interleaved in blocks of eight, zero-padded to a whole block, for
     // the AVX-512 tiles (an odd last query is read where it is).
     const int blocks = (cols + kLanes - 1) / kLanes;
@@ -234,6 +238,8 @@ float SelfDot(const float* x, int n) {
 
 std::string Active() {
   switch (CurrentIsa()) {
+    case Isa::kAvx512Vnni:
+      return "avx512_vnni";
     case Isa::kAvx512:
       return "avx512";
     case Isa::kAvx2:
@@ -255,9 +261,14 @@ void Force(const std::string& name) {
   } else if (name == "avx512") {
     if (!CpuHasAvx512()) throw std::invalid_argument("this CPU lacks AVX-512 (F and DQ)");
     g_forced = static_cast<int>(Isa::kAvx512);
+  } else if (name == "avx512_vnni") {
+    if (!CpuHasAvx512Vnni()) {
+      throw std::invalid_argument("this CPU lacks AVX-512 VNNI (with F, DQ and BW)");
+    }
+    g_forced = static_cast<int>(Isa::kAvx512Vnni);
   } else {
     throw std::invalid_argument("unknown distance kernel '" + name +
-                                "' (expected auto, avx512, avx2 or portable)");
+                                "' (expected auto, avx512_vnni, avx512, avx2 or portable)");
   }
 }
 

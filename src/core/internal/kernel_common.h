@@ -17,6 +17,8 @@
 #define BSF_VPR_HAVE_AVX2_KERNEL 1
 #define BSF_VPR_AVX2 __attribute__((target("avx2,fma,f16c")))
 #define BSF_VPR_AVX512 __attribute__((target("avx512f,avx512dq,avx2,fma,f16c")))
+#define BSF_VPR_AVX512_VNNI \
+  __attribute__((target("avx512f,avx512dq,avx512bw,avx512vnni,avx2,fma,f16c")))
 #endif
 
 #include "src/core/internal/distance_kernels.h"

@@ -7,6 +7,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <queue>
@@ -310,7 +311,12 @@ RowMatrixXf ApproximateIndex::ProjectQueries(const RowMatrixXf& queries) const {
 
 std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
                                                      const RowMatrixXf& queries,
-                                                     const ReferenceMap& map) const {
+                                                     const ReferenceMap& map,
+                                                     StageTimes* times) const {
+  using Clock = std::chrono::steady_clock;
+  const auto ms = [](Clock::time_point from) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - from).count();
+  };
   CheckSameMap(map);
   if (queries.cols() != dimension_) {
     throw std::invalid_argument(
@@ -323,8 +329,12 @@ std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
   for (int q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), dimension_);
   std::vector<RowMatrixXf> out(sets_.size());
   for (size_t u = 0; u < sets_.size(); ++u) out[u].resize(nq, sets_[u].rows);
+  const auto start = Clock::now();
   ApproximateStage(metric, queries, qn, map, &out);
+  const double approximate_ms = ms(start);
+  const auto rerank = Clock::now();
   if (options_.rerank > 0) ExactStage(metric, queries, qn, map, &out);
+  if (times != nullptr) *times = {approximate_ms, ms(rerank)};
   return out;
 }
 
@@ -385,7 +395,17 @@ void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& quer
     float* row = (*out)[static_cast<size_t>(u)].row(q).data();
     std::vector<int> candidates;
     SmallestRows(row, set.size(), options_.rerank, &candidates);
-    for (int r : candidates) {
+    // The candidates lie anywhere in the set: each row is asked of memory while the one
+    // before it is computed, so that the loads overlap the arithmetic.
+    const size_t row_bytes = static_cast<size_t>(rows.cols) * BytesPerElement(rows.precision);
+    const auto prefetch = [&](int r) {
+      const char* at = static_cast<const char*>(rows.data) + static_cast<size_t>(r) * row_bytes;
+      for (size_t b = 0; b < row_bytes; b += 64) __builtin_prefetch(at + b);
+    };
+    if (!candidates.empty()) prefetch(candidates.front());
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      const int r = candidates[k];
+      if (k + 1 < candidates.size()) prefetch(candidates[k + 1]);
       kernels::Dots(rows, r, r + 1, prepared[static_cast<size_t>(q)], row + r, 1);
       formula::ToDistances(metric, qn(q), set.squared_norms().data(), r, r + 1, row);
     }

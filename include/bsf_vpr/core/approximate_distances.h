@@ -72,8 +72,13 @@ class ApproximateIndex {
   // rest are approximate. Results do not depend on the thread count.
   // Throws std::invalid_argument if the dimensions differ, a query holds NaN/infinity, or
   // `map` is not the map the index was built from (sets added, removed or replaced since).
+  // `times`, if given, receives the wall time of each stage.
+  struct StageTimes {
+    double approximate_ms = 0;  // the projections' distances to every row
+    double rerank_ms = 0;       // the candidates' exact distances
+  };
   std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
-                                     const ReferenceMap& map) const;
+                                     const ReferenceMap& map, StageTimes* times = nullptr) const;
 
   const ApproximateOptions& options() const { return options_; }
   int dimensions() const { return dimensions_; }    // d' in use (options' capped at the rank)

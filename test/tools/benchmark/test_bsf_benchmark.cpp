@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "src/tools/benchmark/cpu_baseline.h"
 #include "test/tools/tool_test_util.h"
 
 namespace bsf_vpr {
@@ -18,7 +19,11 @@ using testing::RunCommand;
 TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
   const Result r = RunCommand(std::string(BSF_BENCHMARK_PATH) + " --quick --repeats 1");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  for (const char* fragment : {"fusion  M=3 N=300",
+  for (const char* fragment : {"machine ",
+                               "vector extensions:",
+                               "OpenBLAS kernel",
+                               "fusion  M=3 N=300",
+                               "default (adaptive)",
                                "faster",
                                "the memory limit",
                                "FAISS's time",
@@ -38,7 +43,10 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
                                "x the resize",
                                "large   M=10 N=1000 D=4096 int8",
                                "vs pca first stage (d'=256",
-                               "pca ms/query   speed-up"}) {
+                               "pca ms/query   speed-up",
+                               "every distance first",
+                               "time split of a pca query",
+                               "decision (selection, likelihoods over"}) {
     EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
   }
   EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;
@@ -93,6 +101,43 @@ TEST(BenchmarkTool, NumPyBaselineGivesBsfEvaluatesResultsOnRealData) {
     return out;
   };
   EXPECT_EQ(matches(dir + "/ours/matches/bsf.csv"), matches(dir + "/numpy/matches/bsf.csv"));
+}
+
+// The fair OpenBLAS: the kernel that fits a CPU's vector width, and which of OpenBLAS's own
+// kernels already do (Prescott, SSE3, fits nothing wider; Zen and Haswell fit AVX2).
+TEST(BenchmarkTool, TheBaselinesOpenBlasKernelFitsTheCpu) {
+  tools::CpuInfo avx512;
+  avx512.avx2 = avx512.avx512 = true;
+  tools::CpuInfo avx2;
+  avx2.avx2 = true;
+  EXPECT_EQ(tools::FittingOpenBlasCore(avx512), "SkylakeX");
+  EXPECT_EQ(tools::FittingOpenBlasCore(avx2), "Haswell");
+  EXPECT_EQ(tools::FittingOpenBlasCore(tools::CpuInfo{}), "");
+  EXPECT_FALSE(tools::CoreFits("Prescott", "SkylakeX"));
+  EXPECT_FALSE(tools::CoreFits("Prescott", "Haswell"));
+  EXPECT_FALSE(tools::CoreFits("Zen", "SkylakeX"));
+  EXPECT_TRUE(tools::CoreFits("Zen", "Haswell"));
+  EXPECT_TRUE(tools::CoreFits("SkylakeX", "SkylakeX"));
+  EXPECT_TRUE(tools::CoreFits("COOPERLAKE", "SkylakeX"));
+  // On this machine: the benchmark names the CPU and runs a kernel that fits it.
+  const tools::CpuInfo cpu = tools::ReadCpuInfo();
+  EXPECT_FALSE(cpu.model.empty());
+  const Result r = RunCommand("env -u OPENBLAS_CORETYPE " + std::string(BSF_BENCHMARK_PATH) +
+                              " --quick --repeats 1 --sections fusion");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string fitting = tools::FittingOpenBlasCore(cpu);
+  if (!fitting.empty()) {
+    const size_t at = r.output.find("OpenBLAS kernel ");
+    ASSERT_NE(at, std::string::npos) << r.output;
+    const std::string kernel = r.output.substr(at + 16, r.output.find(' ', at + 16) - at - 16);
+    EXPECT_TRUE(tools::CoreFits(kernel, fitting)) << kernel << " for " << fitting << "\n"
+                                                  << r.output;
+  }
+  // A kernel the caller sets is kept and said so.
+  const Result set = RunCommand("OPENBLAS_CORETYPE=Haswell " + std::string(BSF_BENCHMARK_PATH) +
+                                " --quick --repeats 1 --sections fusion");
+  EXPECT_NE(set.output.find("OPENBLAS_CORETYPE=Haswell, set by the caller"), std::string::npos)
+      << set.output;
 }
 
 }  // namespace

@@ -117,15 +117,6 @@ void AdaptiveFusion::Reset() {
   groups_.clear();
 }
 
-AdaptiveFusion::GroupState& AdaptiveFusion::StateOf(int group) {
-  for (GroupState& g : groups_) {
-    if (g.group == group) return g;
-  }
-  groups_.emplace_back();
-  groups_.back().group = group;
-  return groups_.back();
-}
-
 std::vector<double> AdaptiveFusion::LastWeights(int group) const {
   for (const GroupState& g : groups_) {
     if (g.group == group) return g.last_weights;
@@ -183,15 +174,12 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
               likelihood_of);
   internal::StartFromPrior(log_prior, num_places, out);
   const auto id_of = [&](int u) { return set_ids ? (*set_ids)[static_cast<size_t>(u)] : u; };
-  if (update_state && num_places != num_places_) {
-    Reset();
-    num_places_ = num_places;
-  }
-  // The state of this query's groups, as it would be after it (kept only with update_state).
-  std::vector<GroupState> next = groups_;
   const bool known_places = num_places == num_places_;
   const double lambda = 1.0 - 1.0 / options.memory_queries;
   const double uniform = 1.0 / static_cast<double>(num_places);
+  // What this query leaves in the state, kept only with update_state and once the belief is
+  // decided (a query that throws leaves the state as it was).
+  std::vector<GroupState> pending;
   out->set_weights.assign(sets.size(), 0.0);
   for (size_t g = 0; g < groups.ids.size(); ++g) {
     const std::vector<int>& members = groups.members[g];
@@ -201,38 +189,36 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
       out->set_weights[static_cast<size_t>(members[0])] = 1.0;
       continue;
     }
-    GroupState* state = nullptr;
-    for (GroupState& s : next) {
-      if (s.group == groups.ids[g]) state = &s;
+    const GroupState* state = nullptr;
+    for (const GroupState& s : groups_) {
+      if (known_places && s.group == groups.ids[g]) state = &s;
     }
-    if (state == nullptr || !known_places) {
-      next.emplace_back();
-      next.back().group = groups.ids[g];
-      state = &next.back();
-    }
-    // This query's hypotheses: the singles of the sets present, the mixture, the product;
-    // a new one starts at the mean score of those the group already has.
-    std::vector<int> hyp_ids;
-    for (int u : members) hyp_ids.push_back(id_of(u));
-    hyp_ids.push_back(kMixture);
-    hyp_ids.push_back(kProduct);
-    double mean_score = 0;
-    for (const Hypothesis& h : state->hypotheses) mean_score += h.score;
-    if (!state->hypotheses.empty()) mean_score /= static_cast<double>(state->hypotheses.size());
-    const auto find = [state](int id) {
-      return std::find_if(state->hypotheses.begin(), state->hypotheses.end(),
-                          [id](const Hypothesis& h) { return h.set_id == id; });
+    // This query's hypotheses: the singles of the sets present, the mixture, the product,
+    // each with its record. A hypothesis without one (new, or its set was missing from the
+    // last query) starts at the mean score of those that have one, with a uniform belief.
+    GroupState next;
+    next.group = groups.ids[g];
+    const auto add = [&next](int id) {
+      next.hypotheses.emplace_back();
+      next.hypotheses.back().set_id = id;
     };
-    for (int id : hyp_ids) {
-      if (find(id) == state->hypotheses.end()) {
-        Hypothesis h;
-        h.set_id = id;
-        h.score = mean_score;
-        state->hypotheses.push_back(h);
+    for (int u : members) add(id_of(u));
+    add(kMixture);
+    add(kProduct);
+    std::vector<const Hypothesis*> record(next.hypotheses.size(), nullptr);
+    double mean_score = 0;
+    int recorded = 0;
+    if (state != nullptr) {
+      for (const Hypothesis& h : state->hypotheses) {
+        if (h.stale) continue;
+        mean_score += h.score;
+        ++recorded;
+        for (size_t k = 0; k < next.hypotheses.size(); ++k) {
+          if (next.hypotheses[k].set_id == h.set_id) record[k] = &h;
+        }
       }
     }
-    std::vector<Hypothesis*> hyp;  // taken once the vector no longer grows
-    for (int id : hyp_ids) hyp.push_back(&*find(id));
+    if (recorded > 0) mean_score /= recorded;
     // The hypotheses' likelihoods L_h, linear, each of mean 1 over the places. The product's
     // is formed from the logs (a product of many small factors underflows) and normalised.
     const size_t m = members.size();
@@ -241,9 +227,10 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     Eigen::ArrayXd mixture = Eigen::ArrayXd::Zero(num_places);
     double component_weight = 0;
     for (int u : components) component_weight += weights[static_cast<size_t>(u)];
-    for (int u : components) {
-      mixture +=
-          (weights[static_cast<size_t>(u)] / component_weight) * lin_l[static_cast<size_t>(u)];
+    for (int u : members) {  // no weight at all (gamma = 0 with no set at 0): equal weights
+      const double w = component_weight > 0 ? weights[static_cast<size_t>(u)] / component_weight
+                                            : 1.0 / static_cast<double>(m);
+      if (w > 0) mixture += w * lin_l[static_cast<size_t>(u)];
     }
     l[m] = &mixture;
     // The product counts each set once per independent piece of evidence it carries: set u's
@@ -257,34 +244,35 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     product = (product - product.maxCoeff()).exp();
     product /= product.sum() * uniform;
     l[m + 1] = &product;
-    // Each hypothesis's predictive likelihood of this query (sum_i prior_h(i) L_h(i)), its
-    // score, and (to keep) its belief moved on to the next query; in parallel when there is
+    // Each hypothesis's belief moved on from its last query by this query's step (as
+    // +filter moves it), its predictive likelihood of this query, sum_i prior_h(i) L_h(i),
+    // its score, and its belief after this query (up to a factor); in parallel when there is
     // enough work (the same bits either way).
-    std::vector<double> score(hyp.size());
-    std::vector<Eigen::VectorXd> predicted(hyp.size());
     const auto one = [&](int k) {
       const size_t h = static_cast<size_t>(k);
-      const bool has_prior = hyp[h]->prior.size() == num_places;
-      const double predictive =
-          has_prior ? (hyp[h]->prior.array() * *l[h]).sum() : l[h]->sum() * uniform;
-      score[h] = lambda * hyp[h]->score + std::log(predictive);
-      if (update_state) {
-        // The posterior up to a factor, which the prediction normalises away.
-        const Eigen::VectorXd posterior = has_prior ? Eigen::VectorXd(hyp[h]->prior.array() * *l[h])
-                                                    : Eigen::VectorXd(l[h]->matrix());
-        predicted[h] = PredictPrior(posterior, options.filter, step_places);
-      }
+      Hypothesis& to = next.hypotheses[h];
+      const Hypothesis* from = record[h];
+      const bool has_prior = from != nullptr && from->posterior.size() == num_places;
+      Eigen::ArrayXd posterior =
+          has_prior
+              ? Eigen::ArrayXd(PredictPrior(from->posterior, options.filter, step_places).array() *
+                               *l[h])
+              : Eigen::ArrayXd(*l[h] * uniform);
+      const double predictive = posterior.sum();
+      to.score = lambda * (from != nullptr ? from->score : mean_score) + std::log(predictive);
+      if (update_state) to.posterior = posterior.matrix();
     };
-    const int64_t filter_work = static_cast<int64_t>(hyp.size()) * num_places;
-    RunParallel(static_cast<int>(hyp.size()), filter_work >= kParallelWork ? DistanceThreads() : 1,
+    const int64_t filter_work = static_cast<int64_t>(l.size()) * num_places;
+    RunParallel(static_cast<int>(l.size()), filter_work >= kParallelWork ? DistanceThreads() : 1,
                 one);
     // a_h = softmax of the scores; the group's likelihood sum_h a_h L_h.
-    const double top = *std::max_element(score.begin(), score.end());
-    std::vector<double> a(hyp.size());
+    double top = -INFINITY;
+    for (const Hypothesis& h : next.hypotheses) top = std::max(top, h.score);
+    std::vector<double> a(l.size());
     double total = 0;
-    for (size_t h = 0; h < hyp.size(); ++h) total += a[h] = std::exp(score[h] - top);
+    for (size_t h = 0; h < l.size(); ++h) total += a[h] = std::exp(next.hypotheses[h].score - top);
     Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(num_places);
-    for (size_t h = 0; h < hyp.size(); ++h) {
+    for (size_t h = 0; h < l.size(); ++h) {
       a[h] /= total;
       if (a[h] > 0) fused += a[h] * *l[h];
     }
@@ -293,20 +281,42 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     out->log_posterior.array() += fused.max(kLikelihoodFloor).log();
     for (size_t j = 0; j < m; ++j) {
       const size_t u = static_cast<size_t>(members[j]);
-      const double as_component = weights[u] > 0 ? a[m] * weights[u] / component_weight : 0.0;
+      const double as_component =
+          component_weight > 0 ? a[m] * weights[u] / component_weight : a[m] / m;
       out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
     }
-    state->last_weights = a;
-    for (size_t h = 0; h < hyp.size(); ++h) {
-      hyp[h]->score = score[h];
-      if (update_state) hyp[h]->prior = std::move(predicted[h]);
-    }
+    next.last_weights = std::move(a);
+    if (update_state) pending.push_back(std::move(next));
   }
   for (size_t u = 0; u < sets.size(); ++u) {
     if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
   }
-  if (update_state) groups_ = std::move(next);
   internal::Decide(threshold, top_k, out);
+  if (!update_state) return;
+  if (!known_places) {
+    groups_.clear();
+    num_places_ = num_places;
+  }
+  for (GroupState& next : pending) {
+    GroupState* state = nullptr;
+    for (GroupState& s : groups_) {
+      if (s.group == next.group) state = &s;
+    }
+    if (state == nullptr) {
+      groups_.push_back(std::move(next));
+      continue;
+    }
+    // The hypotheses of sets missing from this query stay, marked: back, they start again.
+    for (Hypothesis& h : state->hypotheses) {
+      const bool present = std::any_of(next.hypotheses.begin(), next.hypotheses.end(),
+                                       [&h](const Hypothesis& n) { return n.set_id == h.set_id; });
+      if (!present) {
+        h.stale = true;
+        next.hypotheses.push_back(std::move(h));
+      }
+    }
+    *state = std::move(next);
+  }
 }
 
 }  // namespace bsf_vpr

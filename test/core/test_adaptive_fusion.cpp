@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <random>
 
 #include "bsf_vpr/core/adaptive_fusion.h"
@@ -62,7 +63,9 @@ double LogSumExp(const Eigen::VectorXd& v) {
 class Oracle {
  public:
   explicit Oracle(const MethodOptions& o) : o_(o) {}
-  Eigen::VectorXd Step(const std::vector<SetDistances>& sets, int n) {
+  // `step`: the progress since the previous query (odometry), or the filter's mean.
+  Eigen::VectorXd Step(const std::vector<SetDistances>& sets, int n,
+                       std::optional<double> step = std::nullopt) {
     const size_t m = sets.size();
     std::vector<DistanceStats> stats;
     for (const SetDistances& d : sets) stats.push_back(ComputeDistanceStats(d));
@@ -107,17 +110,22 @@ class Oracle {
     prod.array() -= LogSumExp(prod) - std::log(n);
     l.push_back(mix);
     l.push_back(prod);
-    if (log_prior_.empty()) {
-      log_prior_.assign(l.size(), Eigen::VectorXd::Constant(n, -std::log(n)));
+    std::vector<Eigen::VectorXd> log_prior(l.size(), Eigen::VectorXd::Constant(n, -std::log(n)));
+    if (log_post_.empty()) {
       score_.assign(l.size(), 0.0);
+    } else {
+      for (size_t h = 0; h < l.size(); ++h) {
+        log_prior[h] = PredictLogPrior(log_post_[h], o_.filter, step);
+      }
     }
+    log_post_.resize(l.size());
     const double lambda = 1 - 1 / o_.fusion_memory_queries;
     std::vector<double> a(l.size());
     for (size_t h = 0; h < l.size(); ++h) {
-      const Eigen::VectorXd post = log_prior_[h] + l[h];
+      const Eigen::VectorXd post = log_prior[h] + l[h];
       const double predictive = LogSumExp(post);
       score_[h] = lambda * score_[h] + predictive;
-      log_prior_[h] = PredictLogPrior(post.array() - predictive, o_.filter);
+      log_post_[h] = post.array() - predictive;
     }
     const double top = *std::max_element(score_.begin(), score_.end());
     double total = 0;
@@ -133,7 +141,7 @@ class Oracle {
 
  private:
   MethodOptions o_;
-  std::vector<Eigen::VectorXd> log_prior_;
+  std::vector<Eigen::VectorXd> log_post_;
   std::vector<double> score_;
 };
 
@@ -146,8 +154,10 @@ TEST(AdaptiveFusion, MatchesItsEquationsOverAStream) {
     MethodRunner runner(ParseMethod("bsf", Names(3)), o);
     Oracle oracle(o);
     for (int t = 0; t < 25; ++t) {
-      const PlaceBelief b = runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true);
-      const Eigen::VectorXd expected = oracle.Step(s.Views(t), s.n);
+      // Odometry from the 10th query on: the step since the previous query, 0 to 3 places.
+      const std::optional<double> step = t < 10 ? std::nullopt : std::optional<double>((t * 7) % 4);
+      const PlaceBelief b = runner.Step(s.Views(t), s.n, nullptr, step, true);
+      const Eigen::VectorXd expected = oracle.Step(s.Views(t), s.n, step);
       ASSERT_EQ(b.log_posterior.size(), s.n);
       for (int i = 0; i < s.n; ++i) {
         ASSERT_NEAR(b.log_posterior(i), expected(i), 1e-9) << "query " << t << " place " << i;
@@ -232,7 +242,22 @@ TEST(AdaptiveFusion, AWhatIfQueryLeavesTheStateAndThreadsLeaveTheBits) {
   }
 }
 
-TEST(AdaptiveFusion, AMissingSetIsLeftOutAndItsRecordKept) {
+TEST(AdaptiveFusion, AQueryThatFailsLeavesNoTrace) {
+  const Stream s(40, 4, {3.0, 2.0}, 0.2, 29);
+  const Method bsf = ParseMethod("bsf", Names(2));
+  MethodRunner plain(bsf, {}), failing(bsf, {});
+  for (int t = 0; t < 4; ++t) {
+    if (t == 2) {  // an odometry step that is not a number: refused, nothing kept
+      EXPECT_THROW(failing.Step(s.Views(t), s.n, nullptr, std::nan(""), true),
+                   std::invalid_argument);
+    }
+    const PlaceBelief a = plain.Step(s.Views(t), s.n, nullptr, 1.0, true);
+    const PlaceBelief b = failing.Step(s.Views(t), s.n, nullptr, 1.0, true);
+    EXPECT_EQ(a.log_posterior, b.log_posterior) << t;
+  }
+}
+
+TEST(AdaptiveFusion, AMissingSetIsLeftOutAndStartsAgainWhenBack) {
   const Stream s(50, 12, {6.0, 5.0, 0.0}, 0.2, 19);
   MethodRunner runner(ParseMethod("bsf", Names(3)), {});
   for (int t = 0; t < 12; ++t) {

@@ -48,11 +48,14 @@ struct AdaptiveFusionOptions {
 class AdaptiveFusion {
  public:
   // Fuses one query as described above and fills `out` as FuseBayes does, plus set_weights:
-  // per set, the probability its likelihood is used, a_u + a_mixture w_u / W + a_product.
+  // per set, the weight its likelihood has, a_u + a_mixture w_u / W + a_product c_u.
   // `set_ids` (null: 0, 1, ...) names each set of `sets` stably across queries (its index in
-  // the map, when some sets are missing for this query); a set's state is kept while it is
-  // missing. `step_places` replaces the filter's mean step (odometry). Without update_state
-  // the state is left as it was. `weights` and `set_stats` as for FuseMixture.
+  // the map, when some sets are missing for this query); a set missing from a query has no
+  // hypothesis in it, and when it is back its hypothesis starts again (uniform belief, the
+  // mean score). `step_places` is the progress since the previous query (odometry: it moves
+  // every hypothesis's belief, as +filter's), else the filter's mean step. Without
+  // update_state, or if it throws, the state is left as it was. `weights` and `set_stats` as
+  // for FuseMixture.
   void Fuse(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
             const std::vector<double>& weights, int num_places, const LikelihoodOptions& likelihood,
             const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
@@ -68,17 +71,16 @@ class AdaptiveFusion {
 
  private:
   struct Hypothesis {
-    int set_id = -1;        // singles: the set; -1 mixture, -2 product
-    Eigen::VectorXd prior;  // the belief predicted for the next query (linear); empty: uniform
+    int set_id = -1;            // singles: the set; -1 mixture, -2 product
+    Eigen::VectorXd posterior;  // its belief after its last query, up to a factor; empty: none
     double score = 0;
+    bool stale = false;  // its set was missing from the last query: back, it starts again
   };
   struct GroupState {
     int group = 0;
     std::vector<Hypothesis> hypotheses;
     std::vector<double> last_weights;
   };
-  GroupState& StateOf(int group);
-
   int num_places_ = -1;
   std::vector<GroupState> groups_;
 };

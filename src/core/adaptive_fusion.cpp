@@ -34,12 +34,7 @@ Eigen::ArrayXd DistancesAtPlaces(const SetDistances& d, int num_places) {
   Eigen::ArrayXd out =
       Eigen::ArrayXd::Constant(num_places, std::numeric_limits<double>::quiet_NaN());
   for (int k = 0; k < d.count; ++k) {
-    const int place = d.PlaceAt(k);
-    if (place < 0 || place >= num_places) {
-      throw std::invalid_argument("place id " + std::to_string(place) + " is outside 0.." +
-                                  std::to_string(num_places - 1));
-    }
-    double& v = out(place);
+    double& v = out(internal::CheckedPlace(d, k, num_places));
     if (!(v <= d.values[k])) v = d.values[k];  // NaN or larger
   }
   return out;

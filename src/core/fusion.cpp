@@ -11,9 +11,8 @@
 #include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
-namespace {
+namespace internal {
 
-// The place of d.values[k], checked against the map's place index.
 int CheckedPlace(const SetDistances& d, int k, int num_places) {
   const int place = d.PlaceAt(k);
   if (place < 0 || place >= num_places) {
@@ -22,10 +21,6 @@ int CheckedPlace(const SetDistances& d, int k, int num_places) {
   }
   return place;
 }
-
-}  // namespace
-
-namespace internal {
 
 bool CoversEachPlaceInOrder(const SetDistances& d, int num_places) {
   if (d.count != num_places) return false;
@@ -133,7 +128,7 @@ void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int n
     *to += Eigen::Map<const Eigen::VectorXd>(values.data(), d.count);
   } else {
     for (int k = 0; k < d.count; ++k) {
-      (*to)(CheckedPlace(d, k, num_places)) += values[static_cast<size_t>(k)];
+      (*to)(internal::CheckedPlace(d, k, num_places)) += values[static_cast<size_t>(k)];
     }
   }
 }
@@ -367,7 +362,7 @@ void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::v
   for (int u : use) {
     const SetDistances& d = sets.at(static_cast<size_t>(u));
     for (int k = 0; k < d.count; ++k) {
-      const int place = CheckedPlace(d, k, num_places);
+      const int place = internal::CheckedPlace(d, k, num_places);
       sum(place) += d.values[k];
       covered(place) += 1;
     }

@@ -11,6 +11,10 @@
 namespace bsf_vpr {
 namespace internal {
 
+// The place of d.values[k], checked against the map's place index: throws
+// std::invalid_argument naming an id outside 0..num_places - 1.
+int CheckedPlace(const SetDistances& d, int k, int num_places);
+
 // Whether value k of d is the distance to place k for every one of num_places places (no
 // ids, or ids 0, 1, ...).
 bool CoversEachPlaceInOrder(const SetDistances& d, int num_places);

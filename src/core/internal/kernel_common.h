@@ -78,6 +78,16 @@ inline float Int8Result(int64_t sum, float row_scale, float query_scale) {
                             (static_cast<double>(row_scale) * static_cast<double>(query_scale)));
 }
 
+// One pair's inner product from its `count` int32 lanes and the elements [from, d) that no
+// whole vector step covered, summed exactly; then scaled.
+inline float Int8Finish(const int32_t* lanes, int count, const int16_t* q, const int8_t* row,
+                        int from, int d, float row_scale, float query_scale) {
+  int64_t sum = 0;
+  for (int l = 0; l < count; ++l) sum += lanes[l];
+  for (int t = from; t < d; ++t) sum += static_cast<int32_t>(q[t]) * row[t];
+  return Int8Result(sum, row_scale, query_scale);
+}
+
 // Largest |int16 level| of a query such that an int32 lane (d / 8 products of at most
 // 127 x level) cannot overflow.
 int QueryLevels(int d) {

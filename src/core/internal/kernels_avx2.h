@@ -89,11 +89,8 @@ BSF_VPR_AVX2 void TileInt8Avx2(const TileArgs& a, const int8_t* r, int r_stride)
     const int16_t* q = a.q16 + j * a.q_stride;
     for (int k = 0; k < NR; ++k) {
       _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), acc[j][k]);
-      int64_t sum = 0;
-      for (int32_t l : lanes) sum += l;
-      const int8_t* row = r + k * r_stride;
-      for (int t = i; t < a.d; ++t) sum += static_cast<int32_t>(q[t]) * row[t];
-      a.out[j * a.out_stride + k] = Int8Result(sum, a.scale, a.q_scales[j]);
+      a.out[j * a.out_stride + k] =
+          Int8Finish(lanes, 8, q, r + k * r_stride, i, a.d, a.scale, a.q_scales[j]);
     }
   }
 }

@@ -101,11 +101,8 @@ BSF_VPR_AVX512_VNNI void TileInt8Vnni(const TileArgs& a, const int8_t* r, int r_
     const int16_t* q = a.q16 + j * a.q_stride;
     for (int k = 0; k < NR; ++k) {
       _mm512_store_si512(lanes, acc[j][k]);
-      int64_t sum = 0;
-      for (int32_t l : lanes) sum += l;
-      const int8_t* row = r + k * r_stride;
-      for (int t = i; t < a.d; ++t) sum += static_cast<int32_t>(q[t]) * row[t];
-      a.out[j * a.out_stride + k] = Int8Result(sum, a.scale, a.q_scales[j]);
+      a.out[j * a.out_stride + k] =
+          Int8Finish(lanes, 16, q, r + k * r_stride, i, a.d, a.scale, a.q_scales[j]);
     }
   }
 }

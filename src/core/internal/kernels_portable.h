@@ -14,11 +14,9 @@ template <int NQ, int NR>
 void TileInt8Portable(const TileArgs& a, const int8_t* r, int r_stride) {
   for (int j = 0; j < NQ; ++j) {
     const int16_t* q = a.q16 + j * a.q_stride;
-    for (int k = 0; k < NR; ++k) {
-      const int8_t* row = r + k * r_stride;
-      int64_t sum = 0;
-      for (int i = 0; i < a.d; ++i) sum += static_cast<int32_t>(q[i]) * row[i];
-      a.out[j * a.out_stride + k] = Int8Result(sum, a.scale, a.q_scales[j]);
+    for (int k = 0; k < NR; ++k) {  // no lanes: every element in the exact sum
+      a.out[j * a.out_stride + k] =
+          Int8Finish(nullptr, 0, q, r + k * r_stride, 0, a.d, a.scale, a.q_scales[j]);
     }
   }
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "src/core/internal/fusion_parts.h"
+#include "src/core/internal/vector_math.h"
 #include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
@@ -19,6 +20,24 @@ constexpr int kProduct = -2;
 constexpr double kLikelihoodFloor = 1e-300;
 // Below this many values the likelihoods and the filters run on the calling thread alone.
 constexpr int64_t kParallelWork = 50000;
+
+// Per-place work in fixed blocks of places, in parallel when there is enough of it: what a
+// block computes depends on its places alone, so the bits do not depend on the threads.
+constexpr Eigen::Index kPlaceBlock = 8192;
+int PlaceBlocks(int num_places) {
+  return static_cast<int>((num_places + kPlaceBlock - 1) / kPlaceBlock);
+}
+// task(b, first place, count) for each block b; `passes`: the arrays it runs over per place
+// (for the decision whether threads pay).
+template <class Task>
+void ForPlaceBlocks(int num_places, size_t passes, const Task& task) {
+  const int blocks = PlaceBlocks(num_places);
+  const int64_t work = static_cast<int64_t>(num_places) * static_cast<int64_t>(passes);
+  RunParallel(blocks, work >= kParallelWork ? DistanceThreads() : 1, [&](int b) {
+    const Eigen::Index i0 = b * kPlaceBlock;
+    task(b, i0, std::min<Eigen::Index>(kPlaceBlock, num_places - i0));
+  });
+}
 
 // Linear likelihood values (one per value of d) laid out over the places: 1 where d does not
 // cover a place, the product of its values where it covers it more than once.
@@ -75,30 +94,58 @@ std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
     const SetDistances& d = sets[static_cast<size_t>(u)];
     in_order = in_order && internal::CoversEachPlaceInOrder(d, num_places);
   }
-  // Standardised columns: with every place covered once, rho_uv is their dot product.
-  std::vector<Eigen::ArrayXd> z(m);
-  for (size_t j = 0; j < m; ++j) {
-    const SetDistances& d = sets[static_cast<size_t>(members[j])];
-    if (in_order) {
-      const DistanceStats& st = stats[static_cast<size_t>(members[j])];
-      const double norm = st.stddev * std::sqrt(static_cast<double>(d.count));
-      z[j] =
-          norm > 0
-              ? Eigen::ArrayXd(
-                    (Eigen::Map<const Eigen::ArrayXf>(d.values, d.count).cast<double>() - st.mean) /
-                    norm)
-              : Eigen::ArrayXd::Zero(num_places);
-    } else {
-      z[j] = DistancesAtPlaces(d, num_places);
-    }
-  }
   std::vector<double> effect(m, 1.0);
+  const auto add = [&effect](size_t j, size_t k, double rho) {
+    const double shared = std::isfinite(rho) ? std::clamp(rho, 0.0, 1.0) : 0.0;
+    effect[j] += shared;
+    effect[k] += shared;
+  };
+  if (!in_order) {
+    std::vector<Eigen::ArrayXd> at(m);
+    for (size_t j = 0; j < m; ++j) {
+      at[j] = DistancesAtPlaces(sets[static_cast<size_t>(members[j])], num_places);
+    }
+    for (size_t j = 0; j < m; ++j) {
+      for (size_t k = j + 1; k < m; ++k) add(j, k, Correlation(at[j], at[k]));
+    }
+    for (double& e : effect) e = 1.0 / e;
+    return effect;
+  }
+  // With every place covered once, rho_uv is the dot product of the standardised columns.
+  // They are formed a block of places at a time (in cache for all pairs), the blocks' sums
+  // added in block order: the same bits with any number of threads.
+  std::vector<double> offset(m), inverse(m);
   for (size_t j = 0; j < m; ++j) {
-    for (size_t k = j + 1; k < m; ++k) {
-      const double rho = in_order ? (z[j] * z[k]).sum() : Correlation(z[j], z[k]);
-      const double shared = std::isfinite(rho) ? std::clamp(rho, 0.0, 1.0) : 0.0;
-      effect[j] += shared;
-      effect[k] += shared;
+    const DistanceStats& st = stats[static_cast<size_t>(members[j])];
+    const double norm = st.stddev * std::sqrt(static_cast<double>(num_places));
+    offset[j] = st.mean;
+    inverse[j] = norm > 0 ? 1.0 / norm : 0.0;
+  }
+  constexpr int kBlock = 2048;
+  const int blocks = (num_places + kBlock - 1) / kBlock;
+  const size_t pairs = m * (m - 1) / 2;
+  std::vector<double> partial(static_cast<size_t>(blocks) * pairs);
+  const auto block = [&](int b) {
+    const int i0 = b * kBlock, len = std::min(kBlock, num_places - i0);
+    Eigen::ArrayXXd z(len, static_cast<Eigen::Index>(m));
+    for (size_t j = 0; j < m; ++j) {
+      const float* v = sets[static_cast<size_t>(members[j])].values + i0;
+      z.col(static_cast<Eigen::Index>(j)) =
+          (Eigen::Map<const Eigen::ArrayXf>(v, len).cast<double>() - offset[j]) * inverse[j];
+    }
+    double* out = partial.data() + static_cast<size_t>(b) * pairs;
+    for (Eigen::Index j = 0; j < z.cols(); ++j) {
+      for (Eigen::Index k = j + 1; k < z.cols(); ++k) *out++ = (z.col(j) * z.col(k)).sum();
+    }
+  };
+  const int64_t work = static_cast<int64_t>(num_places) * static_cast<int64_t>(pairs);
+  RunParallel(blocks, work >= kParallelWork * 4 ? DistanceThreads() : 1, block);
+  size_t pair = 0;
+  for (size_t j = 0; j < m; ++j) {
+    for (size_t k = j + 1; k < m; ++k, ++pair) {
+      double rho = 0;
+      for (int b = 0; b < blocks; ++b) rho += partial[static_cast<size_t>(b) * pairs + pair];
+      add(j, k, rho);
     }
   }
   for (double& e : effect) e = 1.0 / e;
@@ -150,7 +197,8 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     UnnormalisedPlaceMatchLogLikelihood(d, pooled[u], likelihood, l.data());
     Eigen::Map<Eigen::ArrayXd> values(l.data(), d.count);
     const double top = values.maxCoeff();
-    Eigen::ArrayXd e = (values - top).exp();
+    Eigen::ArrayXd e(d.count);
+    kernels::Exp(l.data(), d.count, top, e.data());
     const double mean = e.sum() / d.count;
     e /= mean;
     values -= top + std::log(mean);
@@ -219,25 +267,41 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     const size_t m = members.size();
     std::vector<const Eigen::ArrayXd*> l(m + 2);
     for (size_t j = 0; j < m; ++j) l[j] = &lin_l[static_cast<size_t>(members[j])];
-    Eigen::ArrayXd mixture = Eigen::ArrayXd::Zero(num_places);
     double component_weight = 0;
     for (int u : components) component_weight += weights[static_cast<size_t>(u)];
-    for (int u : members) {  // no weight at all (gamma = 0 with no set at 0): equal weights
-      const double w = component_weight > 0 ? weights[static_cast<size_t>(u)] / component_weight
-                                            : 1.0 / static_cast<double>(m);
-      if (w > 0) mixture += w * lin_l[static_cast<size_t>(u)];
+    std::vector<double> mixture_weight(m);
+    for (size_t j = 0; j < m; ++j) {  // no weight at all (gamma = 0, no set at 0): equal weights
+      const size_t u = static_cast<size_t>(members[j]);
+      mixture_weight[j] =
+          component_weight > 0 ? weights[u] / component_weight : 1.0 / static_cast<double>(m);
     }
-    l[m] = &mixture;
     // The product counts each set once per independent piece of evidence it carries: set u's
     // log-likelihood is divided by its design effect sum_v max(rho_uv, 0).
     const std::vector<double> exponent =
         IndependenceExponents(sets, set_stats, members, num_places);
+    Eigen::ArrayXd mixture = Eigen::ArrayXd::Zero(num_places);
     Eigen::ArrayXd product = Eigen::ArrayXd::Zero(num_places);
-    for (size_t j = 0; j < m; ++j) {
-      product += exponent[j] * log_l[static_cast<size_t>(members[j])].array();
-    }
-    product = (product - product.maxCoeff()).exp();
-    product /= product.sum() * uniform;
+    std::vector<double> block_max(static_cast<size_t>(PlaceBlocks(num_places)));
+    ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
+      for (size_t j = 0; j < m; ++j) {
+        const size_t u = static_cast<size_t>(members[j]);
+        if (mixture_weight[j] > 0) {
+          mixture.segment(i0, len) += mixture_weight[j] * lin_l[u].segment(i0, len);
+        }
+        product.segment(i0, len) += exponent[j] * log_l[u].array().segment(i0, len);
+      }
+      block_max[static_cast<size_t>(b)] = product.segment(i0, len).maxCoeff();
+    });
+    l[m] = &mixture;
+    const double product_max = *std::max_element(block_max.begin(), block_max.end());
+    std::vector<double> block_sum(block_max.size());
+    ForPlaceBlocks(num_places, 1, [&](int b, Eigen::Index i0, Eigen::Index len) {
+      kernels::Exp(product.data() + i0, len, product_max, product.data() + i0);
+      block_sum[static_cast<size_t>(b)] = product.segment(i0, len).sum();
+    });
+    double product_sum = 0;
+    for (double v : block_sum) product_sum += v;
+    product /= product_sum * uniform;
     l[m + 1] = &product;
     // Each hypothesis's belief moved on from its last query by this query's step (as
     // +filter moves it), its predictive likelihood of this query, sum_i prior_h(i) L_h(i),
@@ -266,14 +330,16 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     std::vector<double> a(l.size());
     double total = 0;
     for (size_t h = 0; h < l.size(); ++h) total += a[h] = std::exp(next.hypotheses[h].score - top);
-    Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(num_places);
-    for (size_t h = 0; h < l.size(); ++h) {
-      a[h] /= total;
-      if (a[h] > 0) fused += a[h] * *l[h];
-    }
+    for (double& v : a) v /= total;
     // Where every hypothesis's likelihood underflowed, a floor keeps the log finite (such
     // places are e^-690 below the mean: no belief or confidence depends on them).
-    out->log_posterior.array() += fused.max(kLikelihoodFloor).log();
+    ForPlaceBlocks(num_places, l.size(), [&](int, Eigen::Index i0, Eigen::Index len) {
+      Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(len);
+      for (size_t h = 0; h < l.size(); ++h) {
+        if (a[h] > 0) fused += a[h] * l[h]->segment(i0, len);
+      }
+      out->log_posterior.array().segment(i0, len) += fused.max(kLikelihoodFloor).log();
+    });
     for (size_t j = 0; j < m; ++j) {
       const size_t u = static_cast<size_t>(members[j]);
       const double as_component =

@@ -8,6 +8,7 @@
 
 #include "bsf_vpr/core/distances.h"
 #include "src/core/internal/fusion_parts.h"
+#include "src/core/internal/vector_math.h"
 #include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
@@ -149,7 +150,7 @@ void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
   // left out, rest = sum_{i != best} exp(l_i - l_best).
   double& l_best = out->log_posterior(best);
   l_best = -INFINITY;
-  const double rest = (out->log_posterior.array() - max_l).exp().sum();
+  const double rest = kernels::SumExp(out->log_posterior.data(), out->log_posterior.size(), max_l);
   l_best = max_l;
   // Where the other places lie so far below that the sum underflows, LogOddsOfBest rescales.
   out->confidence = rest > 1e-300 ? -std::log(rest) : LogOddsOfBest(out->log_posterior, out->match);
@@ -292,7 +293,12 @@ Eigen::ArrayXd LogMixture(const std::vector<Eigen::VectorXd>& columns,
   // underflow path for components far below the top).
   const Eigen::ArrayXd top = l.rowwise().maxCoeff().array();
   Eigen::ArrayXd sum = Eigen::ArrayXd::Zero(n);
-  for (Eigen::Index j = 0; j < l.cols(); ++j) sum += (l.col(j).array() - top).exp();
+  Eigen::ArrayXd below(n);
+  for (Eigen::Index j = 0; j < l.cols(); ++j) {
+    below = l.col(j).array() - top;
+    kernels::Exp(below.data(), n, 0.0, below.data());
+    sum += below;
+  }
   return top + sum.log();
 }
 

@@ -1,14 +1,15 @@
 #include "bsf_vpr/core/likelihood.h"
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
-
-#include <Eigen/Core>
+#include <vector>
 
 #include "bsf_vpr/core/selection.h"
+#include "src/core/internal/vector_math.h"
 
 namespace bsf_vpr {
 
@@ -47,29 +48,38 @@ const double* LogTable(int n) {
 }  // namespace
 
 void RankCounts(const float* values, int count, int* counts) {
-  // Least-significant-digit radix sort of (key << 32 | index), 8 bits of the key a pass: O(N).
-  // One 64-bit array scattered per pass, kept per thread between calls.
+  // Least-significant-digit radix sort of (key << 32 | index), 11 bits of the key a pass
+  // (three passes; 2048-entry histograms stay in L1): O(N). One 64-bit array scattered per
+  // pass, kept per thread between calls.
+  constexpr int kBits = 11, kPasses = 3;
+  constexpr uint32_t kDigits = 1u << kBits, kMask = kDigits - 1;
   const size_t n = static_cast<size_t>(std::max(count, 0));
   thread_local std::vector<uint64_t> items, items_tmp;
+  thread_local std::vector<uint32_t> histogram_store(kPasses * kDigits);
   items.resize(n);
   items_tmp.resize(n);
-  uint32_t histogram[4][256] = {};
+  std::fill(histogram_store.begin(), histogram_store.end(), 0u);
+  uint32_t* histogram = histogram_store.data();
   for (size_t k = 0; k < n; ++k) {
     const uint32_t key = OrderKey(values[k]);
     items[k] = (static_cast<uint64_t>(key) << 32) | k;
-    for (int pass = 0; pass < 4; ++pass) ++histogram[pass][(key >> (8 * pass)) & 0xffu];
+    for (int pass = 0; pass < kPasses; ++pass) {
+      ++histogram[pass * kDigits + ((key >> (kBits * pass)) & kMask)];
+    }
   }
-  for (int pass = 0; pass < 4; ++pass) {
-    uint32_t* h = histogram[pass];
-    const int shift = 32 + 8 * pass;
-    if (n == 0 || h[(items[0] >> shift) & 0xffu] == n) continue;  // one bucket: in order
+  for (int pass = 0; pass < kPasses; ++pass) {
+    uint32_t* h = histogram + pass * kDigits;
+    const int shift = 32 + kBits * pass;
+    if (n == 0 || h[(items[0] >> shift) & kMask] == n) continue;  // one bucket: in order
     uint32_t offset = 0;
-    for (int b = 0; b < 256; ++b) {
+    for (uint32_t b = 0; b < kDigits; ++b) {
       const uint32_t c = h[b];
       h[b] = offset;
       offset += c;
     }
-    for (size_t k = 0; k < n; ++k) items_tmp[h[(items[k] >> shift) & 0xffu]++] = items[k];
+    const uint64_t* from = items.data();
+    uint64_t* to = items_tmp.data();
+    for (size_t k = 0; k < n; ++k) to[h[(from[k] >> shift) & kMask]++] = from[k];
     items.swap(items_tmp);
   }
   // In ascending order, the elements >= the one at position p start at the first position of
@@ -107,7 +117,8 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
   UnnormalisedPlaceMatchLogLikelihood(d, st, options, log_likelihood);
   Eigen::Map<Eigen::ArrayXd> ll(log_likelihood, d.count);
   const double max_ll = ll.maxCoeff();
-  const double log_mean = max_ll + std::log((ll - max_ll).exp().sum() / d.count);
+  const double log_mean =
+      max_ll + std::log(kernels::SumExp(log_likelihood, d.count, max_ll) / d.count);
   ll -= log_mean;
 }
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "src/core/internal/vector_math.h"
+
 namespace bsf_vpr {
 
 void TemporalFilterOptions::Validate() const { TemporalFilterOptionsTable().CheckValues(*this); }
@@ -35,7 +37,7 @@ const OptionTable<TemporalFilterOptions>& TemporalFilterOptionsTable() {
 Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
                                 const TemporalFilterOptions& options,
                                 std::optional<double> step_mean) {
-  return PredictPrior(log_posterior.array().exp().matrix(), options, step_mean).array().log();
+  return PredictPrior(ExpOf(log_posterior.array()).matrix(), options, step_mean).array().log();
 }
 
 Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,
@@ -53,13 +55,17 @@ Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptio
     const double z = sd > 0 ? (s - mean) / sd : 0.0;
     w.push_back(std::exp(-0.5 * z * z));
   }
-  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order (a shift per step).
+  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order (a shift per step), a
+  // block of places at a time so that the block stays in cache for all the steps.
   Eigen::VectorXd moved = Eigen::VectorXd::Zero(n);
-  for (size_t k = 0; k < w.size(); ++k) {
-    const long s = s_lo + static_cast<long>(k);  // moved(j) takes p(j - s)
-    const Eigen::Index from = std::max<long>(0, -s), to = std::max<long>(0, s);
-    const Eigen::Index len = n - std::min<Eigen::Index>(n, std::abs(s));
-    if (len > 0) moved.segment(to, len) += w[k] * p.segment(from, len);
+  constexpr Eigen::Index kBlock = 2048;
+  for (Eigen::Index j0 = 0; j0 < n; j0 += kBlock) {
+    const Eigen::Index j1 = std::min(n, j0 + kBlock);
+    for (size_t k = 0; k < w.size(); ++k) {
+      const long s = s_lo + static_cast<long>(k);  // moved(j) takes p(j - s), 0 <= j - s < n
+      const Eigen::Index lo = std::max<Eigen::Index>(j0, s), hi = std::min<Eigen::Index>(j1, n + s);
+      if (hi > lo) moved.segment(lo, hi - lo) += w[k] * p.segment(lo - s, hi - lo);
+    }
   }
   // The steps' weights need no normalising: the moved mass is normalised as a whole (mass
   // moved past the end of the route is lost).

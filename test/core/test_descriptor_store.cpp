@@ -103,24 +103,10 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// The portable kernel, and AVX2, AVX-512 and AVX-512 VNNI where the CPU has them.
-std::vector<std::string> AvailableKernels() {
-  std::vector<std::string> out = {"portable"};
-  for (const std::string k : {"avx2", "avx512", "avx512_vnni"}) {
-    try {
-      SetDistanceKernel(k);
-      out.push_back(k);
-    } catch (const std::invalid_argument&) {
-    }
-  }
-  SetDistanceKernel("auto");
-  return out;
-}
-
 // AVX-512 does float32 batches two queries to a register in AVX2's order: the same bits, on
 // batches that take every tile shape, any thread count and both metrics.
 TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
-  const std::vector<std::string> kernels = AvailableKernels();
+  const std::vector<std::string> kernels = testing::AvailableKernels();
   if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
     GTEST_SKIP() << "this CPU has no AVX-512";
   }
@@ -145,7 +131,7 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
 // Every kernel (AVX2 and AVX-512 where the CPU has them, and the portable one), every storage and
 // every tile shape: a query alone gets bitwise what it gets in a batch, for any thread count.
 TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
-  const std::vector<std::string> kernels = AvailableKernels();
+  const std::vector<std::string> kernels = testing::AvailableKernels();
   // 11 queries: one AVX-512 tile of 8, a pair and one left over (2 AVX2 tiles of 4 and 3).
   // 1029: a pass of 1024 and a padded tail. 100 rows: two blocks, tiles and rows left over.
   const RowMatrixXf q = testing::RandomMatrix(11, 1029, 4);
@@ -178,7 +164,7 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
 // every tile shape and row length (whole 32-element steps or a tail); the distances too on
 // the vector kernels (the portable one rounds the query's float norm in another order).
 TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
-  const std::vector<std::string> kernels = AvailableKernels();
+  const std::vector<std::string> kernels = testing::AvailableKernels();
   for (const int d : {8, 31, 32, 33, 256, 1029, 4096}) {
     const RowMatrixXf q = testing::RandomMatrix(11, d, 21);
     const RowMatrixXf rows = testing::RandomMatrix(100, d, 22);
@@ -217,7 +203,7 @@ TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
 }
 
 TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {
-  const std::vector<std::string> kernels = AvailableKernels();
+  const std::vector<std::string> kernels = testing::AvailableKernels();
   if (std::find(kernels.begin(), kernels.end(), "avx2") == kernels.end()) {
     GTEST_SKIP() << "this CPU has no AVX2";
   }

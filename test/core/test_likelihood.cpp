@@ -1,5 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "bsf_vpr/core/likelihood.h"
 #include "test/core/test_util.h"
 
@@ -18,6 +25,59 @@ TEST(Likelihood, RankCountsMatchTheQuadraticIndicatorSum) {
     RankCounts(d.data(), static_cast<int>(d.size()), counts.data());
     for (size_t i = 0; i < d.size(); ++i) {
       ASSERT_EQ(counts[i], testing::RankCountOracle(d, i)) << "seed " << seed << " i " << i;
+    }
+  }
+}
+
+// c_k by sorting a copy: the oracle for sizes the quadratic sum cannot reach.
+std::vector<int> SortedRankCounts(const std::vector<float>& d) {
+  std::vector<float> sorted = d;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<int> counts(d.size());
+  for (size_t i = 0; i < d.size(); ++i) {
+    const auto first = std::lower_bound(sorted.begin(), sorted.end(), d[i]);
+    counts[i] = static_cast<int>(sorted.end() - first);
+  }
+  return counts;
+}
+
+TEST(Likelihood, RankCountsAreExactForEveryShapeOfDistances) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<float> uni(0.5f, 2.0f);
+  std::normal_distribution<float> normal(1.0f, 0.1f);
+  const auto make = [&](int n, auto&& value) {
+    std::vector<float> d(static_cast<size_t>(n));
+    for (float& v : d) v = value();
+    return d;
+  };
+  std::vector<std::pair<std::string, std::vector<float>>> cases;
+  cases.emplace_back("uniform 100000", make(100000, [&] { return uni(rng); }));
+  cases.emplace_back("normal 100000", make(100000, [&] { return normal(rng); }));
+  // Few distinct values: long runs of ties, many in one bucket.
+  cases.emplace_back("ties", make(50000, [&] { return std::round(uni(rng) * 8.0f) / 8.0f; }));
+  // One far value: every other lands in the first bucket, which then holds nearly all.
+  std::vector<float> outlier = make(20000, [&] { return uni(rng); });
+  outlier[77] = 1e30f;
+  cases.emplace_back("one far outlier", outlier);
+  std::vector<float> signs = make(5000, [&] { return uni(rng) - 1.25f; });
+  signs[1] = -0.0f;
+  signs[2] = 0.0f;
+  signs[3] = -0.0f;
+  cases.emplace_back("negative, -0 and +0", signs);
+  std::vector<float> infinite = make(3000, [&] { return uni(rng); });
+  infinite[9] = INFINITY;
+  infinite[10] = -INFINITY;
+  cases.emplace_back("infinities", infinite);
+  cases.emplace_back("all equal", std::vector<float>(1000, 0.75f));
+  cases.emplace_back("one", std::vector<float>{3.0f});
+  cases.emplace_back("none", std::vector<float>{});
+  cases.emplace_back("just above insertion size", make(33, [&] { return uni(rng); }));
+  for (const auto& [name, d] : cases) {
+    std::vector<int> counts(d.size(), -1);
+    RankCounts(d.data(), static_cast<int>(d.size()), counts.data());
+    const std::vector<int> expected = SortedRankCounts(d);
+    for (size_t i = 0; i < d.size(); ++i) {
+      ASSERT_EQ(counts[i], expected[i]) << name << " i " << i << " value " << d[i];
     }
   }
 }

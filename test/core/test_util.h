@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,20 @@
 
 namespace bsf_vpr {
 namespace testing {
+
+// The portable kernel, and AVX2, AVX-512 and AVX-512 VNNI where the CPU has them.
+inline std::vector<std::string> AvailableKernels() {
+  std::vector<std::string> out = {"portable"};
+  for (const std::string k : {"avx2", "avx512", "avx512_vnni"}) {
+    try {
+      SetDistanceKernel(k);
+      out.push_back(k);
+    } catch (const std::invalid_argument&) {
+    }
+  }
+  SetDistanceKernel("auto");
+  return out;
+}
 
 // Sets the global number of distance threads for a scope and restores the default (0: every
 // core) when the scope ends, also when a failed assertion returns early.

@@ -1,5 +1,7 @@
 #include "src/core/internal/distance_kernels.h"
 
+#include "src/core/internal/vector_math.h"
+
 // The dispatch among the kernels (kernels_portable.h, kernels_avx2.h, kernels_avx512.h):
 // one translation unit with them, so that the -ffp-contract=off it is compiled with holds
 // for every kernel.
@@ -11,6 +13,7 @@
 #include "src/core/internal/kernel_common.h"
 #include "src/core/internal/kernels_avx2.h"
 #include "src/core/internal/kernels_avx512.h"
+#include "src/core/internal/kernels_exp.h"
 #include "src/core/internal/kernels_portable.h"
 
 namespace bsf_vpr {
@@ -234,6 +237,24 @@ float SelfDot(const float* x, int n) {
   a.out_stride = 1;
   Tile<float, 1, 1>(CurrentIsa(), a, x, n);
   return out;
+}
+
+void Exp(const double* x, Eigen::Index n, double shift, double* out) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return ExpKernelAvx512(x, n, shift, out);
+  if (isa == Isa::kAvx2) return ExpKernelAvx2(x, n, shift, out);
+#endif
+  ExpPortable(x, n, shift, out);
+}
+
+double SumExp(const double* x, Eigen::Index n, double shift) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return SumExpAvx512(x, n, shift);
+  if (isa == Isa::kAvx2) return SumExpAvx2(x, n, shift);
+#endif
+  return SumExpPortable(x, n, shift);
 }
 
 std::string Active() {

@@ -1,0 +1,96 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "src/core/internal/vector_math.h"
+#include "test/core/test_util.h"
+
+namespace bsf_vpr {
+namespace {
+
+// Units in the last place between a and b (both finite, same sign or zero).
+double UlpDistance(double a, double b) {
+  if (a == b) return 0;
+  const double ulp = std::nextafter(std::abs(b), INFINITY) - std::abs(b);
+  return std::abs(a - b) / ulp;
+}
+
+// The first of the 20000 inputs in [-40, 1] (after the 25 special ones and the wide ones).
+constexpr size_t kNear = 25 + 20000;
+
+std::vector<double> ExpInputs() {
+  std::vector<double> x = {0.0,    -0.0,    1e-300,   -1e-300,  1.0,    -1.0,    0.5,
+                           -0.5,   0.34657, -0.34657, 700.0,    709.78, 709.79,  800.0,
+                           -700.0, -708.4,  -708.39,  -720.0,   -745.0, -745.14, -800.0,
+                           -1e308, 1e308,   INFINITY, -INFINITY};
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> wide(-760.0, 720.0), near(-40.0, 1.0);
+  for (int k = 0; k < 20000; ++k) x.push_back(wide(rng));
+  for (int k = 0; k < 20000; ++k) x.push_back(near(rng));
+  for (int k = 0; k < 400; ++k) x.push_back(std::ldexp(1.0, -k / 4));  // small arguments
+  x.push_back(std::numeric_limits<double>::quiet_NaN());
+  x.push_back(3.0);  // an odd count: every kernel's tail runs
+  return x;
+}
+
+TEST(VectorMath, ExpIsWithinTwoUlpOfTheLibraryAndExactAtTheEnds) {
+  const std::vector<double> x = ExpInputs();
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    std::vector<double> y(x.size());
+    kernels::Exp(x.data(), static_cast<Eigen::Index>(x.size()), 0.0, y.data());
+    for (size_t k = 0; k < x.size(); ++k) {
+      const double expected = std::exp(x[k]);
+      if (std::isnan(x[k])) {
+        EXPECT_TRUE(std::isnan(y[k])) << kernel;
+      } else if (expected == 0 || std::isinf(expected) || x[k] > 709.78 || x[k] < -745.13) {
+        EXPECT_EQ(y[k], expected) << kernel << " exp(" << x[k] << ")";
+      } else if (expected < std::numeric_limits<double>::min()) {
+        // Subnormal results: within one subnormal step and a half of the exact value.
+        EXPECT_LE(std::abs(y[k] - expected), 1.5 * std::numeric_limits<double>::denorm_min())
+            << kernel << " exp(" << x[k] << ")";
+      } else {
+        ASSERT_LE(UlpDistance(y[k], expected), 2.0) << kernel << " exp(" << x[k] << ")";
+      }
+    }
+  }
+  SetDistanceKernel("auto");
+}
+
+TEST(VectorMath, EveryKernelGivesTheSameBitsForExpAndItsSum) {
+  const std::vector<double> x = ExpInputs();
+  std::vector<double> shifted(x.begin(), x.begin() + 9001);  // not a multiple of 8
+  std::vector<double> first;
+  double first_sum = 0;
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    std::vector<double> y(x.size());
+    kernels::Exp(x.data(), static_cast<Eigen::Index>(x.size()), 0.0, y.data());
+    // In place, with a shift, and the sum the normalisations use.
+    std::vector<double> z = shifted;
+    kernels::Exp(z.data(), static_cast<Eigen::Index>(z.size()), -2.5, z.data());
+    y.insert(y.end(), z.begin(), z.end());
+    const double sum = kernels::SumExp(x.data() + kNear, 19999, 3.0);
+    if (first.empty()) {
+      first = y;
+      first_sum = sum;
+      continue;
+    }
+    ASSERT_EQ(std::memcmp(y.data(), first.data(), y.size() * sizeof(double)), 0) << kernel;
+    EXPECT_EQ(sum, first_sum) << kernel;
+  }
+  SetDistanceKernel("auto");
+  double exact = 0;
+  for (int k = 0; k < 19999; ++k) exact += std::exp(x[kNear + k] - 3.0);
+  EXPECT_NEAR(first_sum, exact, 1e-12 * exact);
+  EXPECT_EQ(ExpOf(Eigen::ArrayXd::Constant(3, 2.0), 2.0)(2), 1.0);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -159,6 +159,15 @@ void AdaptiveFusion::Reset() {
   groups_.clear();
 }
 
+void AdaptiveFusion::Recycle(std::vector<Hypothesis>* hypotheses) {
+  constexpr size_t kMaxSpare = 64;
+  for (Hypothesis& h : *hypotheses) {
+    if (h.posterior.size() > 0 && spare_.size() < kMaxSpare)
+      spare_.push_back(std::move(h.posterior));
+  }
+  hypotheses->clear();
+}
+
 std::vector<double> AdaptiveFusion::LastWeights(int group) const {
   for (const GroupState& g : groups_) {
     if (g.group == group) return g.last_weights;
@@ -188,26 +197,30 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
   internal::Groups all = groups;
   all.components = all.members;
   const std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, all, set_stats);
-  std::vector<Eigen::VectorXd> log_l(sets.size());
-  std::vector<Eigen::ArrayXd> lin_l(sets.size());
+  std::vector<Eigen::VectorXd>& log_l = log_l_;
+  std::vector<Eigen::ArrayXd>& lin_l = lin_l_;
+  log_l.resize(sets.size());
+  lin_l.resize(sets.size());
   const auto likelihood_of = [&](int k) {
     const size_t u = static_cast<size_t>(k);
     const SetDistances& d = sets[u];
-    std::vector<double> l(static_cast<size_t>(d.count));
+    // With every place covered once in order (the usual case) the values are the columns.
+    const bool in_order = internal::CoversEachPlaceInOrder(d, num_places);
+    Eigen::VectorXd laid_out;
+    Eigen::VectorXd& l = in_order ? log_l[u] : laid_out;
+    l.resize(d.count);
     UnnormalisedPlaceMatchLogLikelihood(d, pooled[u], likelihood, l.data());
-    Eigen::Map<Eigen::ArrayXd> values(l.data(), d.count);
-    const double top = values.maxCoeff();
-    Eigen::ArrayXd e(d.count);
-    kernels::Exp(l.data(), d.count, top, e.data());
-    const double mean = e.sum() / d.count;
-    e /= mean;
-    values -= top + std::log(mean);
-    if (internal::CoversEachPlaceInOrder(d, num_places)) {
-      log_l[u] = values.matrix();
-      lin_l[u] = std::move(e);
-    } else {
+    const double top = l.maxCoeff();
+    Eigen::ArrayXd laid_out_linear;
+    Eigen::ArrayXd& e = in_order ? lin_l[u] : laid_out_linear;
+    e.resize(d.count);
+    const double mean = kernels::Exp(l.data(), d.count, top, e.data()) / d.count;
+    e *= 1.0 / mean;
+    l.array() -= top + std::log(mean);
+    if (!in_order) {
       log_l[u] = Eigen::VectorXd::Zero(num_places);
-      internal::AddAtPlaces(d, l, num_places, &log_l[u]);  // checks the place ids
+      internal::AddAtPlaces(d, std::vector<double>(l.data(), l.data() + l.size()), num_places,
+                            &log_l[u]);  // checks the place ids
       lin_l[u] = LayOutLinear(d, e, num_places);
     }
   };
@@ -241,9 +254,13 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     // last query) starts at the mean score of those that have one, with a uniform belief.
     GroupState next;
     next.group = groups.ids[g];
-    const auto add = [&next](int id) {
+    const auto add = [&](int id) {
       next.hypotheses.emplace_back();
       next.hypotheses.back().set_id = id;
+      if (!spare_.empty()) {  // a buffer to write its belief into
+        next.hypotheses.back().posterior.swap(spare_.back());
+        spare_.pop_back();
+      }
     };
     for (int u : members) add(id_of(u));
     add(kMixture);
@@ -279,8 +296,10 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     // log-likelihood is divided by its design effect sum_v max(rho_uv, 0).
     const std::vector<double> exponent =
         IndependenceExponents(sets, set_stats, members, num_places);
-    Eigen::ArrayXd mixture = Eigen::ArrayXd::Zero(num_places);
-    Eigen::ArrayXd product = Eigen::ArrayXd::Zero(num_places);
+    Eigen::ArrayXd& mixture = mixture_;
+    Eigen::ArrayXd& product = product_;
+    mixture.setZero(num_places);
+    product.setZero(num_places);
     std::vector<double> block_max(static_cast<size_t>(PlaceBlocks(num_places)));
     ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
       for (size_t j = 0; j < m; ++j) {
@@ -296,30 +315,46 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
     const double product_max = *std::max_element(block_max.begin(), block_max.end());
     std::vector<double> block_sum(block_max.size());
     ForPlaceBlocks(num_places, 1, [&](int b, Eigen::Index i0, Eigen::Index len) {
-      kernels::Exp(product.data() + i0, len, product_max, product.data() + i0);
-      block_sum[static_cast<size_t>(b)] = product.segment(i0, len).sum();
+      block_sum[static_cast<size_t>(b)] =
+          kernels::Exp(product.data() + i0, len, product_max, product.data() + i0);
     });
     double product_sum = 0;
     for (double v : block_sum) product_sum += v;
-    product /= product_sum * uniform;
+    product *= 1.0 / (product_sum * uniform);
     l[m + 1] = &product;
     // Each hypothesis's belief moved on from its last query by this query's step (as
     // +filter moves it), its predictive likelihood of this query, sum_i prior_h(i) L_h(i),
     // its score, and its belief after this query (up to a factor); in parallel when there is
     // enough work (the same bits either way).
+    bool any_prior = false;
+    for (const Hypothesis* from : record) {
+      any_prior = any_prior || (from != nullptr && from->posterior.size() == num_places);
+    }
+    const MotionStep step = any_prior ? MotionStepOf(options.filter, step_places) : MotionStep{};
+    const double keep = 1 - step.relocalization;
+    const double anywhere = step.relocalization / static_cast<double>(num_places);
     const auto one = [&](int k) {
       const size_t h = static_cast<size_t>(k);
       Hypothesis& to = next.hypotheses[h];
       const Hypothesis* from = record[h];
-      const bool has_prior = from != nullptr && from->posterior.size() == num_places;
-      Eigen::ArrayXd posterior =
-          has_prior
-              ? Eigen::ArrayXd(PredictPrior(from->posterior, options.filter, step_places).array() *
-                               *l[h])
-              : Eigen::ArrayXd(*l[h] * uniform);
+      // posterior = prior * L_h, the prior PredictPrior's: the moved mass normalised, then
+      // r / N added (written in place over the moved mass).
+      Eigen::VectorXd& posterior = to.posterior;
+      if (from != nullptr && from->posterior.size() == num_places) {
+        posterior.resize(num_places);
+        const double moved =
+            kernels::StepSums(from->posterior.data(), num_places, step.weights.data(),
+                              static_cast<int>(step.weights.size()), step.first, posterior.data());
+        if (moved > 0) {
+          posterior.array() = ((keep / moved) * posterior.array() + anywhere) * *l[h];
+        } else {
+          posterior = (uniform * *l[h]).matrix();
+        }
+      } else {
+        posterior = (*l[h] * uniform).matrix();
+      }
       const double predictive = posterior.sum();
       to.score = lambda * (from != nullptr ? from->score : mean_score) + std::log(predictive);
-      if (update_state) to.posterior = posterior.matrix();
     };
     const int64_t filter_work = static_cast<int64_t>(l.size()) * num_places;
     RunParallel(static_cast<int>(l.size()), filter_work >= kParallelWork ? DistanceThreads() : 1,
@@ -338,7 +373,9 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
       for (size_t h = 0; h < l.size(); ++h) {
         if (a[h] > 0) fused += a[h] * l[h]->segment(i0, len);
       }
-      out->log_posterior.array().segment(i0, len) += fused.max(kLikelihoodFloor).log();
+      fused = fused.max(kLikelihoodFloor);
+      kernels::Log(fused.data(), len, fused.data());
+      out->log_posterior.array().segment(i0, len) += fused;
     });
     for (size_t j = 0; j < m; ++j) {
       const size_t u = static_cast<size_t>(members[j]);
@@ -347,7 +384,11 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
       out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
     }
     next.last_weights = std::move(a);
-    if (update_state) pending.push_back(std::move(next));
+    if (update_state) {
+      pending.push_back(std::move(next));
+    } else {
+      Recycle(&next.hypotheses);
+    }
   }
   for (size_t u = 0; u < sets.size(); ++u) {
     if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
@@ -376,6 +417,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
         next.hypotheses.push_back(std::move(h));
       }
     }
+    Recycle(&state->hypotheses);
     *state = std::move(next);
   }
 }

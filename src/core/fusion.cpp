@@ -84,17 +84,22 @@ double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {
 }
 
 std::vector<int> TopK(const Eigen::VectorXd& score, int k) {
-  std::vector<int> idx;
-  idx.reserve(static_cast<size_t>(score.size()));
+  // One pass keeping the best k so far, best first (among equal scores the earlier place
+  // first): most places are turned away by one comparison with the k-th.
+  const size_t kk = static_cast<size_t>(std::max(k, 0));
+  std::vector<int> top;
+  if (kk == 0) return top;
+  top.reserve(kk + 1);
   for (Eigen::Index i = 0; i < score.size(); ++i) {
-    if (score(i) > -INFINITY) idx.push_back(static_cast<int>(i));
+    const double s = score(i);
+    if (!(s > -INFINITY)) continue;                              // impossible, or NaN
+    if (top.size() == kk && !(s > score(top.back()))) continue;  // a tie: the earlier stays
+    auto at = top.end();
+    while (at != top.begin() && score(*(at - 1)) < s) --at;
+    top.insert(at, static_cast<int>(i));
+    if (top.size() > kk) top.pop_back();
   }
-  const size_t kk = std::min(idx.size(), static_cast<size_t>(std::max(k, 0)));
-  std::partial_sort(idx.begin(), idx.begin() + static_cast<long>(kk), idx.end(), [&](int a, int b) {
-    return score(a) > score(b) || (score(a) == score(b) && a < b);
-  });
-  idx.resize(kk);
-  return idx;
+  return top;
 }
 
 void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places) {
@@ -299,7 +304,7 @@ Eigen::ArrayXd LogMixture(const std::vector<Eigen::VectorXd>& columns,
     kernels::Exp(below.data(), n, 0.0, below.data());
     sum += below;
   }
-  return top + sum.log();
+  return top + LogOf(sum);
 }
 
 }  // namespace internal

@@ -47,18 +47,20 @@ const double* LogTable(int n) {
 
 }  // namespace
 
-void RankCounts(const float* values, int count, int* counts) {
-  // Least-significant-digit radix sort of (key << 32 | index), 11 bits of the key a pass
-  // (three passes; 2048-entry histograms stay in L1): O(N). One 64-bit array scattered per
-  // pass, kept per thread between calls.
-  constexpr int kBits = 11, kPasses = 3;
+namespace {
+
+// Least-significant-digit radix sort of (key << 32 | index), kBits of the key a pass (a pass
+// is skipped where every key shares its digit), then c_k from the sorted order.
+template <int kBits>
+void RadixRankCounts(const float* values, int count, int* counts) {
+  constexpr int kPasses = (32 + kBits - 1) / kBits;
   constexpr uint32_t kDigits = 1u << kBits, kMask = kDigits - 1;
   const size_t n = static_cast<size_t>(std::max(count, 0));
   thread_local std::vector<uint64_t> items, items_tmp;
-  thread_local std::vector<uint32_t> histogram_store(kPasses * kDigits);
+  thread_local std::vector<uint32_t> histogram_store;
   items.resize(n);
   items_tmp.resize(n);
-  std::fill(histogram_store.begin(), histogram_store.end(), 0u);
+  histogram_store.assign(kPasses * kDigits, 0u);
   uint32_t* histogram = histogram_store.data();
   for (size_t k = 0; k < n; ++k) {
     const uint32_t key = OrderKey(values[k]);
@@ -91,6 +93,19 @@ void RankCounts(const float* values, int count, int* counts) {
   }
 }
 
+}  // namespace
+
+void RankCounts(const float* values, int count, int* counts) {
+  // O(N). 8-bit digits (four passes, 256-entry histograms) for small sets, 11-bit ones (three
+  // passes; 2048 entries, still in L1) where the passes over the items dominate (measured on
+  // the AMD EPYC at 100,000 values: 0.57 against 0.74 ms).
+  if (count >= 16384) {
+    RadixRankCounts<11>(values, count, counts);
+  } else {
+    RadixRankCounts<8>(values, count, counts);
+  }
+}
+
 void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& options,
                              double* log_likelihood) {
   PlaceMatchLogLikelihood(d, ComputeDistanceStats(d), options, log_likelihood);
@@ -99,7 +114,8 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& opt
 void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
                                          const LikelihoodOptions& options,
                                          double* log_likelihood) {
-  std::vector<int> counts(static_cast<size_t>(d.count));
+  thread_local std::vector<int> counts;
+  counts.resize(static_cast<size_t>(d.count));
   RankCounts(d.values, d.count, counts.data());
   const double* log_of = LogTable(d.count);
   const double var = st.stddev * st.stddev;

@@ -37,40 +37,40 @@ const OptionTable<TemporalFilterOptions>& TemporalFilterOptionsTable() {
 Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
                                 const TemporalFilterOptions& options,
                                 std::optional<double> step_mean) {
-  return PredictPrior(ExpOf(log_posterior.array()).matrix(), options, step_mean).array().log();
+  return LogOf(PredictPrior(ExpOf(log_posterior.array()).matrix(), options, step_mean).array())
+      .matrix();
 }
 
-Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,
-                             std::optional<double> step_mean) {
+MotionStep MotionStepOf(const TemporalFilterOptions& options, std::optional<double> step_mean) {
   options.Validate();
   const double mean = step_mean.value_or(options.step_mean_places);
   if (!std::isfinite(mean)) throw std::invalid_argument("step_mean must be finite");
   const double sd = options.step_std_places;
-  const Eigen::Index n = p.size();
+  MotionStep step;
+  step.relocalization = options.relocalization_probability;
   // Step weights w(s) for s in [s_lo, s_hi].
   const long s_lo = sd > 0 ? static_cast<long>(std::floor(mean - 4 * sd)) : std::lround(mean);
   const long s_hi = sd > 0 ? static_cast<long>(std::ceil(mean + 4 * sd)) : std::lround(mean);
-  std::vector<double> w;
+  step.first = s_lo;
   for (long s = s_lo; s <= s_hi; ++s) {
     const double z = sd > 0 ? (s - mean) / sd : 0.0;
-    w.push_back(std::exp(-0.5 * z * z));
+    step.weights.push_back(std::exp(-0.5 * z * z));
   }
-  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order (a shift per step), a
-  // block of places at a time so that the block stays in cache for all the steps.
-  Eigen::VectorXd moved = Eigen::VectorXd::Zero(n);
-  constexpr Eigen::Index kBlock = 2048;
-  for (Eigen::Index j0 = 0; j0 < n; j0 += kBlock) {
-    const Eigen::Index j1 = std::min(n, j0 + kBlock);
-    for (size_t k = 0; k < w.size(); ++k) {
-      const long s = s_lo + static_cast<long>(k);  // moved(j) takes p(j - s), 0 <= j - s < n
-      const Eigen::Index lo = std::max<Eigen::Index>(j0, s), hi = std::min<Eigen::Index>(j1, n + s);
-      if (hi > lo) moved.segment(lo, hi - lo) += w[k] * p.segment(lo - s, hi - lo);
-    }
-  }
+  return step;
+}
+
+Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,
+                             std::optional<double> step_mean) {
+  const MotionStep step = MotionStepOf(options, step_mean);
+  const Eigen::Index n = p.size();
+  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order.
+  Eigen::VectorXd moved(n);
   // The steps' weights need no normalising: the moved mass is normalised as a whole (mass
   // moved past the end of the route is lost).
-  const double total = moved.sum();
-  const double r = options.relocalization_probability;
+  const double total =
+      kernels::StepSums(p.data(), n, step.weights.data(), static_cast<int>(step.weights.size()),
+                        step.first, moved.data());
+  const double r = step.relocalization;
   if (!(total > 0)) return Eigen::VectorXd::Constant(n, 1.0 / static_cast<double>(n));
   Eigen::VectorXd prior = ((1 - r) / total) * moved.array() + r / static_cast<double>(n);
   return prior;

@@ -63,6 +63,73 @@ TEST(VectorMath, ExpIsWithinTwoUlpOfTheLibraryAndExactAtTheEnds) {
   SetDistanceKernel("auto");
 }
 
+std::vector<double> LogInputs() {
+  std::vector<double> x = {1.0,
+                           2.0,
+                           0.5,
+                           0.70710678118654752,
+                           0.70710678118654746,
+                           1.41421356237309492,
+                           1.41421356237309515,
+                           1e-300,
+                           1e300,
+                           0.0,
+                           -0.0,
+                           -1.0,
+                           INFINITY,
+                           -INFINITY,
+                           std::numeric_limits<double>::quiet_NaN(),
+                           std::numeric_limits<double>::min(),
+                           std::numeric_limits<double>::denorm_min(),
+                           3e-310,
+                           std::numeric_limits<double>::max(),
+                           1.0 + 1e-15,
+                           1.0 - 1e-16};
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> exponent(-1074.0, 1023.0), near(0.5, 2.0);
+  for (int k = 0; k < 20000; ++k) x.push_back(std::exp2(exponent(rng)));
+  for (int k = 0; k < 20000; ++k) x.push_back(near(rng));
+  x.push_back(7.0);  // an odd count
+  return x;
+}
+
+TEST(VectorMath, LogIsWithinTwoUlpOfTheLibraryAndExactAtTheEnds) {
+  const std::vector<double> x = LogInputs();
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    std::vector<double> y(x.size());
+    kernels::Log(x.data(), static_cast<Eigen::Index>(x.size()), y.data());
+    for (size_t k = 0; k < x.size(); ++k) {
+      const double expected = std::log(x[k]);
+      if (std::isnan(expected)) {
+        EXPECT_TRUE(std::isnan(y[k])) << kernel << " log(" << x[k] << ")";
+      } else if (std::isinf(expected) || expected == 0) {
+        EXPECT_EQ(y[k], expected) << kernel << " log(" << x[k] << ")";
+      } else {
+        ASSERT_LE(UlpDistance(y[k], expected), 2.0) << kernel << " log(" << x[k] << ")";
+      }
+    }
+  }
+  SetDistanceKernel("auto");
+}
+
+TEST(VectorMath, EveryKernelGivesTheSameBitsForLog) {
+  const std::vector<double> x = LogInputs();
+  std::vector<double> first;
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    std::vector<double> y = x;
+    kernels::Log(y.data(), static_cast<Eigen::Index>(y.size()), y.data());  // in place
+    if (first.empty()) {
+      first = y;
+      continue;
+    }
+    ASSERT_EQ(std::memcmp(y.data(), first.data(), y.size() * sizeof(double)), 0) << kernel;
+  }
+  SetDistanceKernel("auto");
+  EXPECT_EQ(LogOf(Eigen::ArrayXd::Constant(3, 1.0))(1), 0.0);
+}
+
 TEST(VectorMath, EveryKernelGivesTheSameBitsForExpAndItsSum) {
   const std::vector<double> x = ExpInputs();
   std::vector<double> shifted(x.begin(), x.begin() + 9001);  // not a multiple of 8
@@ -77,6 +144,8 @@ TEST(VectorMath, EveryKernelGivesTheSameBitsForExpAndItsSum) {
     kernels::Exp(z.data(), static_cast<Eigen::Index>(z.size()), -2.5, z.data());
     y.insert(y.end(), z.begin(), z.end());
     const double sum = kernels::SumExp(x.data() + kNear, 19999, 3.0);
+    std::vector<double> written(19999);  // Exp returns the same sum of what it writes
+    EXPECT_EQ(kernels::Exp(x.data() + kNear, 19999, 3.0, written.data()), sum) << kernel;
     if (first.empty()) {
       first = y;
       first_sum = sum;
@@ -90,6 +159,51 @@ TEST(VectorMath, EveryKernelGivesTheSameBitsForExpAndItsSum) {
   for (int k = 0; k < 19999; ++k) exact += std::exp(x[kNear + k] - 3.0);
   EXPECT_NEAR(first_sum, exact, 1e-12 * exact);
   EXPECT_EQ(ExpOf(Eigen::ArrayXd::Constant(3, 2.0), 2.0)(2), 1.0);
+}
+
+// The filter's step sums as the shifts they are: moved += w[k] * p shifted by s_lo + k, in k
+// order. Every kernel must give exactly these bits.
+std::vector<double> ShiftedSums(const std::vector<double>& p, const std::vector<double>& w,
+                                long s_lo) {
+  const long n = static_cast<long>(p.size());
+  std::vector<double> moved(p.size(), 0.0);
+  for (size_t k = 0; k < w.size(); ++k) {
+    const long s = s_lo + static_cast<long>(k);
+    for (long j = 0; j < n; ++j) {
+      if (j - s >= 0 && j - s < n)
+        moved[static_cast<size_t>(j)] += w[k] * p[static_cast<size_t>(j - s)];
+    }
+  }
+  return moved;
+}
+
+TEST(VectorMath, StepSumsAreTheShiftedSumsOnEveryKernel) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    for (const long n : {0L, 1L, 5L, 100L, 1003L}) {
+      for (const int taps : {1, 9, 17}) {
+        for (const long s_lo : {-2000L, -20L, -3L, 0L, 1L, 7L, 1002L, 5000L}) {
+          std::vector<double> p(static_cast<size_t>(n)), w(static_cast<size_t>(taps));
+          for (double& v : p) v = uni(rng);
+          for (double& v : w) v = uni(rng);
+          std::vector<double> moved(p.size(), -1.0);
+          const double total = kernels::StepSums(p.data(), n, w.data(), taps, s_lo, moved.data());
+          const std::vector<double> expected = ShiftedSums(p, w, s_lo);
+          double lanes[8] = {};  // the fixed order of the sum
+          for (size_t j = 0; j < expected.size(); ++j) lanes[j % 8] += expected[j];
+          const double expected_total = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5])) +
+                                        ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+          ASSERT_EQ(total, expected_total)
+              << kernel << " n " << n << " taps " << taps << " s_lo " << s_lo;
+          ASSERT_EQ(std::memcmp(moved.data(), expected.data(), moved.size() * sizeof(double)), 0)
+              << kernel << " n " << n << " taps " << taps << " s_lo " << s_lo;
+        }
+      }
+    }
+  }
+  SetDistanceKernel("auto");
 }
 
 }  // namespace

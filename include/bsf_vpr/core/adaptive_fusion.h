@@ -81,8 +81,18 @@ class AdaptiveFusion {
     std::vector<Hypothesis> hypotheses;
     std::vector<double> last_weights;
   };
+  // Keeps the beliefs' buffers of `hypotheses` in spare_ (up to a bound) and clears it.
+  void Recycle(std::vector<Hypothesis>* hypotheses);
+
   int num_places_ = -1;
   std::vector<GroupState> groups_;
+  // Arrays a map's size, kept from query to query so that a query allocates none: the sets'
+  // likelihoods (log and linear), a group's mixture and product, and the beliefs of replaced
+  // hypotheses, written over by the next query's.
+  std::vector<Eigen::VectorXd> log_l_;
+  std::vector<Eigen::ArrayXd> lin_l_;
+  Eigen::ArrayXd mixture_, product_;
+  std::vector<Eigen::VectorXd> spare_;
 };
 
 }  // namespace bsf_vpr

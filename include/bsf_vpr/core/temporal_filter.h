@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <vector>
 
 #include "bsf_vpr/core/options.h"
 
@@ -42,5 +43,16 @@ Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
 // log of PredictPrior(exp(l)).
 Eigen::VectorXd PredictPrior(const Eigen::VectorXd& posterior, const TemporalFilterOptions& options,
                              std::optional<double> step_mean = std::nullopt);
+
+// One query's motion model, made once for several beliefs: the step weights w(s) for
+// s = first, first + 1, ... (not normalised) and r. moved(j) = sum_s w(s) P(j - s) is
+// kernels::StepSums over them. Validates the options; step_mean as for PredictPrior.
+struct MotionStep {
+  long first = 0;
+  std::vector<double> weights;
+  double relocalization = 0.01;
+};
+MotionStep MotionStepOf(const TemporalFilterOptions& options,
+                        std::optional<double> step_mean = std::nullopt);
 
 }  // namespace bsf_vpr

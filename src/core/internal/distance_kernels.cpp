@@ -13,8 +13,8 @@
 #include "src/core/internal/kernel_common.h"
 #include "src/core/internal/kernels_avx2.h"
 #include "src/core/internal/kernels_avx512.h"
-#include "src/core/internal/kernels_exp.h"
 #include "src/core/internal/kernels_portable.h"
+#include "src/core/internal/kernels_vector_math.h"
 
 namespace bsf_vpr {
 namespace kernels {
@@ -239,22 +239,34 @@ float SelfDot(const float* x, int n) {
   return out;
 }
 
-void Exp(const double* x, Eigen::Index n, double shift, double* out) {
+double Exp(const double* x, Eigen::Index n, double shift, double* out) {
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
   const Isa isa = CurrentIsa();
   if (isa >= Isa::kAvx512) return ExpKernelAvx512(x, n, shift, out);
   if (isa == Isa::kAvx2) return ExpKernelAvx2(x, n, shift, out);
 #endif
-  ExpPortable(x, n, shift, out);
+  return ExpPortable(x, n, shift, out);
 }
 
-double SumExp(const double* x, Eigen::Index n, double shift) {
+void Log(const double* x, Eigen::Index n, double* out) {
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
   const Isa isa = CurrentIsa();
-  if (isa >= Isa::kAvx512) return SumExpAvx512(x, n, shift);
-  if (isa == Isa::kAvx2) return SumExpAvx2(x, n, shift);
+  if (isa >= Isa::kAvx512) return LogKernelAvx512(x, n, out);
+  if (isa == Isa::kAvx2) return LogKernelAvx2(x, n, out);
 #endif
-  return SumExpPortable(x, n, shift);
+  LogPortable(x, n, out);
+}
+
+double SumExp(const double* x, Eigen::Index n, double shift) { return Exp(x, n, shift, nullptr); }
+
+double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long s_lo,
+                double* moved) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return StepSumsAvx512(p, n, w, taps, s_lo, moved);
+  if (isa == Isa::kAvx2) return StepSumsAvx2(p, n, w, taps, s_lo, moved);
+#endif
+  return StepSumsPortable(p, n, w, taps, s_lo, moved);
 }
 
 std::string Active() {

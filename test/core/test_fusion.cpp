@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
+#include <random>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/fusion.h"
@@ -197,6 +199,28 @@ TEST(Fusion, TopKOrdersByScoreAndBreaksTiesTowardsSmallerIndex) {
   s << 1.0, 3.0, 3.0, -INFINITY, 2.0;
   EXPECT_EQ(TopK(s, 3), (std::vector<int>{1, 2, 4}));
   EXPECT_EQ(TopK(s, 10), (std::vector<int>{1, 2, 4, 0}));
+}
+
+TEST(Fusion, TopKIsTheHeadOfTheFullOrderOnManyTies) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> level(0, 40);
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd s(3000);
+    for (Eigen::Index i = 0; i < s.size(); ++i) {
+      const int v = level(rng);  // few values: long runs of ties; some impossible, some NaN
+      s(i) = v == 0 ? -INFINITY : v == 1 ? std::numeric_limits<double>::quiet_NaN() : v;
+    }
+    std::vector<int> order;
+    for (int i = 0; i < s.size(); ++i) {
+      if (s(i) > -INFINITY) order.push_back(i);
+    }
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s(a) > s(b); });
+    for (int k : {0, 1, 10, 57, 5000}) {
+      const std::vector<int> expected(order.begin(),
+                                      order.begin() + std::min<size_t>(order.size(), k));
+      ASSERT_EQ(TopK(s, k), expected) << "trial " << trial << " k " << k;
+    }
+  }
 }
 
 }  // namespace

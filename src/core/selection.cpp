@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
+
+#include "bsf_vpr/core/distances.h"
+#include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
 
@@ -121,9 +125,15 @@ Selection SelectReferenceSets(const std::vector<SetDistances>& sets,
   const size_t m = sets.size();
   Selection out;
   std::vector<double> score(m);
+  // The sets' statistics, on the worker threads when there are many distances.
+  out.set_stats.resize(m);
+  int64_t work = 0;
+  for (const SetDistances& d : sets) work += d.count;
+  RunParallel(static_cast<int>(m), work >= 200000 ? DistanceThreads() : 1, [&](int u) {
+    out.set_stats[static_cast<size_t>(u)] = ComputeDistanceStats(sets[static_cast<size_t>(u)]);
+  });
   for (size_t u = 0; u < m; ++u) {
-    out.set_stats.push_back(ComputeDistanceStats(sets[u]));
-    score[u] = Score(out.set_stats.back(), options.rule);
+    score[u] = Score(out.set_stats[u], options.rule);
     if (std::isnan(score[u])) {
       throw std::invalid_argument("reference set " + std::to_string(u) +
                                   " has NaN distances: it cannot be selected or weighed");

@@ -157,6 +157,11 @@ std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
 void AdaptiveFusion::Reset() {
   num_places_ = -1;
   groups_.clear();
+  log_l_.clear();
+  lin_l_.clear();
+  mixture_.resize(0);
+  product_.resize(0);
+  spare_.clear();
 }
 
 void AdaptiveFusion::Recycle(std::vector<Hypothesis>* hypotheses) {

@@ -84,11 +84,26 @@ double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {
 }
 
 std::vector<int> TopK(const Eigen::VectorXd& score, int k) {
-  // One pass keeping the best k so far, best first (among equal scores the earlier place
-  // first): most places are turned away by one comparison with the k-th.
-  const size_t kk = static_cast<size_t>(std::max(k, 0));
+  const size_t kk =
+      std::min(static_cast<size_t>(std::max(k, 0)), static_cast<size_t>(score.size()));
+  const auto before = [&score](int a, int b) {  // best first; among equal scores the earlier
+    return score(a) > score(b) || (score(a) == score(b) && a < b);
+  };
   std::vector<int> top;
   if (kk == 0) return top;
+  constexpr size_t kOnePassMax = 64;
+  if (kk > kOnePassMax) {  // many: every possible place, then a partial sort
+    top.reserve(static_cast<size_t>(score.size()));
+    for (Eigen::Index i = 0; i < score.size(); ++i) {
+      if (score(i) > -INFINITY) top.push_back(static_cast<int>(i));
+    }
+    const size_t n = std::min(kk, top.size());
+    std::partial_sort(top.begin(), top.begin() + static_cast<long>(n), top.end(), before);
+    top.resize(n);
+    return top;
+  }
+  // Few: one pass keeping the best k so far, most places turned away by one comparison with
+  // the k-th.
   top.reserve(kk + 1);
   for (Eigen::Index i = 0; i < score.size(); ++i) {
     const double s = score(i);

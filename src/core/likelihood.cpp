@@ -121,7 +121,7 @@ void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceSt
                                          const LikelihoodOptions& options,
                                          double* log_likelihood) {
   // log c_k written where the sorted order finds it: the table is read in order (c falls).
-  const double* log_of = LogTable(d.count);
+  const double* log_of = LogTable(std::max(d.count, 0));
   RankCountsTo(d.values, d.count,
                [log_of, log_likelihood](size_t k, int c) { log_likelihood[k] = log_of[c]; });
   const double var = st.stddev * st.stddev;

@@ -71,10 +71,8 @@ DistanceStats ComputeDistanceStats(const SetDistances& d) {
   };
   s.min = *std::min_element(low, low + kLanes);
   s.argmin = static_cast<int>(std::find(v, v + n, s.min) - v);  // the first at the minimum
-  if (s.argmin == n) {  // NaN everywhere it was compared: as the scalar scan, index 0 kept
-    s.min = v[0];
-    s.argmin = 0;
-  }
+  if (s.argmin == n) s.argmin = 0;  // v[0] is NaN: as the scalar scan, index 0 kept
+  s.min = v[s.argmin];              // (of -0 and +0, the value found first)
   s.mean = tree(sum) / n;
   double ss[kLanes] = {};
   for (int k = 0; k < full; k += kLanes) {

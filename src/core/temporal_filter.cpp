@@ -43,8 +43,11 @@ Eigen::VectorXd PredictLogPrior(const Eigen::VectorXd& log_posterior,
 
 MotionStep MotionStepOf(const TemporalFilterOptions& options, std::optional<double> step_mean) {
   options.Validate();
-  const double mean = step_mean.value_or(options.step_mean_places);
+  double mean = step_mean.value_or(options.step_mean_places);
   if (!std::isfinite(mean)) throw std::invalid_argument("step_mean must be finite");
+  // A step beyond any map moves all the mass past its end (a uniform prior) either way; the
+  // bound keeps the step's places representable.
+  mean = std::clamp(mean, -1e9, 1e9);
   const double sd = options.step_std_places;
   MotionStep step;
   step.relocalization = options.relocalization_probability;

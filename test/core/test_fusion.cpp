@@ -215,7 +215,7 @@ TEST(Fusion, TopKIsTheHeadOfTheFullOrderOnManyTies) {
       if (s(i) > -INFINITY) order.push_back(i);
     }
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s(a) > s(b); });
-    for (int k : {0, 1, 10, 57, 5000}) {
+    for (int k : {0, 1, 10, 57, 64, 65, 200, 5000}) {  // one pass up to 64, then a sort
       const std::vector<int> expected(order.begin(),
                                       order.begin() + std::min<size_t>(order.size(), k));
       ASSERT_EQ(TopK(s, k), expected) << "trial " << trial << " k " << k;

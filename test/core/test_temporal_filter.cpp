@@ -33,6 +33,20 @@ TEST(TemporalFilter, MovesTheBeliefForwardAndKeepsEveryPlaceReachable) {
   EXPECT_THROW(PredictLogPrior(post, o), std::invalid_argument);
 }
 
+// An odometry step far beyond the map (a broken odometer) moves all the mass past the end:
+// the prior is uniform, with no overflow of the step's places on the way.
+TEST(TemporalFilter, AStepBeyondAnyMapGivesAUniformPrior) {
+  Eigen::VectorXd post = Eigen::VectorXd::Zero(50);
+  post(3) = 1;
+  TemporalFilterOptions o;
+  for (const double step : {1e6, -1e6, 1e18, -1e300, 1e300}) {
+    const Eigen::VectorXd prior = PredictPrior(post, o, step);
+    ASSERT_TRUE(prior.allFinite()) << step;
+    EXPECT_NEAR(prior.minCoeff(), 1.0 / 50, 1e-15) << step;
+    EXPECT_NEAR(prior.maxCoeff(), 1.0 / 50, 1e-15) << step;
+  }
+}
+
 SyntheticData Route(uint64_t seed) {
   return GenerateMultiConditionData(testing::RandomConditionRoute(8, seed));
 }

@@ -86,9 +86,10 @@ class AdaptiveFusion {
 
   int num_places_ = -1;
   std::vector<GroupState> groups_;
-  // Arrays a map's size, kept from query to query so that a query allocates none: the sets'
-  // likelihoods (log and linear), a group's mixture and product, and the beliefs of replaced
-  // hypotheses, written over by the next query's.
+  // Arrays a map's size, kept from query to query so that a query over sets that cover each
+  // place once allocates no array of the map's size: the sets' likelihoods (log and linear),
+  // a group's mixture and product, and the beliefs of replaced hypotheses, written over by
+  // the next query's. Reset() releases them.
   std::vector<Eigen::VectorXd> log_l_;
   std::vector<Eigen::ArrayXd> lin_l_;
   Eigen::ArrayXd mixture_, product_;

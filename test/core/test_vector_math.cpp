@@ -197,7 +197,9 @@ TEST(VectorMath, StepSumsAreTheShiftedSumsOnEveryKernel) {
                                         ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
           ASSERT_EQ(total, expected_total)
               << kernel << " n " << n << " taps " << taps << " s_lo " << s_lo;
-          ASSERT_EQ(std::memcmp(moved.data(), expected.data(), moved.size() * sizeof(double)), 0)
+          ASSERT_TRUE(moved.empty() ||  // (memcmp of no bytes still wants pointers)
+                      std::memcmp(moved.data(), expected.data(), moved.size() * sizeof(double)) ==
+                          0)
               << kernel << " n " << n << " taps " << taps << " s_lo " << s_lo;
         }
       }

@@ -324,26 +324,30 @@ void Batch(int repeats, int scale) {
   };
   const GroundTruth truth = GroundTruth::FromFrameTolerance(nq, s.n, 2);
   const std::vector<Method> bsf = {ParseMethod("bsf", in.set_names)};
-  const double ours = TimeMs(repeats, [&] { EvaluateMethods(in, bsf, {}, truth); });
-  const double distances = TimeMs(repeats, [&] {
-    g_sink = ComputeDistances(DistanceMetric::kEuclidean, queries, r.map())[0](0, 0);
-  });
   const int threads = DistanceThreads();
   openblas_set_num_threads(threads);
   RowMatrixXf product(nq, s.n);
-  const double gemm = TimeMs(repeats, [&] {
-    for (const StoredReferenceSet& set : r.map().sets()) {
-      cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, nq, s.n, s.d, 1.0f, queries.data(), s.d,
-                  Float32Rows(set), s.d, 0.0f, product.data(), s.n);
-    }
-    g_sink = product(0, 0);
-  });
+  // The evaluation, the distances alone and the GEMM timed in turn: the ratios are medians
+  // over the rounds, so that a slow spell of a shared machine falls on all three.
+  const std::vector<std::vector<double>> ms = InterleavedTimesMs(
+      repeats,
+      {[&] { EvaluateMethods(in, bsf, {}, truth); },
+       [&] { g_sink = ComputeDistances(DistanceMetric::kEuclidean, queries, r.map())[0](0, 0); },
+       [&] {
+         for (const StoredReferenceSet& set : r.map().sets()) {
+           cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, nq, s.n, s.d, 1.0f, queries.data(),
+                       s.d, Float32Rows(set), s.d, 0.0f, product.data(), s.n);
+         }
+         g_sink = product(0, 0);
+       }});
+  const double ours = Median(ms[0]), distances = Median(ms[1]), gemm = Median(ms[2]);
   std::printf(
-      "batch   Q=%d M=%d N=%d D=%d: evaluation %.0f ms (%.2f ms/query), distances alone %.0f ms "
-      "(%s kernel); OpenBLAS sgemm (%s) of the same shape on %d threads %.0f ms: the distances "
-      "at %.0f%% of the GEMM throughput, the evaluation at %.0f%%\n",
+      "batch   Q=%d M=%d N=%d D=%d, timed in turn: evaluation %.0f ms (%.2f ms/query), distances "
+      "alone %.0f ms (%s kernel); OpenBLAS sgemm (%s) of the same shape on %d threads %.0f ms: "
+      "the distances at %.0f%% of the GEMM throughput, the evaluation at %.0f%%\n",
       nq, s.m, s.n, s.d, ours, ours / nq, distances, DistanceKernel().c_str(),
-      openblas_get_corename(), threads, gemm, 100.0 * gemm / distances, 100.0 * gemm / ours);
+      openblas_get_corename(), threads, gemm, 100.0 * MedianRatio(ms[2], ms[1]),
+      100.0 * MedianRatio(ms[2], ms[0]));
 }
 
 // Each shape exact, then (D above the first stage's d') with the pca first stage at its

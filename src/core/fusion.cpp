@@ -291,6 +291,10 @@ std::vector<Eigen::VectorXd> PooledLogLikelihoods(const std::vector<SetDistances
   std::vector<Eigen::VectorXd> columns(sets.size());
   for (size_t i = 0; i < use.size(); ++i) {
     const size_t u = static_cast<size_t>(use[i]);
+    if (CoversEachPlaceInOrder(sets[u], num_places)) {  // the values are the column
+      columns[u] = Eigen::Map<const Eigen::VectorXd>(ll[i].data(), num_places);
+      continue;
+    }
     columns[u] = Eigen::VectorXd::Zero(num_places);
     AddAtPlaces(sets[u], ll[i], num_places, &columns[u]);
   }
@@ -302,20 +306,23 @@ Eigen::ArrayXd LogMixture(const std::vector<Eigen::VectorXd>& columns,
   double total = 0;
   for (int u : members) total += weights[static_cast<size_t>(u)];
   const Eigen::Index n = columns[static_cast<size_t>(members.front())].size();
-  Eigen::MatrixXd l(n, static_cast<Eigen::Index>(members.size()));
-  for (size_t j = 0; j < members.size(); ++j) {  // log(w_u / W) + log L_u(i): no weight underflows
-    const size_t u = static_cast<size_t>(members[j]);
-    l.col(static_cast<Eigen::Index>(j)) = columns[u];
-    l.col(static_cast<Eigen::Index>(j)).array() += std::log(weights[u] / total);
+  // l_j = log(w_u / W) + log L_u(i) (no weight underflows), formed where it is used.
+  std::vector<double> log_w(members.size());
+  for (size_t j = 0; j < members.size(); ++j) {
+    log_w[j] = std::log(weights[static_cast<size_t>(members[j])] / total);
   }
+  const auto l = [&](size_t j) {
+    return columns[static_cast<size_t>(members[j])].array() + log_w[j];
+  };
   // Per place top + log sum_j exp(l_j - top), a column at a time: vectorised exp and log
   // (a scalar exp per place and set was most of the mixture's time, much of it in the
   // underflow path for components far below the top).
-  const Eigen::ArrayXd top = l.rowwise().maxCoeff().array();
+  Eigen::ArrayXd top = l(0);
+  for (size_t j = 1; j < members.size(); ++j) top = top.max(l(j));
   Eigen::ArrayXd sum = Eigen::ArrayXd::Zero(n);
   Eigen::ArrayXd below(n);
-  for (Eigen::Index j = 0; j < l.cols(); ++j) {
-    below = l.col(j).array() - top;
+  for (size_t j = 0; j < members.size(); ++j) {
+    below = l(j) - top;
     kernels::Exp(below.data(), n, 0.0, below.data());
     sum += below;
   }

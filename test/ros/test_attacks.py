@@ -325,10 +325,10 @@ class Attacks(unittest.TestCase):
                          0)
 
     def test_descriptors_lost_to_a_full_queue_are_counted(self):
-        # A burst far faster than a queue of one is emptied: the node is stopped while 200
-        # descriptors are sent and continued, so that they arrive at once whatever the
-        # machine's speed. What its queue lost shows in the diagnostics (WARN), counted among
-        # the dropped descriptors.
+        # A burst faster than a queue of one is emptied: the node is stopped while 200
+        # descriptors are sent and continued, so that those its socket buffers hold arrive at
+        # once. What its queue lost shows in the diagnostics (WARN), counted among the
+        # dropped descriptors.
         pub = rospy.Publisher("/burst/descriptor", Descriptor, queue_size=1000)
         wait_for(lambda: pub.get_num_connections() > 0, 20, "the burst node")
         api = rosnode.get_api_uri(rosgraph.Master("/test_attacks"), "/burst/fusion",
@@ -364,7 +364,12 @@ class Attacks(unittest.TestCase):
                                          int(values["dropped: queue overflow"]))
                         total = int(values["dropped: queue overflow since start"])
             return total
-        self.assertGreater(lost(), 100)  # 199 measured: the queue keeps the newest
+        # How many the queue loses depends on how many reached the stopped node's socket (its
+        # kernel buffers) against how fast it then works through the rest from the publisher:
+        # 199 of 200 measured once, 6 another time, when queries had become faster. What must
+        # hold: some were lost and counted, not all (the queue keeps the newest). The exact
+        # count of gaps is test_sequence_gaps'.
+        self.assertGreater(lost(), 0)
         self.assertLess(lost(), 200)
         pub.unregister()
 

@@ -336,25 +336,15 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
       any_prior = any_prior || (from != nullptr && from->posterior.size() == num_places);
     }
     const MotionStep step = any_prior ? MotionStepOf(options.filter, step_places) : MotionStep{};
-    const double keep = 1 - step.relocalization;
-    const double anywhere = step.relocalization / static_cast<double>(num_places);
     const auto one = [&](int k) {
       const size_t h = static_cast<size_t>(k);
       Hypothesis& to = next.hypotheses[h];
       const Hypothesis* from = record[h];
-      // posterior = prior * L_h, the prior PredictPrior's: the moved mass normalised, then
-      // r / N added (written in place over the moved mass).
-      Eigen::VectorXd& posterior = to.posterior;
+      Eigen::VectorXd& posterior = to.posterior;  // prior * L_h, the prior PredictPrior's
       if (from != nullptr && from->posterior.size() == num_places) {
         posterior.resize(num_places);
-        const double moved =
-            kernels::StepSums(from->posterior.data(), num_places, step.weights.data(),
-                              static_cast<int>(step.weights.size()), step.first, posterior.data());
-        if (moved > 0) {
-          posterior.array() = ((keep / moved) * posterior.array() + anywhere) * *l[h];
-        } else {
-          posterior = (uniform * *l[h]).matrix();
-        }
+        PredictPrior(step, from->posterior.data(), num_places, posterior.data());
+        posterior.array() *= *l[h];
       } else {
         posterior = (*l[h] * uniform).matrix();
       }

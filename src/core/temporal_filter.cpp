@@ -62,20 +62,25 @@ MotionStep MotionStepOf(const TemporalFilterOptions& options, std::optional<doub
   return step;
 }
 
+void PredictPrior(const MotionStep& step, const double* p, Eigen::Index n, double* prior) {
+  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order. The steps' weights need no
+  // normalising: the moved mass is normalised as a whole (mass moved past the end of the
+  // route is lost).
+  const double total = kernels::StepSums(p, n, step.weights.data(),
+                                         static_cast<int>(step.weights.size()), step.first, prior);
+  Eigen::Map<Eigen::ArrayXd> out(prior, n);
+  if (!(total > 0)) {
+    out.setConstant(1.0 / static_cast<double>(n));
+    return;
+  }
+  const double r = step.relocalization;
+  out = ((1 - r) / total) * out + r / static_cast<double>(n);
+}
+
 Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,
                              std::optional<double> step_mean) {
-  const MotionStep step = MotionStepOf(options, step_mean);
-  const Eigen::Index n = p.size();
-  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order.
-  Eigen::VectorXd moved(n);
-  // The steps' weights need no normalising: the moved mass is normalised as a whole (mass
-  // moved past the end of the route is lost).
-  const double total =
-      kernels::StepSums(p.data(), n, step.weights.data(), static_cast<int>(step.weights.size()),
-                        step.first, moved.data());
-  const double r = step.relocalization;
-  if (!(total > 0)) return Eigen::VectorXd::Constant(n, 1.0 / static_cast<double>(n));
-  Eigen::VectorXd prior = ((1 - r) / total) * moved.array() + r / static_cast<double>(n);
+  Eigen::VectorXd prior(p.size());
+  PredictPrior(MotionStepOf(options, step_mean), p.data(), p.size(), prior.data());
   return prior;
 }
 

@@ -54,5 +54,8 @@ struct MotionStep {
 };
 MotionStep MotionStepOf(const TemporalFilterOptions& options,
                         std::optional<double> step_mean = std::nullopt);
+// PredictPrior with the step made once: the n entries of the prior from `posterior` written
+// to `prior` (which must not overlap it).
+void PredictPrior(const MotionStep& step, const double* posterior, Eigen::Index n, double* prior);
 
 }  // namespace bsf_vpr

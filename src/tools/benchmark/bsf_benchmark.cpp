@@ -48,7 +48,8 @@ OpenBLAS's kernel: when OpenBLAS does not know the CPU and falls back to a narro
 (Debian 12's 0.3.21 runs Prescott, SSE3, on Intel Xeons of 2023), the benchmark runs again
 with OPENBLAS_CORETYPE set to the kernel that fits the CPU's vector width (SkylakeX for
 AVX-512, Haswell for AVX2), for itself and the NumPy baselines; an OPENBLAS_CORETYPE given
-by the caller is kept.
+by the caller is kept, and flagged "NOT FAIR" when it is narrower than the CPU (some hosts
+set Haswell on AVX-512 CPUs: unset OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE for fair figures).
 
 Measures, on random data of the stated shapes (float32), medians of R runs (default 7):
   fusion   selection + likelihoods + posterior for M=3, N=3000 given the distances:

@@ -103,6 +103,12 @@ std::string MachineLine() {
     line << " (OPENBLAS_CORETYPE=" << set << ", chosen from the CPU's features: " << chosen << ")";
   } else if (set != nullptr) {
     line << " (OPENBLAS_CORETYPE=" << set << ", set by the caller)";
+    const std::string fitting = FittingOpenBlasCore(cpu);
+    if (!fitting.empty() && !CoreFits(openblas_get_corename(), fitting)) {
+      line << "; NOT FAIR: that kernel is narrower than this CPU's " << fitting
+           << " width, so the OpenBLAS and NumPy baselines run slower than they can (unset "
+              "OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE to let bsf_benchmark choose)";
+    }
   } else {
     line << " (OpenBLAS's own detection, which fits the CPU)";
   }

@@ -34,7 +34,9 @@ bool CoreFits(const std::string& corename, const std::string& fitting);
 void EnsureFittingOpenBlas(char** argv);
 
 // One line naming the CPU, its vector extensions and the OpenBLAS kernel in use (and
-// whether it was chosen here, set by the user, or OpenBLAS's own).
+// whether it was chosen here, set by the user, or OpenBLAS's own). A kernel the user set that
+// is narrower than the CPU's width is kept and flagged "NOT FAIR" (some hosts set
+// OPENBLAS_CORETYPE=Haswell on AVX-512 CPUs that an old OpenBLAS does not know).
 std::string MachineLine();
 
 }  // namespace tools

@@ -138,6 +138,22 @@ TEST(BenchmarkTool, TheBaselinesOpenBlasKernelFitsTheCpu) {
                                 " --quick --repeats 1 --sections fusion");
   EXPECT_NE(set.output.find("OPENBLAS_CORETYPE=Haswell, set by the caller"), std::string::npos)
       << set.output;
+  // and a caller's kernel narrower than the CPU is flagged, not silently compared with.
+  const Result narrow = RunCommand("OPENBLAS_CORETYPE=Prescott " +
+                                   std::string(BSF_BENCHMARK_PATH) +
+                                   " --quick --repeats 1 --sections fusion");
+  ASSERT_EQ(narrow.exit_code, 0) << narrow.output;
+  EXPECT_NE(narrow.output.find("OPENBLAS_CORETYPE=Prescott, set by the caller"), std::string::npos)
+      << narrow.output;
+  EXPECT_EQ(narrow.output.find("NOT FAIR") != std::string::npos, !fitting.empty())
+      << narrow.output;
+  if (cpu.avx512) {
+    EXPECT_NE(set.output.find("NOT FAIR: that kernel is narrower than this CPU's SkylakeX"),
+              std::string::npos)
+        << set.output;
+  } else {
+    EXPECT_EQ(set.output.find("NOT FAIR"), std::string::npos) << set.output;
+  }
 }
 
 }  // namespace

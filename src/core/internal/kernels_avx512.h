@@ -57,12 +57,17 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
       for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
     }
   }
-  alignas(64) float lanes[2 * kLanes];
+  // ReduceLanes of both halves in the register, in its order: lanes j + (j + 4) (128-bit
+  // quarters swapped), then pairs of those, then the two pairs (a float sum's operands
+  // commute, so the bits are ReduceLanes's); query 2p's sum lands in lane 0, 2p + 1's in 8.
   for (int p = 0; p < NP; ++p) {
     for (int k = 0; k < NR; ++k) {
-      _mm512_store_ps(lanes, acc[p][k]);
-      a.out[(2 * p) * a.out_stride + k] = ReduceLanes(lanes);
-      a.out[(2 * p + 1) * a.out_stride + k] = ReduceLanes(lanes + kLanes);
+      __m512 s = acc[p][k];
+      s = _mm512_add_ps(s, _mm512_shuffle_f32x4(s, s, _MM_SHUFFLE(2, 3, 0, 1)));
+      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(2, 3, 0, 1)));
+      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(1, 0, 3, 2)));
+      a.out[(2 * p) * a.out_stride + k] = _mm512_cvtss_f32(s);
+      a.out[(2 * p + 1) * a.out_stride + k] = _mm_cvtss_f32(_mm512_extractf32x4_ps(s, 2));
     }
   }
 }

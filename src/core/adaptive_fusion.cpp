@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "bsf_vpr/core/selection.h"
 #include "src/core/internal/fusion_parts.h"
 #include "src/core/internal/vector_math.h"
 #include "src/core/internal/worker_pool.h"
@@ -80,6 +81,66 @@ double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
     sxy += dx * dy;
   }
   return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
+}
+
+// Pearson's correlation of two profiles of n distances over at most kProfileSample places
+// spread evenly over them (enough to tell the same scene from another; 1 where either has no
+// spread: no sign that the scene changed).
+constexpr int kProfileSample = 512;
+double ProfileCorrelation(const float* x, const float* y, int n) {
+  const int stride = (n + kProfileSample - 1) / kProfileSample;
+  // Sums about the first values (distances of one scale: no cancellation in double).
+  const double x0 = x[0], y0 = y[0];
+  double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, count = 0;
+  for (int i = 0; i < n; i += stride) {
+    const double dx = x[i] - x0, dy = y[i] - y0;
+    sx += dx;
+    sy += dy;
+    sxx += dx * dx;
+    syy += dy * dy;
+    sxy += dx * dy;
+    count += 1;
+  }
+  const double vx = sxx - sx * sx / count, vy = syy - sy * sy / count;
+  return vx > 0 && vy > 0 ? (sxy - sx * sy / count) / std::sqrt(vx * vy) : 1.0;
+}
+
+// out = d - c over n values, and the mean and deviation of out (in eight lanes, added in a
+// fixed tree, as ComputeDistanceStats; min and argmin are not needed by the fusion and are
+// left as `raw`'s).
+DistanceStats CorrectedStats(const float* d, const float* c, int n, float* out,
+                             const DistanceStats& raw) {
+  constexpr int kLanes = 8;
+  const int full = n - n % kLanes;
+  double sum[kLanes] = {};
+  for (int k = 0; k < full; k += kLanes) {
+    for (int j = 0; j < kLanes; ++j) {
+      out[k + j] = d[k + j] - c[k + j];
+      sum[j] += out[k + j];
+    }
+  }
+  for (int k = full; k < n; ++k) {
+    out[k] = d[k] - c[k];
+    sum[k - full] += out[k];
+  }
+  const auto tree = [](const double* l) {
+    return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7]));
+  };
+  DistanceStats s = raw;
+  s.mean = tree(sum) / n;
+  double ss[kLanes] = {};
+  for (int k = 0; k < full; k += kLanes) {
+    for (int j = 0; j < kLanes; ++j) {
+      const double e = out[k + j] - s.mean;
+      ss[j] += e * e;
+    }
+  }
+  for (int k = full; k < n; ++k) {
+    const double e = out[k] - s.mean;
+    ss[k - full] += e * e;
+  }
+  s.stddev = std::sqrt(tree(ss) / n);
+  return s;
 }
 
 // Per set of `members`: 1 / sum_v max(rho_uv, 0), rho the correlation of the two sets'
@@ -157,6 +218,8 @@ std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
 void AdaptiveFusion::Reset() {
   num_places_ = -1;
   groups_.clear();
+  place_means_.clear();
+  corrected_values_.clear();
   log_l_.clear();
   lin_l_.clear();
   mixture_.resize(0);
@@ -173,6 +236,80 @@ void AdaptiveFusion::Recycle(std::vector<Hypothesis>* hypotheses) {
   hypotheses->clear();
 }
 
+void AdaptiveFusion::CorrectByPlaceMeans(const std::vector<SetDistances>& sets,
+                                         const std::vector<int>* set_ids, int num_places,
+                                         const AdaptiveFusionOptions& options,
+                                         std::vector<SetDistances>* corrected,
+                                         std::vector<DistanceStats>* corrected_stats,
+                                         std::vector<PlaceUpdate>* updates) {
+  corrected->assign(sets.begin(), sets.end());
+  updates->clear();
+  if (!options.place_means) return;
+  const bool known_places = num_places == num_places_;  // else the means are another map's
+  corrected_values_.resize(sets.size());
+  for (size_t u = 0; u < sets.size(); ++u) {
+    const SetDistances& d = sets[u];
+    if (d.count != num_places || !internal::CoversEachPlaceInOrder(d, num_places)) continue;
+    const int id = set_ids ? (*set_ids)[u] : static_cast<int>(u);
+    int record = -1;
+    for (size_t k = 0; known_places && k < place_means_.size(); ++k) {
+      if (place_means_[k].set_id == id) record = static_cast<int>(k);
+    }
+    const PlaceMeans* m = record >= 0 ? &place_means_[static_cast<size_t>(record)] : nullptr;
+    // A fresh record's correction is made with this query's n0.
+    if (m == nullptr || m->recent.empty() ||
+        ProfileCorrelation(d.values, m->recent.back().data(), num_places) < kSameScene) {
+      updates->push_back({u, record, id});
+    }
+    if (m == nullptr || m->queries == 0) continue;
+    PlaceMeans& record_now = place_means_[static_cast<size_t>(record)];
+    if (record_now.prior_queries != options.place_prior_queries) {  // the option changed
+      record_now.prior_queries = options.place_prior_queries;
+      SetCorrection(&record_now);
+    }
+    std::vector<float>& v = corrected_values_[u];
+    v.resize(static_cast<size_t>(num_places));
+    (*corrected_stats)[u] = CorrectedStats(d.values, record_now.correction.data(), num_places,
+                                           v.data(), (*corrected_stats)[u]);
+    (*corrected)[u].values = v.data();
+  }
+}
+
+void AdaptiveFusion::SetCorrection(PlaceMeans* m) {
+  const float shrink = static_cast<float>(m->queries / (m->queries + m->prior_queries));
+  const float centre = m->mean.mean();
+  m->correction = shrink * (m->mean - centre);
+}
+
+void AdaptiveFusion::CountPlaceMeans(const std::vector<SetDistances>& sets,
+                                     const std::vector<PlaceUpdate>& updates,
+                                     double prior_queries) {
+  for (const PlaceUpdate& up : updates) {
+    const SetDistances& d = sets[up.set];
+    if (up.record < 0) {
+      place_means_.emplace_back();
+      place_means_.back().set_id = up.set_id;
+      place_means_.back().mean = Eigen::ArrayXf::Zero(d.count);
+      place_means_.back().prior_queries = prior_queries;
+    }
+    PlaceMeans& m = up.record < 0 ? place_means_.back()
+                                  : place_means_[static_cast<size_t>(up.record)];
+    Eigen::ArrayXf oldest;  // the buffer of the query that enters the mean, written over
+    if (static_cast<int>(m.recent.size()) >= kPlaceMeansLag) {
+      m.queries += 1;
+      const float step = 1.0f / static_cast<float>(m.queries);
+      float* mean = m.mean.data();
+      const float* f = m.recent.front().data();
+      for (Eigen::Index i = 0; i < m.mean.size(); ++i) mean[i] += (f[i] - mean[i]) * step;
+      SetCorrection(&m);
+      oldest.swap(m.recent.front());
+      m.recent.pop_front();
+    }
+    oldest = Eigen::Map<const Eigen::ArrayXf>(d.values, d.count);
+    m.recent.push_back(std::move(oldest));
+  }
+}
+
 std::vector<double> AdaptiveFusion::LastWeights(int group) const {
   for (const GroupState& g : groups_) {
     if (g.group == group) return g.last_weights;
@@ -180,21 +317,38 @@ std::vector<double> AdaptiveFusion::LastWeights(int group) const {
   return {};
 }
 
-void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
-                          const std::vector<double>& weights, int num_places,
-                          const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-                          const Threshold& threshold, int top_k,
+void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
+                          const std::vector<int>* set_ids, const std::vector<double>& weights,
+                          int num_places, const LikelihoodOptions& likelihood,
+                          const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
                           const AdaptiveFusionOptions& options, std::optional<double> step_places,
                           bool update_state, PlaceBelief* out,
-                          const std::vector<DistanceStats>& set_stats) {
-  if (set_ids != nullptr && set_ids->size() != sets.size()) {
+                          const std::vector<DistanceStats>& raw_stats) {
+  if (set_ids != nullptr && set_ids->size() != raw_sets.size()) {
     throw std::invalid_argument("AdaptiveFusion: " + std::to_string(set_ids->size()) +
-                                " set ids for " + std::to_string(sets.size()) + " sets");
+                                " set ids for " + std::to_string(raw_sets.size()) + " sets");
   }
   if (!(options.memory_queries >= 1)) {
     throw std::invalid_argument("fusion_memory_queries must be at least 1, got " +
                                 std::to_string(options.memory_queries));
   }
+  if (!(options.place_prior_queries > 0) || !std::isfinite(options.place_prior_queries)) {
+    throw std::invalid_argument("fusion_place_prior_queries must be above 0, got " +
+                                std::to_string(options.place_prior_queries));
+  }
+  if (raw_stats.size() != raw_sets.size()) {
+    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(raw_stats.size()) +
+                                " set statistics for " + std::to_string(raw_sets.size()) +
+                                " sets");
+  }
+  // The distances corrected by their places' means (the raw ones where there are none yet),
+  // with their statistics: everything below sees only these. The condition weights stay
+  // those of the raw distances (the selection's).
+  std::vector<SetDistances> sets;
+  std::vector<DistanceStats> set_stats = raw_stats;
+  std::vector<PlaceUpdate> place_updates;
+  CorrectByPlaceMeans(raw_sets, set_ids, num_places, options, &sets, &set_stats,
+                      &place_updates);
   const internal::Groups groups = internal::GroupSets(sets, weights);
   // Every set's likelihood with its group's pooled statistics (the singles and the product
   // use them all; the mixture those of non-zero weight), as a log column (0 where the set
@@ -392,8 +546,10 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& sets, const std::vect
   if (!update_state) return;
   if (!known_places) {
     groups_.clear();
+    place_means_.clear();
     num_places_ = num_places;
   }
+  CountPlaceMeans(raw_sets, place_updates, options.place_prior_queries);
   for (GroupState& next : pending) {
     GroupState* state = nullptr;
     for (GroupState& s : groups_) {

@@ -146,6 +146,19 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "fusion adaptive: the queries over which a hypothesis's predictions count (its "
               "score forgets by 1 - 1 / this per query)",
               "queries", AtLeast(1), kLive)
+          .Add(
+              "fusion_place_means", [](auto& o) -> auto& { return o.fusion_place_means; },
+              "fusion adaptive: correct each place's distances by its mean distance to the "
+              "queries so far, so that a reference image near every query (a hub) stops posing "
+              "as the match; a query showing the same scene as the last one counted (a robot "
+              "standing still) is not counted",
+              "", {}, kLive)
+          .Add(
+              "fusion_place_prior_queries",
+              [](auto& o) -> auto& { return o.fusion_place_prior_queries; },
+              "fusion adaptive with fusion_place_means: the queries counted after which a "
+              "place's own mean counts half (the correction is n / (n + this) of it)",
+              "queries", AtLeast(1), kLive)
           .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
@@ -203,6 +216,8 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     AdaptiveFusion first;  // without a stream: the first query of one
     AdaptiveFusionOptions adaptive_options;
     adaptive_options.memory_queries = options.fusion_memory_queries;
+    adaptive_options.place_means = options.fusion_place_means;
+    adaptive_options.place_prior_queries = options.fusion_place_prior_queries;
     adaptive_options.filter = options.filter;
     const FusionStream none;
     const FusionStream& s = stream ? *stream : none;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <deque>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -64,11 +65,43 @@ class Oracle {
  public:
   explicit Oracle(const MethodOptions& o) : o_(o) {}
   // `step`: the progress since the previous query (odometry), or the filter's mean.
-  Eigen::VectorXd Step(const std::vector<SetDistances>& sets, int n,
+  Eigen::VectorXd Step(const std::vector<SetDistances>& raw, int n,
                        std::optional<double> step = std::nullopt) {
-    const size_t m = sets.size();
-    std::vector<DistanceStats> stats;
-    for (const SetDistances& d : sets) stats.push_back(ComputeDistanceStats(d));
+    const size_t m = raw.size();
+    // The condition weights from the raw distances (the selection's).
+    std::vector<DistanceStats> raw_stats;
+    for (const SetDistances& d : raw) raw_stats.push_back(ComputeDistanceStats(d));
+    const std::vector<double> w = ConditionWeights(raw, raw_stats, o_.selection);
+    // Each place's distance less n / (n + n0) of its mean's excess over the places' mean, the
+    // mean over the queries counted before this one; a query counts unless its distances
+    // correlate 0.99 or more with the last one counted.
+    means_.resize(m);
+    std::vector<std::vector<float>> corrected(m);
+    std::vector<SetDistances> sets = raw;
+    for (size_t u = 0; u < m; ++u) {
+      const Eigen::ArrayXf v = Eigen::Map<const Eigen::ArrayXf>(raw[u].values, n);
+      PlaceMean& pm = means_[u];
+      const bool count = pm.recent.empty() || Pearson(v, pm.recent.back()) < 0.99;
+      if (o_.fusion_place_means && pm.queries > 0) {
+        const double shrink = pm.queries / (pm.queries + o_.fusion_place_prior_queries);
+        corrected[u].resize(static_cast<size_t>(n));
+        const float centre = pm.mean.mean();
+        for (int i = 0; i < n; ++i) {
+          const float correction = static_cast<float>(shrink) * (pm.mean(i) - centre);
+          corrected[u][static_cast<size_t>(i)] = v(i) - correction;
+        }
+        sets[u].values = corrected[u].data();
+      }
+      if (o_.fusion_place_means && count) {  // in the mean 10 counted queries later
+        pm.recent.push_back(v);
+        if (pm.recent.size() > 10) {
+          if (pm.queries == 0) pm.mean = Eigen::ArrayXf::Zero(n);
+          pm.queries += 1;
+          pm.mean += (pm.recent.front() - pm.mean) * (1.0f / static_cast<float>(pm.queries));
+          pm.recent.pop_front();
+        }
+      }
+    }
     // Pooled statistics: all distances together.
     double sum = 0, count = 0;
     for (const SetDistances& d : sets) {
@@ -87,7 +120,6 @@ class Oracle {
       PlaceMatchLogLikelihood(d, pooled, o_.likelihood, v.data());
       l.push_back(v);
     }
-    const std::vector<double> w = ConditionWeights(sets, stats, o_.selection);
     const double wsum = std::accumulate(w.begin(), w.end(), 0.0);
     Eigen::VectorXd mix(n);
     for (int i = 0; i < n; ++i) {
@@ -140,7 +172,18 @@ class Oracle {
   }
 
  private:
+  struct PlaceMean {
+    int queries = 0;
+    Eigen::ArrayXf mean;
+    std::deque<Eigen::ArrayXf> recent;
+  };
+  static double Pearson(const Eigen::ArrayXf& x, const Eigen::ArrayXf& y) {
+    const Eigen::ArrayXd a = x.cast<double>() - x.cast<double>().mean();
+    const Eigen::ArrayXd b = y.cast<double>() - y.cast<double>().mean();
+    return (a * b).sum() / std::sqrt((a * a).sum() * (b * b).sum());
+  }
   MethodOptions o_;
+  std::vector<PlaceMean> means_;
   std::vector<Eigen::VectorXd> log_post_;
   std::vector<double> score_;
 };
@@ -148,16 +191,18 @@ class Oracle {
 TEST(AdaptiveFusion, MatchesItsEquationsOverAStream) {
   for (const LikelihoodVariant variant :
        {LikelihoodVariant::kOneSided, LikelihoodVariant::kTwoSided}) {
-    const Stream s(60, 25, {3.0, 2.0, 0.0}, 0.3, 7);
+    const Stream s(60, 40, {3.0, 2.0, 0.0}, 0.3, 7);
     MethodOptions o;
     o.likelihood.variant = variant;
     MethodRunner runner(ParseMethod("bsf", Names(3)), o);
     Oracle oracle(o);
-    for (int t = 0; t < 25; ++t) {
+    for (int t = 0; t < 40; ++t) {
       // Odometry from the 10th query on: the step since the previous query, 0 to 3 places.
       const std::optional<double> step = t < 10 ? std::nullopt : std::optional<double>((t * 7) % 4);
-      const PlaceBelief b = runner.Step(s.Views(t), s.n, nullptr, step, true);
-      const Eigen::VectorXd expected = oracle.Step(s.Views(t), s.n, step);
+      // Queries 12 and 13 show the scene of query 11 again: not counted in the places' means.
+      const int view = t == 12 || t == 13 ? 11 : t;
+      const PlaceBelief b = runner.Step(s.Views(view), s.n, nullptr, step, true);
+      const Eigen::VectorXd expected = oracle.Step(s.Views(view), s.n, step);
       ASSERT_EQ(b.log_posterior.size(), s.n);
       for (int i = 0; i < s.n; ++i) {
         ASSERT_NEAR(b.log_posterior(i), expected(i), 1e-9) << "query " << t << " place " << i;
@@ -196,6 +241,7 @@ TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
   // so are the singles and the mixture: the belief is bayes: of that set.
   const Stream s(50, 8, {2.0}, 0.0, 11);
   MethodOptions o;
+  o.fusion_place_means = false;  // the hypotheses alone
   MethodRunner runner(ParseMethod("bsf", Names(2)), o);
   for (int t = 0; t < 8; ++t) {
     std::vector<SetDistances> twice = s.Views(t);
@@ -209,7 +255,9 @@ TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
 
 TEST(AdaptiveFusion, GroupsOfOneSetMultiplyAsBayesFull) {
   const Stream s(40, 5, {2.0, 1.0, 0.5}, 0.2, 13);
-  MethodRunner runner(ParseMethod("bsf", Names(3)), {});
+  MethodOptions o;
+  o.fusion_place_means = false;  // the hypotheses alone
+  MethodRunner runner(ParseMethod("bsf", Names(3)), o);
   for (int t = 0; t < 5; ++t) {
     std::vector<SetDistances> views = s.Views(t);
     for (size_t u = 0; u < views.size(); ++u) views[u].group = static_cast<int>(u);
@@ -289,6 +337,78 @@ TEST(AdaptiveFusion, PartialSetsAreCorrelatedOverThePlacesTheyShare) {
     EXPECT_TRUE(b.log_posterior.allFinite());
     EXPECT_EQ(b.match, t);
   }
+}
+
+// A stream in which one reference image (place `hub`) is nearer to every query than the
+// query's own place is: the likelihood alone puts it first query after query.
+Stream WithAHub(int places, int queries, int hub, uint64_t seed) {
+  Stream s(places, queries, {3.0, 3.0}, 0.0, seed);
+  for (auto& query : s.d) {
+    for (auto& set : query) set[static_cast<size_t>(hub)] -= 5.0f;
+  }
+  return s;
+}
+
+// The fraction of queries from `from` on whose match is the query's place.
+double RecallFrom(MethodRunner* runner, const Stream& s, int from) {
+  int right = 0, counted = 0;
+  for (int t = 0; t < static_cast<int>(s.d.size()); ++t) {
+    const PlaceBelief b = runner->Step(s.Views(t), s.n, nullptr, std::nullopt, true);
+    if (t < from) continue;
+    counted += 1;
+    right += b.match == t % s.n ? 1 : 0;
+  }
+  return static_cast<double>(right) / counted;
+}
+
+TEST(AdaptiveFusion, APlaceNearEveryQueryStopsPosingAsTheMatch) {
+  const Stream s = WithAHub(80, 80, 7, 29);
+  MethodOptions off;
+  off.fusion_place_means = false;
+  MethodRunner plain(ParseMethod("bsf", Names(2)), off);
+  MethodRunner corrected(ParseMethod("bsf", Names(2)), {});
+  const double without = RecallFrom(&plain, s, 20);
+  const double with = RecallFrom(&corrected, s, 20);
+  EXPECT_LT(without, 0.2) << "the hub should win without the places' means";
+  EXPECT_GT(with, 0.8) << "without: " << without;
+}
+
+TEST(AdaptiveFusion, ARobotStandingStillDoesNotTeachItsPlaceToBeAHub) {
+  // 40 queries along the route, then 5000 at place 40 (the same scene with a little sensor
+  // noise: 8 minutes at 10 Hz): the place it stands at stays the match, as confident as
+  // when it arrived. Were those queries counted, every place's mean would become the
+  // standing scene's distance to it, the correction would take place 40's lead away, and
+  // the sensor noise would decide the match.
+  const Stream route(80, 41, {3.0, 3.0}, 0.0, 31);
+  MethodRunner runner(ParseMethod("bsf", Names(2)), {});
+  for (int t = 0; t < 40; ++t) runner.Step(route.Views(t), route.n, nullptr, 0.0, true);
+  std::mt19937_64 rng(37);
+  std::normal_distribution<float> noise(0.0f, 0.02f);
+  double first_confidence = 0;
+  for (int k = 0; k < 5000; ++k) {
+    std::vector<std::vector<float>> still = route.d[40];
+    for (auto& set : still) {
+      for (float& v : set) v += noise(rng);
+    }
+    std::vector<SetDistances> views;
+    for (const auto& v : still) views.push_back({v.data(), nullptr, route.n});
+    const PlaceBelief b = runner.Step(views, route.n, nullptr, 0.0, true);
+    ASSERT_EQ(b.match, 40) << "standing query " << k;
+    if (k == 0) first_confidence = b.confidence;
+    if (k == 4999) EXPECT_GT(b.confidence, first_confidence - 1.0);
+  }
+}
+
+TEST(AdaptiveFusion, ThePlacesMeansAreForgottenWhenTheMapChanges) {
+  // The same hub stream after Reset (a set loaded or unloaded) starts from no means: its
+  // first query's belief is the uncorrected one.
+  const Stream s = WithAHub(60, 30, 5, 41);
+  MethodRunner runner(ParseMethod("bsf", Names(2)), {});
+  const PlaceBelief first = runner.Step(s.Views(0), s.n, nullptr, std::nullopt, true);
+  for (int t = 1; t < 30; ++t) runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true);
+  runner.Reset();
+  const PlaceBelief again = runner.Step(s.Views(0), s.n, nullptr, std::nullopt, true);
+  for (int i = 0; i < s.n; ++i) ASSERT_EQ(again.log_posterior(i), first.log_posterior(i));
 }
 
 }  // namespace

@@ -25,12 +25,30 @@
 //
 // Nothing is fitted: every hypothesis starts equal, and a stream without order (queries
 // that do not follow a route) leaves the scores near 0 and the hypotheses near equal.
-// Groups of one set need no state: the three hypotheses coincide.
+// Groups of one set need no state for the hypotheses: the three coincide.
+//
+// Places near every query (hubs). The likelihood takes a query's distances to the places it
+// does not show as alike across places; an image near every query (a washed-out frame, say)
+// breaks that and poses as the match query after query. With place_means, each place's
+// distances are first corrected by how near that place has been to the queries so far:
+//
+//   D'_u(i) = D_u(i) - n / (n + n0) (mu_u(i) - mean_j mu_u(j)),
+//
+// (the correction rounded to float once, when the mean changes), mu_u(i) the mean of set u's
+// distance to place i over the n queries in it, n0 =
+// place_prior_queries (a place's own mean counts half after n0 queries). A query counts only
+// if its distances (over the places) correlate below kSameScene (0.99) with those of the last
+// query counted: a robot standing still sends the same scene again and again, which must not
+// teach the place it stands at to be a hub. A counted query enters the means kPlaceMeansLag
+// (10) counted queries later, so that the places just behind the robot, which its recent
+// queries nearly matched, are not yet marked as near. Only sets that give a distance to
+// every place (in order) are corrected and counted.
 //
 // Not thread-safe: one instance per stream of queries (MethodRunner holds it).
 #pragma once
 
 #include <Eigen/Core>
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -42,6 +60,10 @@ namespace bsf_vpr {
 struct AdaptiveFusionOptions {
   // The queries over which a hypothesis's predictions count: lambda = 1 - 1 / memory.
   double memory_queries = 10;
+  // Each place's distances corrected by its mean distance to the queries counted so far
+  // (above), and the queries n0 after which that mean counts half.
+  bool place_means = true;
+  double place_prior_queries = 20;
   TemporalFilterOptions filter;  // how each hypothesis's belief moves between queries
 };
 
@@ -62,8 +84,16 @@ class AdaptiveFusion {
             const AdaptiveFusionOptions& options, std::optional<double> step_places,
             bool update_state, PlaceBelief* out, const std::vector<DistanceStats>& set_stats);
 
-  // Forgets every hypothesis's belief and score.
+  // Forgets every hypothesis's belief and score, and the places' means.
   void Reset();
+
+  // A query counts towards the places' means only if its distances correlate below this with
+  // those of the last query counted (the same scene again: a robot standing still).
+  static constexpr double kSameScene = 0.99;
+  // A query counted enters the places' means only after this many later queries are
+  // counted: the places it nearly matched, just behind the robot, would otherwise look
+  // nearer than the place the robot is reaching, and pull the match ahead of it.
+  static constexpr int kPlaceMeansLag = 10;
 
   // The last fused query's hypothesis weights a_h of group `group` (empty if none):
   // the singles in the order of set_ids, then the mixture and the product.
@@ -84,8 +114,41 @@ class AdaptiveFusion {
   // Keeps the beliefs' buffers of `hypotheses` in spare_ (up to a bound) and clears it.
   void Recycle(std::vector<Hypothesis>* hypotheses);
 
+  // Per set id: its places' mean distances over the queries in the mean, and the distances of
+  // the counted queries not yet in it (the last of them for the same-scene rule).
+  struct PlaceMeans {
+    int set_id = -1;
+    int queries = 0;                   // in the mean
+    Eigen::ArrayXf mean;
+    // What is subtracted from each place's distance: n / (n + n0) (mean - its mean over the
+    // places), made when the mean or n0 changes.
+    double prior_queries = 0;           // the n0 it was made with
+    Eigen::ArrayXf correction;
+    std::deque<Eigen::ArrayXf> recent;  // counted, not yet in the mean; the last counted last
+  };
+  // A query's update of one set's place means, made once the query is decided.
+  struct PlaceUpdate {
+    size_t set = 0;   // index into the query's sets
+    int record = -1;  // index into place_means_; -1: a new record
+    int set_id = -1;
+  };
+  // `sets` with the distances of each set that has place means corrected by them (stored in
+  // corrected_values_) and their mean and deviation in `corrected_stats` (which holds the
+  // raw ones on entry), and the updates this query would make.
+  void CorrectByPlaceMeans(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
+                           int num_places, const AdaptiveFusionOptions& options,
+                           std::vector<SetDistances>* corrected,
+                           std::vector<DistanceStats>* corrected_stats,
+                           std::vector<PlaceUpdate>* updates);
+  // Makes the updates with the raw distances `sets` (after a query that is kept).
+  void CountPlaceMeans(const std::vector<SetDistances>& sets,
+                       const std::vector<PlaceUpdate>& updates, double prior_queries);
+  static void SetCorrection(PlaceMeans* m);
+
   int num_places_ = -1;
   std::vector<GroupState> groups_;
+  std::vector<PlaceMeans> place_means_;
+  std::vector<std::vector<float>> corrected_values_;  // the corrected distances' storage
   // Arrays a map's size, kept from query to query so that a query over sets that cover each
   // place once allocates no array of the map's size: the sets' likelihoods (log and linear),
   // a group's mixture and product, and the beliefs of replaced hypotheses, written over by

@@ -62,6 +62,11 @@ struct MethodOptions {
   FusionRule fusion = FusionRule::kAdaptive;  // how bsf fuses the sets (fusion.h)
   // fusion adaptive: the queries over which a hypothesis's predictions count (adaptive_fusion.h)
   double fusion_memory_queries = 10;
+  // fusion adaptive: each place's distances corrected by its mean distance to the queries so
+  // far (places near every query, hubs), that mean counting half after
+  // fusion_place_prior_queries queries (adaptive_fusion.h)
+  bool fusion_place_means = true;
+  double fusion_place_prior_queries = 20;
   // What makes a match accepted (PlaceBelief::accepted), per kind of method:
   Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
   // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of

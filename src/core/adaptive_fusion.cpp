@@ -84,8 +84,8 @@ double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
 }
 
 // Pearson's correlation of two profiles of n distances over at most kProfileSample places
-// spread evenly over them (enough to tell the same scene from another; 1 where either has no
-// spread: no sign that the scene changed).
+// spread evenly over them (enough to tell the same scene from another); 1 where both have no
+// spread (no sign that the scene changed), 0 where one has.
 constexpr int kProfileSample = 512;
 double ProfileCorrelation(const float* x, const float* y, int n) {
   const int stride = (n + kProfileSample - 1) / kProfileSample;
@@ -102,7 +102,8 @@ double ProfileCorrelation(const float* x, const float* y, int n) {
     count += 1;
   }
   const double vx = sxx - sx * sx / count, vy = syy - sy * sy / count;
-  return vx > 0 && vy > 0 ? (sxy - sx * sy / count) / std::sqrt(vx * vy) : 1.0;
+  if (vx > 0 && vy > 0) return (sxy - sx * sy / count) / std::sqrt(vx * vy);
+  return vx > 0 || vy > 0 ? 0.0 : 1.0;  // one flat and the other not: another scene
 }
 
 // out = d - c over n values, and the mean and deviation of out (in eight lanes, added in a
@@ -256,40 +257,46 @@ void AdaptiveFusion::CorrectByPlaceMeans(const std::vector<SetDistances>& sets,
       if (place_means_[k].set_id == id) record = static_cast<int>(k);
     }
     const PlaceMeans* m = record >= 0 ? &place_means_[static_cast<size_t>(record)] : nullptr;
-    // A fresh record's correction is made with this query's n0.
     if (m == nullptr || m->recent.empty() ||
         ProfileCorrelation(d.values, m->recent.back().data(), num_places) < kSameScene) {
       updates->push_back({u, record, id});
     }
     if (m == nullptr || m->queries == 0) continue;
-    PlaceMeans& record_now = place_means_[static_cast<size_t>(record)];
-    if (record_now.prior_queries != options.place_prior_queries) {  // the option changed
-      record_now.prior_queries = options.place_prior_queries;
-      SetCorrection(&record_now);
+    // n0 changed since the correction was made: this query's own (kept at the commit).
+    Eigen::ArrayXf changed;
+    if (m->prior_queries != options.place_prior_queries) {
+      changed = Correction(*m, options.place_prior_queries);
     }
+    const float* correction = changed.size() > 0 ? changed.data() : m->correction.data();
     std::vector<float>& v = corrected_values_[u];
     v.resize(static_cast<size_t>(num_places));
-    (*corrected_stats)[u] = CorrectedStats(d.values, record_now.correction.data(), num_places,
-                                           v.data(), (*corrected_stats)[u]);
+    (*corrected_stats)[u] =
+        CorrectedStats(d.values, correction, num_places, v.data(), (*corrected_stats)[u]);
     (*corrected)[u].values = v.data();
   }
 }
 
-void AdaptiveFusion::SetCorrection(PlaceMeans* m) {
-  const float shrink = static_cast<float>(m->queries / (m->queries + m->prior_queries));
-  const float centre = m->mean.mean();
-  m->correction = shrink * (m->mean - centre);
+Eigen::ArrayXf AdaptiveFusion::Correction(const PlaceMeans& m, double prior_queries) {
+  const double shrink = m.queries / (m.queries + prior_queries);
+  const double centre = m.mean.mean();
+  return (shrink * (m.mean - centre)).cast<float>();
 }
 
 void AdaptiveFusion::CountPlaceMeans(const std::vector<SetDistances>& sets,
                                      const std::vector<PlaceUpdate>& updates,
                                      double prior_queries) {
+  for (PlaceMeans& m : place_means_) {  // n0 changed (a live option): the corrections follow
+    if (m.queries > 0 && m.prior_queries != prior_queries) {
+      m.prior_queries = prior_queries;
+      m.correction = Correction(m, prior_queries);
+    }
+  }
   for (const PlaceUpdate& up : updates) {
     const SetDistances& d = sets[up.set];
     if (up.record < 0) {
       place_means_.emplace_back();
       place_means_.back().set_id = up.set_id;
-      place_means_.back().mean = Eigen::ArrayXf::Zero(d.count);
+      place_means_.back().mean = Eigen::ArrayXd::Zero(d.count);
       place_means_.back().prior_queries = prior_queries;
     }
     PlaceMeans& m = up.record < 0 ? place_means_.back()
@@ -297,11 +304,12 @@ void AdaptiveFusion::CountPlaceMeans(const std::vector<SetDistances>& sets,
     Eigen::ArrayXf oldest;  // the buffer of the query that enters the mean, written over
     if (static_cast<int>(m.recent.size()) >= kPlaceMeansLag) {
       m.queries += 1;
-      const float step = 1.0f / static_cast<float>(m.queries);
-      float* mean = m.mean.data();
+      const double step = 1.0 / m.queries;
+      double* mean = m.mean.data();
       const float* f = m.recent.front().data();
       for (Eigen::Index i = 0; i < m.mean.size(); ++i) mean[i] += (f[i] - mean[i]) * step;
-      SetCorrection(&m);
+      m.prior_queries = prior_queries;
+      m.correction = Correction(m, prior_queries);
       oldest.swap(m.recent.front());
       m.recent.pop_front();
     }

@@ -85,9 +85,9 @@ class Oracle {
       if (o_.fusion_place_means && pm.queries > 0) {
         const double shrink = pm.queries / (pm.queries + o_.fusion_place_prior_queries);
         corrected[u].resize(static_cast<size_t>(n));
-        const float centre = pm.mean.mean();
+        const double centre = pm.mean.mean();
         for (int i = 0; i < n; ++i) {
-          const float correction = static_cast<float>(shrink) * (pm.mean(i) - centre);
+          const float correction = static_cast<float>(shrink * (pm.mean(i) - centre));
           corrected[u][static_cast<size_t>(i)] = v(i) - correction;
         }
         sets[u].values = corrected[u].data();
@@ -95,9 +95,9 @@ class Oracle {
       if (o_.fusion_place_means && count) {  // in the mean 10 counted queries later
         pm.recent.push_back(v);
         if (pm.recent.size() > 10) {
-          if (pm.queries == 0) pm.mean = Eigen::ArrayXf::Zero(n);
+          if (pm.queries == 0) pm.mean = Eigen::ArrayXd::Zero(n);
           pm.queries += 1;
-          pm.mean += (pm.recent.front() - pm.mean) * (1.0f / static_cast<float>(pm.queries));
+          pm.mean += (pm.recent.front().cast<double>() - pm.mean) * (1.0 / pm.queries);
           pm.recent.pop_front();
         }
       }
@@ -174,7 +174,7 @@ class Oracle {
  private:
   struct PlaceMean {
     int queries = 0;
-    Eigen::ArrayXf mean;
+    Eigen::ArrayXd mean;
     std::deque<Eigen::ArrayXf> recent;
   };
   static double Pearson(const Eigen::ArrayXf& x, const Eigen::ArrayXf& y) {
@@ -269,21 +269,31 @@ TEST(AdaptiveFusion, GroupsOfOneSetMultiplyAsBayesFull) {
 }
 
 TEST(AdaptiveFusion, AWhatIfQueryLeavesTheStateAndThreadsLeaveTheBits) {
-  const Stream s(30000, 3, {3.0, 1.0}, 0.2, 17);  // large enough to run on several threads
+  // 14 queries: the places' means are in use from the 12th (10 counted queries late), and
+  // the what-if queries come with another n0 too.
+  const Stream s(30000, 14, {3.0, 1.0}, 0.2, 17);  // large enough to run on several threads
   const Method bsf = ParseMethod("bsf", Names(2));
   const auto run = [&](int threads, bool what_if) {
     SetDistanceThreads(threads);
     MethodRunner runner(bsf, {});
+    MethodOptions other;
+    other.fusion_place_prior_queries = 3;
+    MethodRunner what_if_runner(bsf, other);
     std::vector<PlaceBelief> out;
-    for (int t = 0; t < 3; ++t) {
-      if (what_if) runner.Step(s.Views(2 - t), s.n, nullptr, std::nullopt, false);
+    for (int t = 0; t < 14; ++t) {
+      if (what_if) {
+        runner.Step(s.Views(13 - t), s.n, nullptr, std::nullopt, false);
+        runner.SetOptions(other);
+        runner.Step(s.Views(13 - t), s.n, nullptr, std::nullopt, false);
+        runner.SetOptions(MethodOptions{});
+      }
       out.push_back(runner.Step(s.Views(t), s.n, nullptr, std::nullopt, true));
     }
     SetDistanceThreads(0);
     return out;
   };
   const std::vector<PlaceBelief> plain = run(1, false), what_if = run(1, true), two = run(2, false);
-  for (int t = 0; t < 3; ++t) {
+  for (int t = 0; t < 14; ++t) {
     EXPECT_EQ(plain[t].log_posterior, what_if[t].log_posterior) << t;
     EXPECT_EQ(plain[t].log_posterior, two[t].log_posterior) << t;
     EXPECT_EQ(plain[t].confidence, two[t].confidence) << t;
@@ -291,11 +301,12 @@ TEST(AdaptiveFusion, AWhatIfQueryLeavesTheStateAndThreadsLeaveTheBits) {
 }
 
 TEST(AdaptiveFusion, AQueryThatFailsLeavesNoTrace) {
-  const Stream s(40, 4, {3.0, 2.0}, 0.2, 29);
+  // Failures at query 2 and at query 13, when the places' means are in use.
+  const Stream s(40, 16, {3.0, 2.0}, 0.2, 29);
   const Method bsf = ParseMethod("bsf", Names(2));
   MethodRunner plain(bsf, {}), failing(bsf, {});
-  for (int t = 0; t < 4; ++t) {
-    if (t == 2) {  // an odometry step that is not a number: refused, nothing kept
+  for (int t = 0; t < 16; ++t) {
+    if (t == 2 || t == 13) {  // an odometry step that is not a number: refused, nothing kept
       EXPECT_THROW(failing.Step(s.Views(t), s.n, nullptr, std::nan(""), true),
                    std::invalid_argument);
     }
@@ -397,6 +408,15 @@ TEST(AdaptiveFusion, ARobotStandingStillDoesNotTeachItsPlaceToBeAHub) {
     if (k == 0) first_confidence = b.confidence;
     if (k == 4999) EXPECT_GT(b.confidence, first_confidence - 1.0);
   }
+}
+
+TEST(AdaptiveFusion, AFlatFirstQueryDoesNotStopThePlacesMeans) {
+  // The first query of a set gives every place the same distance (duplicate images): the
+  // queries after it are other scenes and are counted, so the hub is still taken away.
+  Stream s = WithAHub(80, 81, 7, 43);
+  for (auto& set : s.d[0]) std::fill(set.begin(), set.end(), 5.0f);
+  MethodRunner runner(ParseMethod("bsf", Names(2)), {});
+  EXPECT_GT(RecallFrom(&runner, s, 21), 0.6);  // measured 0.8; under 0.2 were they stopped
 }
 
 TEST(AdaptiveFusion, ThePlacesMeansAreForgottenWhenTheMapChanges) {

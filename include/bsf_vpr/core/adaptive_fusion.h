@@ -35,7 +35,7 @@
 //   D'_u(i) = D_u(i) - n / (n + n0) (mu_u(i) - mean_j mu_u(j)),
 //
 // (the correction rounded to float once, when the mean changes), mu_u(i) the mean of set u's
-// distance to place i over the n queries in it, n0 =
+// distance to place i over the n queries in it (in double), n0 =
 // place_prior_queries (a place's own mean counts half after n0 queries). A query counts only
 // if its distances (over the places) correlate below kSameScene (0.99) with those of the last
 // query counted: a robot standing still sends the same scene again and again, which must not
@@ -119,7 +119,7 @@ class AdaptiveFusion {
   struct PlaceMeans {
     int set_id = -1;
     int queries = 0;                   // in the mean
-    Eigen::ArrayXf mean;
+    Eigen::ArrayXd mean;
     // What is subtracted from each place's distance: n / (n + n0) (mean - its mean over the
     // places), made when the mean or n0 changes.
     double prior_queries = 0;           // the n0 it was made with
@@ -143,7 +143,8 @@ class AdaptiveFusion {
   // Makes the updates with the raw distances `sets` (after a query that is kept).
   void CountPlaceMeans(const std::vector<SetDistances>& sets,
                        const std::vector<PlaceUpdate>& updates, double prior_queries);
-  static void SetCorrection(PlaceMeans* m);
+  // n / (n + n0) (mean - its mean over the places), rounded to float.
+  static Eigen::ArrayXf Correction(const PlaceMeans& m, double prior_queries);
 
   int num_places_ = -1;
   std::vector<GroupState> groups_;

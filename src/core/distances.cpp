@@ -55,11 +55,11 @@ std::atomic<int> g_threads{0};  // 0: hardware concurrency
 void DistanceRows(DistanceMetric metric, const kernels::Queries& queries,
                   const kernels::RefRows& refs, const float* ref_norms, const Eigen::VectorXf& qn,
                   int r0, int r1, RowMatrixXf* out) {
-  const int nr = static_cast<int>(out->cols());
-  kernels::Dots(refs, r0, r1, queries, out->data() + r0, nr);
-  for (Eigen::Index q = 0; q < out->rows(); ++q) {
-    formula::ToDistances(metric, qn(q), ref_norms, r0, r1, out->row(q).data());
-  }
+  kernels::ToDistancesArgs finish;
+  finish.metric = metric;
+  finish.query_squared_norms = qn.data();
+  finish.row_squared_norms = ref_norms;
+  kernels::Dots(refs, r0, r1, queries, out->data() + r0, static_cast<int>(out->cols()), &finish);
 }
 
 }  // namespace

@@ -110,9 +110,12 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
     GTEST_SKIP() << "this CPU has no AVX-512";
   }
-  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only.
+  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 37 and
+  // 40: enough for the rows to be packed (kPackQueries), 197 rows: packed tiles and rows left
+  // over in the last block.
   for (auto [nq, d] : {std::pair{19, 8}, std::pair{20, 517}, std::pair{19, 1029}, std::pair{20, 1029},
-                       std::pair{16, 4096}}) {
+                       std::pair{16, 4096}, std::pair{37, 13}, std::pair{37, 1029},
+                       std::pair{40, 2051}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
     const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(197, d, 9));
     for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "src/core/internal/distance_formula.h"
 #include "src/core/internal/kernel_common.h"
 #include "src/core/internal/kernels_avx2.h"
 #include "src/core/internal/kernels_avx512.h"
@@ -70,18 +71,28 @@ void Sweep(Isa isa, TileArgs a, const T* rows, int b0, int b1) {
 }
 
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
-// The same over pairs of queries (a.pairs, a.out and a.lanes at the pair's first query).
+// The same over pairs of queries (a.pairs, a.out and a.lanes at the pair's first query). With
+// `packed`, the row block's first `tiles` tiles of NR rows are read from there
+// (PackRowTilesAvx512); the rows left over one by one.
 template <int NP, int NR>
-void SweepPairs(TileArgs a, const float* rows, int b0, int b1) {
+void SweepPairs(TileArgs a, const float* packed, int tiles, const float* rows, int b0, int b1) {
   float* const out = a.out;
   float* const lanes = a.lanes;
+  const int blocks = (a.d + kLanes - 1) / kLanes;
   const auto at = [&](int row) {
     a.out = out + (row - b0);
     a.lanes = lanes ? lanes + (row - b0) * 2 * kLanes : nullptr;
     return rows + static_cast<size_t>(row) * a.d;
   };
   int r = b0;
-  for (; r + NR <= b1; r += NR) TilePairsAvx512<NP, NR>(a, at(r), a.d);
+  if (packed != nullptr) {
+    for (int t = 0; t < tiles; ++t, r += NR) {
+      at(r);
+      TilePairsPackedAvx512<NP, NR>(a, packed + static_cast<size_t>(t) * blocks * NR * kLanes);
+    }
+  } else {
+    for (; r + NR <= b1; r += NR) TilePairsAvx512<NP, NR>(a, at(r), a.d);
+  }
   for (; r < b1; ++r) TilePairsAvx512<NP, 1>(a, at(r), a.d);
 }
 #endif
@@ -89,10 +100,13 @@ void SweepPairs(TileArgs a, const float* rows, int b0, int b1) {
 // Queries from which a tile gains by passes over L1-sized pieces of the rows (and by an
 // aligned copy of the queries).
 constexpr int kBatchQueries = 8;
+// Queries from which the AVX-512 tiles read a row block packed: the copy reads and writes the
+// block once, and each group of 8 queries then reads one stream instead of 6 rows.
+constexpr int kPackQueries = 32;
 
 template <class T>
 void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& queries, float* out,
-               int out_stride) {
+               int out_stride, const ToDistancesArgs* finish) {
   const Isa isa = CurrentIsa();
   const int d = queries.cols, num_queries = queries.rows;
   // Like a matrix product's blocking: rows in blocks of 96 (in L2 while a block of 32
@@ -112,8 +126,28 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
   const int chunk = num_queries >= kBatchQueries && !int8_rows ? 1024 : d;
   std::vector<float> lanes(chunk < d ? static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes : 0);
   const int lanes_stride = kRowBlock * kLanes;
+  // The AVX-512 tiles of a large batch read their row block packed (PackRowTilesAvx512).
+  // Measured on a 2-core AMD EPYC (Zen 5), 500 queries x 9000 rows x 4096: the distances
+  // from about 75% to about 80-85% of OpenBLAS sgemm's throughput, with the tiles' pointers
+  // stepped and the distances made per row block (ToDistancesArgs).
+  constexpr int kPackRows = 6;
+  std::vector<float> packing;
+  float* packed = nullptr;
+  if (pairs && num_queries >= kPackQueries) {
+    const size_t size = static_cast<size_t>(std::min(kRowBlock, r1 - r0)) *
+                        ((d + kLanes - 1) / kLanes) * kLanes;
+    packing.resize(size + 16);
+    packed = packing.data();
+    packed += (16 - (reinterpret_cast<uintptr_t>(packed) / sizeof(float)) % 16) % 16;
+  }
   for (int b0 = r0; b0 < r1; b0 += kRowBlock) {
     const int b1 = std::min(r1, b0 + kRowBlock);
+    const int tiles = (b1 - b0) / kPackRows;
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+    if constexpr (std::is_same_v<T, float>) {
+      if (packed != nullptr) PackRowTilesAvx512<kPackRows>(rows, d, b0, tiles, packed);
+    }
+#endif
     for (int qb0 = 0; qb0 < num_queries; qb0 += kQueryBlock) {
       const int qb1 = std::min(num_queries, qb0 + kQueryBlock);
       for (int i0 = 0; i0 < d; i0 += chunk) {
@@ -148,13 +182,24 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
               b.lanes_stride = 2 * lanes_stride;
               return b;
             };
-            for (; q + 8 <= qb1; q += 8) SweepPairs<4, 6>(for_pair(q), rows, b0, b1);
-            for (; q + 2 <= qb1; q += 2) SweepPairs<1, 6>(for_pair(q), rows, b0, b1);
+            for (; q + 8 <= qb1; q += 8) {
+              SweepPairs<4, kPackRows>(for_pair(q), packed, tiles, rows, b0, b1);
+            }
+            for (; q + 2 <= qb1; q += 2) {
+              SweepPairs<1, kPackRows>(for_pair(q), packed, tiles, rows, b0, b1);
+            }
           }
         }
 #endif
         for (; q + 4 <= qb1; q += 4) Sweep<T, 4, 3>(isa, for_query(q), rows, b0, b1);
         for (; q < qb1; ++q) Sweep<T, 1, 6>(isa, for_query(q), rows, b0, b1);
+      }
+      if (finish != nullptr) {
+        for (int q = qb0; q < qb1; ++q) {
+          formula::ToDistances(finish->metric, finish->query_squared_norms[q],
+                               finish->row_squared_norms + b0, 0, b1 - b0,
+                               out + static_cast<size_t>(q) * out_stride + (b0 - r0));
+        }
       }
     }
   }
@@ -212,17 +257,18 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
   return out;
 }
 
-void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out, int out_stride) {
+void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out, int out_stride,
+          const ToDistancesArgs* finish) {
   switch (refs.precision) {
     case StoragePrecision::kFloat32:
-      DotsTyped(static_cast<const float*>(refs.data), 1.0f, r0, r1, queries, out, out_stride);
+      DotsTyped(static_cast<const float*>(refs.data), 1.0f, r0, r1, queries, out, out_stride, finish);
       break;
     case StoragePrecision::kFloat16:
-      DotsTyped(static_cast<const uint16_t*>(refs.data), 1.0f, r0, r1, queries, out, out_stride);
+      DotsTyped(static_cast<const uint16_t*>(refs.data), 1.0f, r0, r1, queries, out, out_stride, finish);
       break;
     case StoragePrecision::kInt8:
       DotsTyped(static_cast<const int8_t*>(refs.data), refs.scale, r0, r1, queries, out,
-                out_stride);
+                out_stride, finish);
       break;
   }
 }

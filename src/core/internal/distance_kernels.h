@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/distances.h"
 
 namespace bsf_vpr {
 namespace kernels {
@@ -57,7 +58,16 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
 
 // out[q * out_stride + (r - r0)] = <query q, reference row r> for every query and
 // r0 <= r < r1. int8 rows need `queries` prepared with int16 levels.
-void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out, int out_stride);
+// With `finish`, each query's inner products are made distances (formula::ToDistances) as
+// soon as a block of rows is done, while they are in cache: the same bits as converting them
+// afterwards.
+struct ToDistancesArgs {
+  DistanceMetric metric = DistanceMetric::kEuclidean;
+  const float* query_squared_norms = nullptr;  // query q's at [q]
+  const float* row_squared_norms = nullptr;    // row r's at [r]
+};
+void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* out, int out_stride,
+          const ToDistancesArgs* finish = nullptr);
 
 // <x, x> in the same order (squared norm of a float32 row).
 float SelfDot(const float* x, int n);

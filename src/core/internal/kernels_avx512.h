@@ -15,7 +15,8 @@ namespace {
 // half of a register holds query 2p's lanes for a row and the high half query 2p + 1's, the
 // row's eight elements broadcast to both halves. A 4-pair x 6-row tile keeps 24 registers of
 // sums (384 pairs' lanes) busy for 10 loads per eight elements, where the AVX2 tile of 4 x 3
-// keeps 12 for 7 loads. Float32 rows in batches only; the rest is the AVX2 kernel's.
+// keeps 12 for 7 loads. Float32 rows in batches only; the rest is the AVX2 kernel's. In a
+// large batch the tiles read their rows packed (TilePairsPackedAvx512).
 
 // GCC 12's _mm512_broadcast_f32x8 starts from an undefined register, which it then warns of.
 #pragma GCC diagnostic push
@@ -71,6 +72,69 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
     }
   }
 }
+// The same tile over rows packed by PackRowTiles: row k's elements [8 b, 8 b + 8) at
+// r + (b * NR + k) * 8, the last block zero-padded, so that a tile reads one stream (its rows
+// one after another would be NR streams, each starting cold at every pass). The same
+// elements in the same order: the same bits as TilePairsAvx512.
+template <int NP, int NR>
+BSF_VPR_AVX512 void TilePairsPackedAvx512(const TileArgs& a, const float* r) {
+  __m512 acc[NP][NR];
+  for (int p = 0; p < NP; ++p) {
+    for (int k = 0; k < NR; ++k) {
+      acc[p][k] = a.first ? _mm512_setzero_ps()
+                          : _mm512_loadu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes);
+    }
+  }
+  const int end = a.i1 < a.d ? a.i1 : (a.d + kLanes - 1) / kLanes * kLanes;  // padded at d
+  const float* block = r + static_cast<size_t>(a.i0 / kLanes) * NR * kLanes;
+  const float* pair = a.pairs + 2 * static_cast<size_t>(a.i0);
+  for (int i = a.i0; i < end; i += kLanes, block += NR * kLanes, pair += 2 * kLanes) {
+    __m512 qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(pair + p * a.pairs_stride);
+    for (int k = 0; k < NR; ++k) {
+      const __m512 rv = _mm512_broadcast_f32x8(_mm256_load_ps(block + k * kLanes));
+      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
+    }
+  }
+  if (a.i1 < a.d) {
+    for (int p = 0; p < NP; ++p) {
+      for (int k = 0; k < NR; ++k) {
+        _mm512_storeu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes, acc[p][k]);
+      }
+    }
+    return;
+  }
+  for (int p = 0; p < NP; ++p) {
+    for (int k = 0; k < NR; ++k) {
+      __m512 s = acc[p][k];
+      s = _mm512_add_ps(s, _mm512_shuffle_f32x4(s, s, _MM_SHUFFLE(2, 3, 0, 1)));
+      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(2, 3, 0, 1)));
+      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(1, 0, 3, 2)));
+      a.out[(2 * p) * a.out_stride + k] = _mm512_cvtss_f32(s);
+      a.out[(2 * p + 1) * a.out_stride + k] = _mm_cvtss_f32(_mm512_extractf32x4_ps(s, 2));
+    }
+  }
+}
+// Rows [b0, b0 + NR * tiles) of `rows` (d floats each) laid out for TilePairsPackedAvx512<., NR>:
+// tile t's block b (its NR rows' elements [8 b, 8 b + 8), zero-padded past d) at
+// packed + (t * blocks + b) * NR * 8, blocks = ceil(d / 8); `packed` on 32 bytes.
+template <int NR>
+BSF_VPR_AVX512 void PackRowTilesAvx512(const float* rows, int d, int b0, int tiles, float* packed) {
+  const int blocks = (d + kLanes - 1) / kLanes, full = d / kLanes;
+  for (int t = 0; t < tiles; ++t) {
+    const float* row = rows + static_cast<size_t>(b0 + t * NR) * d;
+    float* to = packed + static_cast<size_t>(t) * blocks * NR * kLanes;
+    for (int b = 0; b < full; ++b, to += NR * kLanes) {
+      for (int k = 0; k < NR; ++k) {
+        _mm256_store_ps(to + k * kLanes, _mm256_loadu_ps(row + static_cast<size_t>(k) * d + b * kLanes));
+      }
+    }
+    if (full < blocks) {
+      for (int k = 0; k < NR; ++k) PadTail(row + static_cast<size_t>(k) * d, full * kLanes, d, to + k * kLanes);
+    }
+  }
+}
+
 #pragma GCC diagnostic pop
 
 bool CpuHasAvx512() {

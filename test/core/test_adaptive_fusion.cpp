@@ -406,7 +406,9 @@ TEST(AdaptiveFusion, ARobotStandingStillDoesNotTeachItsPlaceToBeAHub) {
     const PlaceBelief b = runner.Step(views, route.n, nullptr, 0.0, true);
     ASSERT_EQ(b.match, 40) << "standing query " << k;
     if (k == 0) first_confidence = b.confidence;
-    if (k == 4999) EXPECT_GT(b.confidence, first_confidence - 1.0);
+    if (k == 4999) {
+      EXPECT_GT(b.confidence, first_confidence - 1.0);
+    }
   }
 }
 

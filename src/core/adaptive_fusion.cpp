@@ -468,14 +468,26 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     mixture.setZero(num_places);
     product.setZero(num_places);
     std::vector<double> block_max(static_cast<size_t>(PlaceBlocks(num_places)));
-    ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
-      for (size_t j = 0; j < m; ++j) {
-        const size_t u = static_cast<size_t>(members[j]);
-        if (mixture_weight[j] > 0) {
-          mixture.segment(i0, len) += mixture_weight[j] * lin_l[u].segment(i0, len);
-        }
-        product.segment(i0, len) += exponent[j] * log_l[u].array().segment(i0, len);
+    // The columns and their weights as the kernels take them (the mixture's of weight 0 left
+    // out), summed in the order of the sets.
+    std::vector<const double*> mixture_columns, product_columns;
+    std::vector<double> mixture_weights;
+    for (size_t j = 0; j < m; ++j) {
+      const size_t u = static_cast<size_t>(members[j]);
+      if (mixture_weight[j] > 0) {
+        mixture_columns.push_back(lin_l[u].data());
+        mixture_weights.push_back(mixture_weight[j]);
       }
+      product_columns.push_back(log_l[u].data());
+    }
+    ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
+      std::vector<const double*> at(m);
+      for (size_t j = 0; j < mixture_columns.size(); ++j) at[j] = mixture_columns[j] + i0;
+      kernels::AddScaled(mixture.data() + i0, at.data(), mixture_weights.data(),
+                         static_cast<int>(mixture_columns.size()), len);
+      for (size_t j = 0; j < m; ++j) at[j] = product_columns[j] + i0;
+      kernels::AddScaled(product.data() + i0, at.data(), exponent.data(), static_cast<int>(m),
+                         len);
       block_max[static_cast<size_t>(b)] = product.segment(i0, len).maxCoeff();
     });
     l[m] = &mixture;
@@ -525,11 +537,20 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     for (double& v : a) v /= total;
     // Where every hypothesis's likelihood underflowed, a floor keeps the log finite (such
     // places are e^-690 below the mean: no belief or confidence depends on them).
+    std::vector<double> fused_weights;
+    std::vector<const double*> fused_columns;
+    for (size_t h = 0; h < l.size(); ++h) {
+      if (a[h] > 0) {
+        fused_weights.push_back(a[h]);
+        fused_columns.push_back(l[h]->data());
+      }
+    }
     ForPlaceBlocks(num_places, l.size(), [&](int, Eigen::Index i0, Eigen::Index len) {
       Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(len);
-      for (size_t h = 0; h < l.size(); ++h) {
-        if (a[h] > 0) fused += a[h] * l[h]->segment(i0, len);
-      }
+      std::vector<const double*> at(fused_columns.size());
+      for (size_t h = 0; h < at.size(); ++h) at[h] = fused_columns[h] + i0;
+      kernels::AddScaled(fused.data(), at.data(), fused_weights.data(),
+                         static_cast<int>(at.size()), len);
       fused = fused.max(kLikelihoodFloor);
       kernels::Log(fused.data(), len, fused.data());
       out->log_posterior.array().segment(i0, len) += fused;

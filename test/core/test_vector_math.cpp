@@ -208,5 +208,36 @@ TEST(VectorMath, StepSumsAreTheShiftedSumsOnEveryKernel) {
   SetDistanceKernel("auto");
 }
 
+// The fusion's weighted sums of columns: on every kernel, bit for bit what Eigen's y += a * x
+// gives one column after another, for lengths with and without a tail and any number of
+// columns (none included), with weights and values over many orders of magnitude.
+TEST(VectorMath, AddScaledIsEigensColumnByColumnSumOnEveryKernel) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> exponent(-300.0, 300.0);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    for (const Eigen::Index n : {0, 1, 7, 8, 9, 100, 1003}) {
+      for (const int m : {0, 1, 3, 10}) {
+        std::vector<Eigen::ArrayXd> x(static_cast<size_t>(m), Eigen::ArrayXd(n));
+        std::vector<const double*> columns;
+        std::vector<double> a;
+        for (Eigen::ArrayXd& col : x) {
+          for (Eigen::Index k = 0; k < n; ++k) col[k] = uni(rng) * std::pow(10.0, exponent(rng) / 10);
+          columns.push_back(col.data());
+          a.push_back(uni(rng) * 4.0 - 1.0);
+        }
+        Eigen::ArrayXd y(n), expected(n);
+        for (Eigen::Index k = 0; k < n; ++k) y[k] = expected[k] = uni(rng) - 0.5;
+        for (int j = 0; j < m; ++j) expected += a[static_cast<size_t>(j)] * x[static_cast<size_t>(j)];
+        kernels::AddScaled(y.data(), columns.data(), a.data(), m, n);
+        ASSERT_TRUE(n == 0 || std::memcmp(y.data(), expected.data(), n * sizeof(double)) == 0)
+            << kernel << " n " << n << " m " << m;
+      }
+    }
+  }
+  SetDistanceKernel("auto");
+}
+
 }  // namespace
 }  // namespace bsf_vpr

@@ -315,6 +315,15 @@ double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long
   return StepSumsPortable(p, n, w, taps, s_lo, moved);
 }
 
+void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen::Index n) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return AddScaledAvx512(y, x, a, m, n);
+  if (isa == Isa::kAvx2) return AddScaledAvx2(y, x, a, m, n);
+#endif
+  AddScaledPortable(y, x, a, m, n);
+}
+
 std::string Active() {
   switch (CurrentIsa()) {
     case Isa::kAvx512Vnni:

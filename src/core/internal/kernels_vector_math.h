@@ -154,6 +154,14 @@ double StepSumsPortable(const double* p, Eigen::Index n, const double* w, int ta
   return ReduceLanesDouble(lanes);
 }
 
+// y[k] += a[j] x[j][k] for j = 0, 1, ..., m - 1 in turn (each product rounded, then added).
+void AddScaledPortable(double* y, const double* const* x, const double* a, int m,
+                       Eigen::Index n) {
+  for (int j = 0; j < m; ++j) {
+    for (Eigen::Index k = 0; k < n; ++k) y[k] += a[j] * x[j][k];
+  }
+}
+
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
 BSF_VPR_AVX2 inline __m256d TwoToAvx2(__m256d k) {
   const __m256d biased =
@@ -398,6 +406,35 @@ BSF_VPR_AVX512 void LogKernelAvx512(const double* x, Eigen::Index n, double* out
   for (; k < n; ++k) out[k] = LogOne(x[k]);
 }
 #pragma GCC diagnostic pop
+// The same a register of lanes at a time, each lane's operations those of the portable loop.
+BSF_VPR_AVX2 void AddScaledAvx2(double* y, const double* const* x, const double* a, int m,
+                                Eigen::Index n) {
+  Eigen::Index k = 0;
+  for (; k + 4 <= n; k += 4) {
+    __m256d v = _mm256_loadu_pd(y + k);
+    for (int j = 0; j < m; ++j) {
+      v = _mm256_add_pd(v, _mm256_mul_pd(_mm256_set1_pd(a[j]), _mm256_loadu_pd(x[j] + k)));
+    }
+    _mm256_storeu_pd(y + k, v);
+  }
+  for (; k < n; ++k) {
+    for (int j = 0; j < m; ++j) y[k] += a[j] * x[j][k];
+  }
+}
+BSF_VPR_AVX512 void AddScaledAvx512(double* y, const double* const* x, const double* a, int m,
+                                    Eigen::Index n) {
+  Eigen::Index k = 0;
+  for (; k + 8 <= n; k += 8) {
+    __m512d v = _mm512_loadu_pd(y + k);
+    for (int j = 0; j < m; ++j) {
+      v = _mm512_add_pd(v, _mm512_mul_pd(_mm512_set1_pd(a[j]), _mm512_loadu_pd(x[j] + k)));
+    }
+    _mm512_storeu_pd(y + k, v);
+  }
+  for (; k < n; ++k) {
+    for (int j = 0; j < m; ++j) y[k] += a[j] * x[j][k];
+  }
+}
 #endif
 
 }  // namespace

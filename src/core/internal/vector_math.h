@@ -1,5 +1,5 @@
 // Vector math over arrays of doubles, for the likelihoods, the fusion and the filter: exp,
-// its sum, log, and the filter's step sums. Each is one algorithm, its multiplies and adds rounded
+// its sum, log, the filter's step sums and weighted sums of columns. Each is one algorithm, its multiplies and adds rounded
 // one by one in a fixed order, run 8 lanes at a time with AVX-512, 4 with AVX2 and one at a
 // time otherwise, so every kernel gives the same bits. Dispatched with the distance kernels
 // (kernels::Active(), kernels::Force()).
@@ -34,6 +34,10 @@ double SumExp(const double* x, Eigen::Index n, double shift);
 // the fixed order SumExp adds its terms.
 double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long s_lo,
                 double* moved);
+
+// y[k] += a[j] x[j][k] for k < n and j = 0, 1, ..., m - 1 in that order, each product
+// rounded and then added (as Eigen's y += a * x, one column after another, computes it).
+void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen::Index n);
 
 }  // namespace kernels
 

@@ -111,36 +111,9 @@ double ProfileCorrelation(const float* x, const float* y, int n) {
 // left as `raw`'s).
 DistanceStats CorrectedStats(const float* d, const float* c, int n, float* out,
                              const DistanceStats& raw) {
-  constexpr int kLanes = 8;
-  const int full = n - n % kLanes;
-  double sum[kLanes] = {};
-  for (int k = 0; k < full; k += kLanes) {
-    for (int j = 0; j < kLanes; ++j) {
-      out[k + j] = d[k + j] - c[k + j];
-      sum[j] += out[k + j];
-    }
-  }
-  for (int k = full; k < n; ++k) {
-    out[k] = d[k] - c[k];
-    sum[k - full] += out[k];
-  }
-  const auto tree = [](const double* l) {
-    return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7]));
-  };
   DistanceStats s = raw;
-  s.mean = tree(sum) / n;
-  double ss[kLanes] = {};
-  for (int k = 0; k < full; k += kLanes) {
-    for (int j = 0; j < kLanes; ++j) {
-      const double e = out[k + j] - s.mean;
-      ss[j] += e * e;
-    }
-  }
-  for (int k = full; k < n; ++k) {
-    const double e = out[k] - s.mean;
-    ss[k - full] += e * e;
-  }
-  s.stddev = std::sqrt(tree(ss) / n);
+  s.mean = kernels::LaneDifferenceSum(d, c, n, out) / n;
+  s.stddev = std::sqrt(kernels::LaneSquaredDeviations(out, n, s.mean) / n);
   return s;
 }
 

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "bsf_vpr/core/distances.h"
+#include "src/core/internal/vector_math.h"
 #include "src/core/internal/worker_pool.h"
 
 namespace bsf_vpr {
@@ -46,46 +47,22 @@ const OptionTable<SelectionOptions>& SelectionOptionsTable() {
 DistanceStats ComputeDistanceStats(const SetDistances& d) {
   DistanceStats s;
   if (d.count <= 0) throw std::invalid_argument("a reference set has no distances");
-  // Eight running sums and minima (lane j takes k = j mod 8), added in a fixed tree: the
-  // loops vectorise, and the result does not depend on anything but the values. The sum of
-  // floats in double is exact for any distances of a modest range, so a constant vector
-  // still has its value as its mean and an exact zero variance (two passes).
+  // Eight running sums and minima (lane j takes k = j mod 8), added in a fixed tree, on the
+  // vector kernels (the same bits on each). The sum of floats in double is exact for any
+  // distances of a modest range, so a constant vector still has its value as its mean and an
+  // exact zero variance (two passes).
   constexpr int kLanes = 8;
   const float* v = d.values;
-  const int n = d.count, full = n - n % kLanes;
-  double sum[kLanes] = {};
+  const int n = d.count;
   float low[kLanes];
   std::fill(low, low + kLanes, v[0]);
-  for (int k = 0; k < full; k += kLanes) {
-    for (int j = 0; j < kLanes; ++j) {
-      sum[j] += v[k + j];
-      low[j] = std::min(low[j], v[k + j]);
-    }
-  }
-  for (int k = full; k < n; ++k) {
-    sum[k - full] += v[k];
-    low[k - full] = std::min(low[k - full], v[k]);
-  }
-  const auto tree = [](const auto* l) {
-    return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7]));
-  };
+  const double sum = kernels::LaneSum(v, n, low);
   s.min = *std::min_element(low, low + kLanes);
   s.argmin = static_cast<int>(std::find(v, v + n, s.min) - v);  // the first at the minimum
   if (s.argmin == n) s.argmin = 0;  // v[0] is NaN: as the scalar scan, index 0 kept
   s.min = v[s.argmin];              // (of -0 and +0, the value found first)
-  s.mean = tree(sum) / n;
-  double ss[kLanes] = {};
-  for (int k = 0; k < full; k += kLanes) {
-    for (int j = 0; j < kLanes; ++j) {
-      const double e = v[k + j] - s.mean;
-      ss[j] += e * e;
-    }
-  }
-  for (int k = full; k < n; ++k) {
-    const double e = v[k] - s.mean;
-    ss[k - full] += e * e;
-  }
-  s.stddev = std::sqrt(tree(ss) / n);
+  s.mean = sum / n;
+  s.stddev = std::sqrt(kernels::LaneSquaredDeviations(v, n, s.mean) / n);
   return s;
 }
 

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -233,6 +234,65 @@ TEST(VectorMath, AddScaledIsEigensColumnByColumnSumOnEveryKernel) {
         kernels::AddScaled(y.data(), columns.data(), a.data(), m, n);
         ASSERT_TRUE(n == 0 || std::memcmp(y.data(), expected.data(), n * sizeof(double)) == 0)
             << kernel << " n " << n << " m " << m;
+      }
+    }
+  }
+  SetDistanceKernel("auto");
+}
+
+// The eight-lane sums behind the selection's and the fusion's mean and deviation: on every
+// kernel, bit for bit the scalar loops (lane j adds k = j mod 8, the tail to lanes 0, 1, ...),
+// the minimum's lanes with NaN and signed zeros as std::min keeps them.
+TEST(VectorMath, LaneSumsAreTheScalarLoopsOnEveryKernel) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> uni(0.0f, 2.0f);
+  const auto tree = [](const double* l) {
+    return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7]));
+  };
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    for (const int n : {1, 7, 8, 9, 16, 100, 1003, 4099}) {
+      for (const int draw : {0, 1, 2, 3, 4, 5, 6, 7}) {  // many draws: a rounding shows in some
+        const bool odd = draw == 0;
+        std::vector<float> v(static_cast<size_t>(n)), c(v.size());
+        for (float& x : v) x = uni(rng) * 1e3f;
+        for (float& x : c) x = uni(rng);
+        if (odd) {  // NaN, signed zeros and a repeated minimum
+          v[0] = -0.0f;
+          if (n > 3) v[3] = 0.0f;
+          if (n > 9) v[9] = std::numeric_limits<float>::quiet_NaN();
+          if (n > 12) v[12] = -0.0f;
+        }
+        double sum[8] = {}, diff[8] = {}, ss[8] = {};
+        float low[8], expected_low[8];
+        std::fill(low, low + 8, v[0]);
+        std::fill(expected_low, expected_low + 8, v[0]);
+        std::vector<float> out(v.size()), expected_out(v.size());
+        const int full = n - n % 8;
+        for (int k = 0; k < n; ++k) {
+          const int j = k < full ? k % 8 : k - full;
+          sum[j] += v[static_cast<size_t>(k)];
+          expected_low[j] = std::min(expected_low[j], v[static_cast<size_t>(k)]);
+          expected_out[static_cast<size_t>(k)] = v[static_cast<size_t>(k)] - c[static_cast<size_t>(k)];
+          diff[j] += expected_out[static_cast<size_t>(k)];
+        }
+        const double mean = tree(sum) / n;
+        for (int k = 0; k < n; ++k) {
+          const double e = v[static_cast<size_t>(k)] - mean;
+          ss[k < full ? k % 8 : k - full] += e * e;
+        }
+        const double got_sum = kernels::LaneSum(v.data(), n, low);
+        const double got_diff = kernels::LaneDifferenceSum(v.data(), c.data(), n, out.data());
+        const double got_ss = kernels::LaneSquaredDeviations(v.data(), n, mean);
+        const double want_sum = tree(sum), want_diff = tree(diff), want_ss = tree(ss);
+        const std::string at = kernel + " n " + std::to_string(n) + " draw " + std::to_string(draw);
+        ASSERT_EQ(std::memcmp(&got_sum, &want_sum, sizeof(double)), 0) << at;
+        ASSERT_EQ(std::memcmp(&got_diff, &want_diff, sizeof(double)), 0) << at;
+        ASSERT_EQ(std::memcmp(&got_ss, &want_ss, sizeof(double)), 0) << at;
+        ASSERT_EQ(std::memcmp(low, expected_low, sizeof(low)), 0) << at;
+        ASSERT_EQ(std::memcmp(out.data(), expected_out.data(), out.size() * sizeof(float)), 0) << at;
+        const double alone = kernels::LaneSum(v.data(), n, nullptr);  // without the minimum
+        EXPECT_EQ(std::memcmp(&alone, &got_sum, sizeof(double)), 0) << at;
       }
     }
   }

@@ -324,6 +324,33 @@ void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen:
   AddScaledPortable(y, x, a, m, n);
 }
 
+double LaneSum(const float* v, int n, float* low) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return LaneSumAvx512(v, n, low);
+  if (isa == Isa::kAvx2) return LaneSumAvx2(v, n, low);
+#endif
+  return LaneSumPortable(v, n, low);
+}
+
+double LaneDifferenceSum(const float* d, const float* c, int n, float* out) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return LaneDifferenceSumAvx512(d, c, n, out);
+  if (isa == Isa::kAvx2) return LaneDifferenceSumAvx2(d, c, n, out);
+#endif
+  return LaneDifferenceSumPortable(d, c, n, out);
+}
+
+double LaneSquaredDeviations(const float* v, int n, double mean) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return LaneSquaredDeviationsAvx512(v, n, mean);
+  if (isa == Isa::kAvx2) return LaneSquaredDeviationsAvx2(v, n, mean);
+#endif
+  return LaneSquaredDeviationsPortable(v, n, mean);
+}
+
 std::string Active() {
   switch (CurrentIsa()) {
     case Isa::kAvx512Vnni:

@@ -4,6 +4,7 @@
 // code's back).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -160,6 +161,56 @@ void AddScaledPortable(double* y, const double* const* x, const double* a, int m
   for (int j = 0; j < m; ++j) {
     for (Eigen::Index k = 0; k < n; ++k) y[k] += a[j] * x[j][k];
   }
+}
+
+// ---- lane sums of floats in double (the selection's and the fusion's mean and deviation) ---
+// Lane j adds the elements k = j (mod 8) in increasing k; the tail's elements go to lanes
+// 0, 1, ... as the scalar loop puts them.
+inline void SumTail(const float* v, int full, int n, double* sum, float* low) {
+  for (int k = full; k < n; ++k) {
+    sum[k - full] += v[k];
+    if (low != nullptr) low[k - full] = std::min(low[k - full], v[k]);
+  }
+}
+double LaneSumPortable(const float* v, int n, float* low) {
+  const int full = n - n % kLanes;
+  double sum[kLanes] = {};
+  for (int k = 0; k < full; k += kLanes) {
+    for (int j = 0; j < kLanes; ++j) {
+      sum[j] += v[k + j];
+      if (low != nullptr) low[j] = std::min(low[j], v[k + j]);
+    }
+  }
+  SumTail(v, full, n, sum, low);
+  return ReduceLanesDouble(sum);
+}
+double LaneDifferenceSumPortable(const float* d, const float* c, int n, float* out) {
+  const int full = n - n % kLanes;
+  double sum[kLanes] = {};
+  for (int k = 0; k < n; ++k) out[k] = d[k] - c[k];
+  for (int k = 0; k < full; k += kLanes) {
+    for (int j = 0; j < kLanes; ++j) sum[j] += out[k + j];
+  }
+  SumTail(out, full, n, sum, nullptr);
+  return ReduceLanesDouble(sum);
+}
+inline void SquaresTail(const float* v, int full, int n, double mean, double* ss) {
+  for (int k = full; k < n; ++k) {
+    const double e = v[k] - mean;
+    ss[k - full] += e * e;
+  }
+}
+double LaneSquaredDeviationsPortable(const float* v, int n, double mean) {
+  const int full = n - n % kLanes;
+  double ss[kLanes] = {};
+  for (int k = 0; k < full; k += kLanes) {
+    for (int j = 0; j < kLanes; ++j) {
+      const double e = v[k + j] - mean;
+      ss[j] += e * e;
+    }
+  }
+  SquaresTail(v, full, n, mean, ss);
+  return ReduceLanesDouble(ss);
 }
 
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
@@ -435,6 +486,105 @@ BSF_VPR_AVX512 void AddScaledAvx512(double* y, const double* const* x, const dou
     for (int j = 0; j < m; ++j) y[k] += a[j] * x[j][k];
   }
 }
+// The lane sums: lanes 0-3 in one register and 4-7 in another (AVX2), all eight in one
+// (AVX-512); the minimum's lanes as the scalar std::min keeps them (min(v, low): low when
+// either is NaN or both are zeros, as std::min(low, v)).
+BSF_VPR_AVX2 double LaneSumAvx2(const float* v, int n, float* low) {
+  const int full = n - n % kLanes;
+  __m256d lo = _mm256_setzero_pd(), hi = _mm256_setzero_pd();
+  __m256 m = low != nullptr ? _mm256_loadu_ps(low) : _mm256_setzero_ps();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m256 x = _mm256_loadu_ps(v + k);
+    lo = _mm256_add_pd(lo, _mm256_cvtps_pd(_mm256_castps256_ps128(x)));
+    hi = _mm256_add_pd(hi, _mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)));
+    if (low != nullptr) m = _mm256_min_ps(x, m);
+  }
+  double sum[kLanes];
+  _mm256_storeu_pd(sum, lo);
+  _mm256_storeu_pd(sum + 4, hi);
+  if (low != nullptr) _mm256_storeu_ps(low, m);
+  SumTail(v, full, n, sum, low);
+  return ReduceLanesDouble(sum);
+}
+BSF_VPR_AVX2 double LaneDifferenceSumAvx2(const float* d, const float* c, int n, float* out) {
+  const int full = n - n % kLanes;
+  __m256d lo = _mm256_setzero_pd(), hi = _mm256_setzero_pd();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m256 x = _mm256_sub_ps(_mm256_loadu_ps(d + k), _mm256_loadu_ps(c + k));
+    _mm256_storeu_ps(out + k, x);
+    lo = _mm256_add_pd(lo, _mm256_cvtps_pd(_mm256_castps256_ps128(x)));
+    hi = _mm256_add_pd(hi, _mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)));
+  }
+  for (int k = full; k < n; ++k) out[k] = d[k] - c[k];
+  double sum[kLanes];
+  _mm256_storeu_pd(sum, lo);
+  _mm256_storeu_pd(sum + 4, hi);
+  SumTail(out, full, n, sum, nullptr);
+  return ReduceLanesDouble(sum);
+}
+BSF_VPR_AVX2 double LaneSquaredDeviationsAvx2(const float* v, int n, double mean) {
+  const int full = n - n % kLanes;
+  const __m256d mu = _mm256_set1_pd(mean);
+  __m256d lo = _mm256_setzero_pd(), hi = _mm256_setzero_pd();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m256 x = _mm256_loadu_ps(v + k);
+    const __m256d el = _mm256_sub_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(x)), mu);
+    const __m256d eh = _mm256_sub_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)), mu);
+    lo = _mm256_add_pd(lo, _mm256_mul_pd(el, el));
+    hi = _mm256_add_pd(hi, _mm256_mul_pd(eh, eh));
+  }
+  double ss[kLanes];
+  _mm256_storeu_pd(ss, lo);
+  _mm256_storeu_pd(ss + 4, hi);
+  SquaresTail(v, full, n, mean, ss);
+  return ReduceLanesDouble(ss);
+}
+// GCC 12's _mm512_cvtps_pd starts from an undefined register, which it then warns of.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+BSF_VPR_AVX512 double LaneSumAvx512(const float* v, int n, float* low) {
+  const int full = n - n % kLanes;
+  __m512d acc = _mm512_setzero_pd();
+  __m256 m = low != nullptr ? _mm256_loadu_ps(low) : _mm256_setzero_ps();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m256 x = _mm256_loadu_ps(v + k);
+    acc = _mm512_add_pd(acc, _mm512_cvtps_pd(x));
+    if (low != nullptr) m = _mm256_min_ps(x, m);
+  }
+  double sum[kLanes];
+  _mm512_storeu_pd(sum, acc);
+  if (low != nullptr) _mm256_storeu_ps(low, m);
+  SumTail(v, full, n, sum, low);
+  return ReduceLanesDouble(sum);
+}
+BSF_VPR_AVX512 double LaneDifferenceSumAvx512(const float* d, const float* c, int n, float* out) {
+  const int full = n - n % kLanes;
+  __m512d acc = _mm512_setzero_pd();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m256 x = _mm256_sub_ps(_mm256_loadu_ps(d + k), _mm256_loadu_ps(c + k));
+    _mm256_storeu_ps(out + k, x);
+    acc = _mm512_add_pd(acc, _mm512_cvtps_pd(x));
+  }
+  for (int k = full; k < n; ++k) out[k] = d[k] - c[k];
+  double sum[kLanes];
+  _mm512_storeu_pd(sum, acc);
+  SumTail(out, full, n, sum, nullptr);
+  return ReduceLanesDouble(sum);
+}
+BSF_VPR_AVX512 double LaneSquaredDeviationsAvx512(const float* v, int n, double mean) {
+  const int full = n - n % kLanes;
+  const __m512d mu = _mm512_set1_pd(mean);
+  __m512d acc = _mm512_setzero_pd();
+  for (int k = 0; k < full; k += kLanes) {
+    const __m512d e = _mm512_sub_pd(_mm512_cvtps_pd(_mm256_loadu_ps(v + k)), mu);
+    acc = _mm512_add_pd(acc, _mm512_mul_pd(e, e));
+  }
+  double ss[kLanes];
+  _mm512_storeu_pd(ss, acc);
+  SquaresTail(v, full, n, mean, ss);
+  return ReduceLanesDouble(ss);
+}
+#pragma GCC diagnostic pop
 #endif
 
 }  // namespace

@@ -39,6 +39,17 @@ double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long
 // rounded and then added (as Eigen's y += a * x, one column after another, computes it).
 void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen::Index n);
 
+// Sums of n floats in double in eight lanes (lane j adds v[k] for k = j mod 8 in increasing
+// k), the lanes then added as SumExp adds its own: the selection's and the fusion's means
+// and deviations, the same bits on every kernel.
+// sum_k v[k]; with `low` (eight floats, set by the caller), low[j] = std::min(low[j], v[k])
+// over lane j's elements too.
+double LaneSum(const float* v, int n, float* low);
+// out[k] = d[k] - c[k] (float), and sum_k out[k].
+double LaneDifferenceSum(const float* d, const float* c, int n, float* out);
+// sum_k (v[k] - mean)^2, each difference and square rounded in double.
+double LaneSquaredDeviations(const float* v, int n, double mean);
+
 }  // namespace kernels
 
 // log(a) as a new array.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <tuple>
 
 #include "bsf_vpr/core/distances.h"
 #include "src/core/internal/distance_kernels.h"
@@ -111,13 +112,15 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
     GTEST_SKIP() << "this CPU has no AVX-512";
   }
   // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 37 and
-  // 40: enough for the rows to be packed (kPackQueries), 197 rows: packed tiles and rows left
-  // over in the last block.
-  for (auto [nq, d] : {std::pair{19, 8}, std::pair{20, 517}, std::pair{19, 1029}, std::pair{20, 1029},
-                       std::pair{16, 4096}, std::pair{37, 13}, std::pair{37, 1029},
-                       std::pair{40, 2051}}) {
+  // 40: enough for the rows to be packed (kPackQueries). 197 rows on 2 threads: blocks of 96
+  // and of 2 or 3 rows; 110 rows: blocks of 55, nine packed tiles and a row left over each.
+  for (auto [nq, d, rows] : {std::tuple{19, 8, 197}, std::tuple{20, 517, 197},
+                             std::tuple{19, 1029, 197}, std::tuple{20, 1029, 197},
+                             std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
+                             std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197},
+                             std::tuple{40, 4096, 110}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
-    const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(197, d, 9));
+    const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9));
     for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
       const testing::ScopedDistanceThreads threads(2);
       SetDistanceKernel("avx2");

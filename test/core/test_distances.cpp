@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "bsf_vpr/core/distances.h"
 #include "test/core/test_util.h"
 
@@ -50,6 +52,29 @@ TEST(Distances, AnyThreadCountGivesBitwiseTheSameDistances) {
   }
   guard.Set(0);
   EXPECT_GE(DistanceThreads(), 1);
+}
+
+// A batch large enough for every part of the batch path: several blocks of 96 rows and of
+// 32 queries, threads splitting the rows, the AVX-512 tiles' packed rows (32 queries or more)
+// and the distances made per row block: both metrics against a straightforward loop.
+TEST(Distances, ALargeBatchMatchesNaiveLoopsForBothMetrics) {
+  RowMatrixXf q = testing::RandomMatrix(45, 61, 31);
+  RowMatrixXf r = testing::RandomMatrix(230, 61, 32);
+  r.row(200).setZero();
+  const ReferenceSet set = MakeReferenceSet("a", r);
+  const testing::ScopedDistanceThreads threads(2);
+  const RowMatrixXf euclidean = ComputeDistances(DistanceMetric::kEuclidean, q, set);
+  const RowMatrixXf cosine = ComputeDistances(DistanceMetric::kCosine, q, set);
+  for (int i = 0; i < q.rows(); ++i) {
+    for (int j = 0; j < r.rows(); ++j) {
+      const double dot = q.row(i).cast<double>().dot(r.row(j).cast<double>());
+      const double nq = q.row(i).cast<double>().norm(), nr = r.row(j).cast<double>().norm();
+      const double l2 = (q.row(i).cast<double>() - r.row(j).cast<double>()).norm();
+      ASSERT_NEAR(euclidean(i, j), l2, 1e-4 * (1 + l2)) << i << "," << j;
+      const double cos = nr > 0 ? std::max(1.0 - dot / (nq * nr), 0.0) : 1.0;
+      ASSERT_NEAR(cosine(i, j), cos, 1e-5) << i << "," << j;
+    }
+  }
 }
 
 TEST(Distances, EuclideanOfIdenticalVectorsIsZeroNotNaN) {

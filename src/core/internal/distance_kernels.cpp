@@ -142,7 +142,7 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
   }
   for (int b0 = r0; b0 < r1; b0 += kRowBlock) {
     const int b1 = std::min(r1, b0 + kRowBlock);
-    const int tiles = (b1 - b0) / kPackRows;
+    [[maybe_unused]] const int tiles = (b1 - b0) / kPackRows;  // (x86 kernels only)
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
     if constexpr (std::is_same_v<T, float>) {
       if (packed != nullptr) PackRowTilesAvx512<kPackRows>(rows, d, b0, tiles, packed);

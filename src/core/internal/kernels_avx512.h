@@ -72,7 +72,7 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
     }
   }
 }
-// The same tile over rows packed by PackRowTiles: row k's elements [8 b, 8 b + 8) at
+// The same tile over rows packed by PackRowTilesAvx512: row k's elements [8 b, 8 b + 8) at
 // r + (b * NR + k) * 8, the last block zero-padded, so that a tile reads one stream (its rows
 // one after another would be NR streams, each starting cold at every pass). The same
 // elements in the same order: the same bits as TilePairsAvx512.

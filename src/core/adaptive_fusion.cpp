@@ -459,8 +459,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
       kernels::AddScaled(mixture.data() + i0, at.data(), mixture_weights.data(),
                          static_cast<int>(mixture_columns.size()), len);
       for (size_t j = 0; j < m; ++j) at[j] = product_columns[j] + i0;
-      kernels::AddScaled(product.data() + i0, at.data(), exponent.data(), static_cast<int>(m),
-                         len);
+      kernels::AddScaled(product.data() + i0, at.data(), exponent.data(), static_cast<int>(m), len);
       block_max[static_cast<size_t>(b)] = product.segment(i0, len).maxCoeff();
     });
     l[m] = &mixture;
@@ -522,8 +521,8 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
       Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(len);
       std::vector<const double*> at(fused_columns.size());
       for (size_t h = 0; h < at.size(); ++h) at[h] = fused_columns[h] + i0;
-      kernels::AddScaled(fused.data(), at.data(), fused_weights.data(),
-                         static_cast<int>(at.size()), len);
+      kernels::AddScaled(fused.data(), at.data(), fused_weights.data(), static_cast<int>(at.size()),
+                         len);
       fused = fused.max(kLikelihoodFloor);
       kernels::Log(fused.data(), len, fused.data());
       out->log_posterior.array().segment(i0, len) += fused;

@@ -114,11 +114,10 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 37 and
   // 40: enough for the rows to be packed (kPackQueries). 197 rows on 2 threads: blocks of 96
   // and of 2 or 3 rows; 110 rows: blocks of 55, nine packed tiles and a row left over each.
-  for (auto [nq, d, rows] : {std::tuple{19, 8, 197}, std::tuple{20, 517, 197},
-                             std::tuple{19, 1029, 197}, std::tuple{20, 1029, 197},
-                             std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
-                             std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197},
-                             std::tuple{40, 4096, 110}}) {
+  for (auto [nq, d, rows] :
+       {std::tuple{19, 8, 197}, std::tuple{20, 517, 197}, std::tuple{19, 1029, 197},
+        std::tuple{20, 1029, 197}, std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
+        std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197}, std::tuple{40, 4096, 110}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
     const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9));
     for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {

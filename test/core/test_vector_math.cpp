@@ -224,13 +224,15 @@ TEST(VectorMath, AddScaledIsEigensColumnByColumnSumOnEveryKernel) {
         std::vector<const double*> columns;
         std::vector<double> a;
         for (Eigen::ArrayXd& col : x) {
-          for (Eigen::Index k = 0; k < n; ++k) col[k] = uni(rng) * std::pow(10.0, exponent(rng) / 10);
+          for (Eigen::Index k = 0; k < n; ++k)
+            col[k] = uni(rng) * std::pow(10.0, exponent(rng) / 10);
           columns.push_back(col.data());
           a.push_back(uni(rng) * 4.0 - 1.0);
         }
         Eigen::ArrayXd y(n), expected(n);
         for (Eigen::Index k = 0; k < n; ++k) y[k] = expected[k] = uni(rng) - 0.5;
-        for (int j = 0; j < m; ++j) expected += a[static_cast<size_t>(j)] * x[static_cast<size_t>(j)];
+        for (int j = 0; j < m; ++j)
+          expected += a[static_cast<size_t>(j)] * x[static_cast<size_t>(j)];
         kernels::AddScaled(y.data(), columns.data(), a.data(), m, n);
         ASSERT_TRUE(n == 0 || std::memcmp(y.data(), expected.data(), n * sizeof(double)) == 0)
             << kernel << " n " << n << " m " << m;
@@ -273,7 +275,8 @@ TEST(VectorMath, LaneSumsAreTheScalarLoopsOnEveryKernel) {
           const int j = k < full ? k % 8 : k - full;
           sum[j] += v[static_cast<size_t>(k)];
           expected_low[j] = std::min(expected_low[j], v[static_cast<size_t>(k)]);
-          expected_out[static_cast<size_t>(k)] = v[static_cast<size_t>(k)] - c[static_cast<size_t>(k)];
+          expected_out[static_cast<size_t>(k)] =
+              v[static_cast<size_t>(k)] - c[static_cast<size_t>(k)];
           diff[j] += expected_out[static_cast<size_t>(k)];
         }
         const double mean = tree(sum) / n;
@@ -290,7 +293,8 @@ TEST(VectorMath, LaneSumsAreTheScalarLoopsOnEveryKernel) {
         ASSERT_EQ(std::memcmp(&got_diff, &want_diff, sizeof(double)), 0) << at;
         ASSERT_EQ(std::memcmp(&got_ss, &want_ss, sizeof(double)), 0) << at;
         ASSERT_EQ(std::memcmp(low, expected_low, sizeof(low)), 0) << at;
-        ASSERT_EQ(std::memcmp(out.data(), expected_out.data(), out.size() * sizeof(float)), 0) << at;
+        ASSERT_EQ(std::memcmp(out.data(), expected_out.data(), out.size() * sizeof(float)), 0)
+            << at;
         const double alone = kernels::LaneSum(v.data(), n, nullptr);  // without the minimum
         EXPECT_EQ(std::memcmp(&alone, &got_sum, sizeof(double)), 0) << at;
       }

@@ -134,8 +134,8 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
   std::vector<float> packing;
   float* packed = nullptr;
   if (pairs && num_queries >= kPackQueries) {
-    const size_t size = static_cast<size_t>(std::min(kRowBlock, r1 - r0)) *
-                        ((d + kLanes - 1) / kLanes) * kLanes;
+    const size_t size =
+        static_cast<size_t>(std::min(kRowBlock, r1 - r0)) * ((d + kLanes - 1) / kLanes) * kLanes;
     packing.resize(size + 16);
     packed = packing.data();
     packed += (16 - (reinterpret_cast<uintptr_t>(packed) / sizeof(float)) % 16) % 16;
@@ -261,14 +261,16 @@ void Dots(const RefRows& refs, int r0, int r1, const Queries& queries, float* ou
           const ToDistancesArgs* finish) {
   switch (refs.precision) {
     case StoragePrecision::kFloat32:
-      DotsTyped(static_cast<const float*>(refs.data), 1.0f, r0, r1, queries, out, out_stride, finish);
+      DotsTyped(static_cast<const float*>(refs.data), 1.0f, r0, r1, queries, out, out_stride,
+                finish);
       break;
     case StoragePrecision::kFloat16:
-      DotsTyped(static_cast<const uint16_t*>(refs.data), 1.0f, r0, r1, queries, out, out_stride, finish);
+      DotsTyped(static_cast<const uint16_t*>(refs.data), 1.0f, r0, r1, queries, out, out_stride,
+                finish);
       break;
     case StoragePrecision::kInt8:
-      DotsTyped(static_cast<const int8_t*>(refs.data), refs.scale, r0, r1, queries, out,
-                out_stride, finish);
+      DotsTyped(static_cast<const int8_t*>(refs.data), refs.scale, r0, r1, queries, out, out_stride,
+                finish);
       break;
   }
 }

@@ -126,11 +126,13 @@ BSF_VPR_AVX512 void PackRowTilesAvx512(const float* rows, int d, int b0, int til
     float* to = packed + static_cast<size_t>(t) * blocks * NR * kLanes;
     for (int b = 0; b < full; ++b, to += NR * kLanes) {
       for (int k = 0; k < NR; ++k) {
-        _mm256_store_ps(to + k * kLanes, _mm256_loadu_ps(row + static_cast<size_t>(k) * d + b * kLanes));
+        _mm256_store_ps(to + k * kLanes,
+                        _mm256_loadu_ps(row + static_cast<size_t>(k) * d + b * kLanes));
       }
     }
     if (full < blocks) {
-      for (int k = 0; k < NR; ++k) PadTail(row + static_cast<size_t>(k) * d, full * kLanes, d, to + k * kLanes);
+      for (int k = 0; k < NR; ++k)
+        PadTail(row + static_cast<size_t>(k) * d, full * kLanes, d, to + k * kLanes);
     }
   }
 }

@@ -156,8 +156,7 @@ double StepSumsPortable(const double* p, Eigen::Index n, const double* w, int ta
 }
 
 // y[k] += a[j] x[j][k] for j = 0, 1, ..., m - 1 in turn (each product rounded, then added).
-void AddScaledPortable(double* y, const double* const* x, const double* a, int m,
-                       Eigen::Index n) {
+void AddScaledPortable(double* y, const double* const* x, const double* a, int m, Eigen::Index n) {
   for (int j = 0; j < m; ++j) {
     for (Eigen::Index k = 0; k < n; ++k) y[k] += a[j] * x[j][k];
   }

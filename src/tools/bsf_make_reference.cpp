@@ -53,7 +53,7 @@ int Run(int argc, char** argv) {
     } else if (f == "--condition") {
       condition = v;
     } else if (f == "--distance") {
-      distance = ToString(ParseDistanceMetric(v));
+      distance = ToString(tools::ForFlag(f, [&] { return ParseDistanceMetric(v); }));
     } else if (tools::ParseDescriberFlag(f, v, &describer)) {
       if (describer_flag.empty()) describer_flag = f;
     } else {

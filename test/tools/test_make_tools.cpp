@@ -249,6 +249,8 @@ TEST_F(MakeTools, MakeReferenceDescribesImagesAsTheEvaluatorDoes) {
        "--onnx-rgb describes images"},
       {"--descriptors " + kGardens + "day_left.npy --image-descriptor hog",
        "--image-descriptor describes images: it goes with --images"},
+      {"--descriptors " + kGardens + "day_left.npy --distance cosin",
+       "--distance: distance must be euclidean or cosine, got 'cosin'"},
   };
   for (const auto& [args, fragment] : bad) {
     ExpectOneLineRefusal(RunCommand(mk_ref + args), fragment, args);

@@ -459,7 +459,7 @@ int Run(int argc, char** argv) {
     else if (f == "--repeats")
       repeats = tools::ParseInteger(f, v);
     else if (f == "--storage")
-      storage = ParseStoragePrecision(v);
+      storage = tools::ForFlag(f, [&] { return ParseStoragePrecision(v); });
     else if (f == "--evaluate-dir")
       evaluate_dir = v;
     else if (f == "--images")

@@ -2,6 +2,7 @@
 // and the convention that any error ends the tool with one line on stderr and exit status 2.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,6 +15,17 @@ constexpr int kExitBadInput = 2;
 // A finite number / a whole number; throws std::invalid_argument "<flag> expects ...".
 double ParseNumber(const std::string& flag, const std::string& value);
 int ParseInteger(const std::string& flag, const std::string& value);
+
+// parse() with `flag` named in its error: "<flag>: <what>" (for parsers of names, e.g.
+// ParseDistanceMetric, whose messages do not know the flag).
+template <class Parse>
+auto ForFlag(const std::string& flag, Parse parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(flag + ": " + e.what());
+  }
+}
 
 // User plus system CPU seconds so far of this process (RUSAGE_SELF) or of its waited-for
 // children (RUSAGE_CHILDREN), as getrusage(2) gives them.

@@ -131,9 +131,9 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.pose_topic = value;
       pose_topic_given = true;
     } else if (flag == "--distance") {
-      a.metric = ParseDistanceMetric(value);
+      a.metric = ForFlag(flag, [&] { return ParseDistanceMetric(value); });
     } else if (flag == "--storage") {
-      a.storage = ParseStoragePrecision(value);
+      a.storage = ForFlag(flag, [&] { return ParseStoragePrecision(value); });
     } else if (flag == "--tolerance") {
       a.tolerance_frames = ParseInteger(flag, value);
       if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");

@@ -172,7 +172,7 @@ ImportArgs ParseImportArgs(int argc, char** argv) {
       const NamedSpec c = ParseNamedSpec(f, v);
       a.conditions[c.name] = c.spec;
     } else if (f == "--distance") {
-      a.distance = ToString(ParseDistanceMetric(v));
+      a.distance = ToString(ForFlag(f, [&] { return ParseDistanceMetric(v); }));
     } else if (f == "--resize") {
       a.resize = ParseSize(f, v);
     } else if (ImportOptionsTable().SetFromFlag(f, v, &a.options)) {

@@ -21,25 +21,25 @@ namespace {
 // GCC 12's _mm512_broadcast_f32x8 starts from an undefined register, which it then warns of.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// A pair tile's sums at the start of a pass: zero, or the lanes the last pass stored (pair
+// p's lanes for row k: 16 floats at a.lanes + p * a.lanes_stride + k * 16).
 template <int NP, int NR>
-BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_stride) {
-  __m512 acc[NP][NR];
-  // Pair p's lanes for row k: 16 floats at a.lanes + p * a.lanes_stride + k * 16.
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void StartPairLanes(const TileArgs& a,
+                                                                         __m512 (&acc)[NP][NR]) {
   for (int p = 0; p < NP; ++p) {
     for (int k = 0; k < NR; ++k) {
       acc[p][k] = a.first ? _mm512_setzero_ps()
                           : _mm512_loadu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes);
     }
   }
-  const int full = a.i1 - (a.i1 - a.i0) % kLanes;  // a pass ends on a block unless at d
-  for (int i = a.i0; i < full; i += kLanes) {
-    __m512 qv[NP];
-    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * i);
-    for (int k = 0; k < NR; ++k) {
-      const __m512 rv = _mm512_broadcast_f32x8(_mm256_loadu_ps(r + k * r_stride + i));
-      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
-    }
-  }
+}
+// At the end of a pass: before the row's end, the lanes stored for the next pass; at it,
+// ReduceLanes of both halves in the register, in its order: lanes j + (j + 4) (128-bit
+// quarters swapped), then pairs of those, then the two pairs (a float sum's operands
+// commute, so the bits are ReduceLanes's); query 2p's sum lands in lane 0, 2p + 1's in 8.
+template <int NP, int NR>
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void FinishPairLanes(
+    const TileArgs& a, const __m512 (&acc)[NP][NR]) {
   if (a.i1 < a.d) {
     for (int p = 0; p < NP; ++p) {
       for (int k = 0; k < NR; ++k) {
@@ -48,19 +48,6 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
     }
     return;
   }
-  if (full < a.d) {  // the zero-padded tail: the pairs are padded already
-    alignas(32) float pad[kLanes];
-    __m512 qv[NP];
-    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * full);
-    for (int k = 0; k < NR; ++k) {
-      PadTail(r + k * r_stride, full, a.d, pad);
-      const __m512 rv = _mm512_broadcast_f32x8(_mm256_load_ps(pad));
-      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
-    }
-  }
-  // ReduceLanes of both halves in the register, in its order: lanes j + (j + 4) (128-bit
-  // quarters swapped), then pairs of those, then the two pairs (a float sum's operands
-  // commute, so the bits are ReduceLanes's); query 2p's sum lands in lane 0, 2p + 1's in 8.
   for (int p = 0; p < NP; ++p) {
     for (int k = 0; k < NR; ++k) {
       __m512 s = acc[p][k];
@@ -72,6 +59,32 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
     }
   }
 }
+
+template <int NP, int NR>
+BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_stride) {
+  __m512 acc[NP][NR];
+  StartPairLanes(a, acc);
+  const int full = a.i1 - (a.i1 - a.i0) % kLanes;  // a pass ends on a block unless at d
+  for (int i = a.i0; i < full; i += kLanes) {
+    __m512 qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * i);
+    for (int k = 0; k < NR; ++k) {
+      const __m512 rv = _mm512_broadcast_f32x8(_mm256_loadu_ps(r + k * r_stride + i));
+      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
+    }
+  }
+  if (a.i1 == a.d && full < a.d) {  // the zero-padded tail: the pairs are padded already
+    alignas(32) float pad[kLanes];
+    __m512 qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(a.pairs + p * a.pairs_stride + 2 * full);
+    for (int k = 0; k < NR; ++k) {
+      PadTail(r + k * r_stride, full, a.d, pad);
+      const __m512 rv = _mm512_broadcast_f32x8(_mm256_load_ps(pad));
+      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
+    }
+  }
+  FinishPairLanes(a, acc);
+}
 // The same tile over rows packed by PackRowTilesAvx512: row k's elements [8 b, 8 b + 8) at
 // r + (b * NR + k) * 8, the last block zero-padded, so that a tile reads one stream (its rows
 // one after another would be NR streams, each starting cold at every pass). The same
@@ -79,12 +92,7 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
 template <int NP, int NR>
 BSF_VPR_AVX512 void TilePairsPackedAvx512(const TileArgs& a, const float* r) {
   __m512 acc[NP][NR];
-  for (int p = 0; p < NP; ++p) {
-    for (int k = 0; k < NR; ++k) {
-      acc[p][k] = a.first ? _mm512_setzero_ps()
-                          : _mm512_loadu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes);
-    }
-  }
+  StartPairLanes(a, acc);
   const int end = a.i1 < a.d ? a.i1 : (a.d + kLanes - 1) / kLanes * kLanes;  // padded at d
   const float* block = r + static_cast<size_t>(a.i0 / kLanes) * NR * kLanes;
   const float* pair = a.pairs + 2 * static_cast<size_t>(a.i0);
@@ -96,24 +104,7 @@ BSF_VPR_AVX512 void TilePairsPackedAvx512(const TileArgs& a, const float* r) {
       for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
     }
   }
-  if (a.i1 < a.d) {
-    for (int p = 0; p < NP; ++p) {
-      for (int k = 0; k < NR; ++k) {
-        _mm512_storeu_ps(a.lanes + p * a.lanes_stride + k * 2 * kLanes, acc[p][k]);
-      }
-    }
-    return;
-  }
-  for (int p = 0; p < NP; ++p) {
-    for (int k = 0; k < NR; ++k) {
-      __m512 s = acc[p][k];
-      s = _mm512_add_ps(s, _mm512_shuffle_f32x4(s, s, _MM_SHUFFLE(2, 3, 0, 1)));
-      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(2, 3, 0, 1)));
-      s = _mm512_add_ps(s, _mm512_permute_ps(s, _MM_SHUFFLE(1, 0, 3, 2)));
-      a.out[(2 * p) * a.out_stride + k] = _mm512_cvtss_f32(s);
-      a.out[(2 * p + 1) * a.out_stride + k] = _mm_cvtss_f32(_mm512_extractf32x4_ps(s, 2));
-    }
-  }
+  FinishPairLanes(a, acc);
 }
 // Rows [b0, b0 + NR * tiles) of `rows` (d floats each) laid out for TilePairsPackedAvx512<., NR>:
 // tile t's block b (its NR rows' elements [8 b, 8 b + 8), zero-padded past d) at

@@ -487,14 +487,15 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
       Hypothesis& to = next.hypotheses[h];
       const Hypothesis* from = record[h];
       Eigen::VectorXd& posterior = to.posterior;  // prior * L_h, the prior PredictPrior's
+      double predictive;
       if (from != nullptr && from->posterior.size() == num_places) {
         posterior.resize(num_places);
-        PredictPrior(step, from->posterior.data(), num_places, posterior.data());
-        posterior.array() *= *l[h];
+        predictive = PredictPriorTimes(step, from->posterior.data(), num_places, l[h]->data(),
+                                       posterior.data());
       } else {
         posterior = (*l[h] * uniform).matrix();
+        predictive = posterior.sum();
       }
-      const double predictive = posterior.sum();
       to.score = lambda * (from != nullptr ? from->score : mean_score) + std::log(predictive);
     };
     const int64_t filter_work = static_cast<int64_t>(l.size()) * num_places;

@@ -77,6 +77,19 @@ void PredictPrior(const MotionStep& step, const double* p, Eigen::Index n, doubl
   out = ((1 - r) / total) * out + r / static_cast<double>(n);
 }
 
+double PredictPriorTimes(const MotionStep& step, const double* p, Eigen::Index n, const double* l,
+                         double* out) {
+  const double total = kernels::StepSums(p, n, step.weights.data(),
+                                         static_cast<int>(step.weights.size()), step.first, out);
+  // The prior's entries as PredictPrior rounds them, then times l.
+  if (!(total > 0)) {  // no mass moved onto the route: the uniform prior
+    std::fill(out, out + n, 0.0);
+    return kernels::ScaleShiftMultiply(out, n, 0.0, 1.0 / static_cast<double>(n), l);
+  }
+  const double r = step.relocalization;
+  return kernels::ScaleShiftMultiply(out, n, (1 - r) / total, r / static_cast<double>(n), l);
+}
+
 Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,
                              std::optional<double> step_mean) {
   Eigen::VectorXd prior(p.size());

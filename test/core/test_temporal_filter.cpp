@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <numeric>
+#include <string>
 
 #include "bsf_vpr/core/temporal_filter.h"
 #include "bsf_vpr/evaluation/evaluation_runner.h"
@@ -45,6 +47,37 @@ TEST(TemporalFilter, AStepBeyondAnyMapGivesAUniformPrior) {
     EXPECT_NEAR(prior.minCoeff(), 1.0 / 50, 1e-15) << step;
     EXPECT_NEAR(prior.maxCoeff(), 1.0 / 50, 1e-15) << step;
   }
+}
+
+// The adaptive fusion's step for its hypotheses: PredictPrior's prior times a likelihood, bit
+// for bit, and its sum in the kernels' fixed order, on every kernel; with the uniform prior
+// where no mass moves onto the route.
+TEST(TemporalFilter, PredictPriorTimesIsThePriorTimesTheLikelihood) {
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    for (const int n : {1, 13, 300}) {
+      Eigen::VectorXd post(n), l(n);
+      for (int i = 0; i < n; ++i) {
+        post(i) = 1.0 + std::sin(0.7 * i);
+        l(i) = std::exp(std::cos(1.3 * i) * 5);
+      }
+      TemporalFilterOptions o;
+      for (const double step : {1.0, 2.5, 1e6}) {  // 1e6: beyond the route, a uniform prior
+        const MotionStep m = MotionStepOf(o, step);
+        const Eigen::VectorXd want = PredictPrior(post, o, step).cwiseProduct(l);
+        Eigen::VectorXd got(n);
+        const double sum = PredictPriorTimes(m, post.data(), n, l.data(), got.data());
+        double lanes[8] = {};
+        for (int i = 0; i < n; ++i) lanes[i % 8] += want(i);
+        const double want_sum = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5])) +
+                                ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+        const std::string at = kernel + " n " + std::to_string(n) + " step " + std::to_string(step);
+        ASSERT_EQ(std::memcmp(got.data(), want.data(), sizeof(double) * n), 0) << at;
+        ASSERT_EQ(sum, want_sum) << at;
+      }
+    }
+  }
+  SetDistanceKernel("auto");
 }
 
 SyntheticData Route(uint64_t seed) {

@@ -209,6 +209,45 @@ TEST(VectorMath, StepSumsAreTheShiftedSumsOnEveryKernel) {
   SetDistanceKernel("auto");
 }
 
+// The adaptive fusion's prior times a likelihood: on every kernel, bit for bit the scalar
+// loop (x = (a x + b) l, each operation rounded in that order) and its sum in the eight lanes
+// (lane k mod 8, the lanes added in the fixed tree), with and without a tail.
+TEST(VectorMath, ScaleShiftMultiplyIsTheScalarLoopOnEveryKernel) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::uniform_real_distribution<double> exponent(-300.0, 300.0);
+  for (const std::string& kernel : testing::AvailableKernels()) {
+    SetDistanceKernel(kernel);
+    for (const Eigen::Index n : {0, 1, 7, 8, 9, 12, 100, 1003}) {
+      for (int draw = 0; draw < 4; ++draw) {
+        std::vector<double> x(static_cast<size_t>(n)), l(x.size());
+        for (size_t k = 0; k < x.size(); ++k) {
+          x[k] = uni(rng);
+          l[k] = uni(rng) * std::pow(10.0, exponent(rng) / 10);
+        }
+        const double a = uni(rng) / 3.0, b = uni(rng) * 1e-3;
+        std::vector<double> expected = x;
+        double lanes[8] = {};
+        for (size_t k = 0; k < expected.size(); ++k) {
+          const double scaled = a * expected[k];
+          const double shifted = scaled + b;
+          expected[k] = shifted * l[k];
+          lanes[k % 8] += expected[k];
+        }
+        const double want = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5])) +
+                            ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+        const double got = kernels::ScaleShiftMultiply(x.data(), n, a, b, l.data());
+        const std::string at = kernel + " n " + std::to_string(n) + " draw " + std::to_string(draw);
+        ASSERT_EQ(std::memcmp(&got, &want, sizeof(double)), 0) << at;
+        ASSERT_TRUE(n == 0 ||
+                    std::memcmp(x.data(), expected.data(), x.size() * sizeof(double)) == 0)
+            << at;
+      }
+    }
+  }
+  SetDistanceKernel("auto");
+}
+
 // The fusion's weighted sums of columns: on every kernel, bit for bit what Eigen's y += a * x
 // gives one column after another, for lengths with and without a tail and any number of
 // columns (none included), with weights and values over many orders of magnitude.

@@ -57,5 +57,11 @@ MotionStep MotionStepOf(const TemporalFilterOptions& options,
 // PredictPrior with the step made once: the n entries of the prior from `posterior` written
 // to `prior` (which must not overlap it).
 void PredictPrior(const MotionStep& step, const double* posterior, Eigen::Index n, double* prior);
+// The same prior times a likelihood: out = prior * l entry by entry (out must overlap
+// neither `posterior` nor l), in one pass after the step; returns sum_j out[j] (the predictive
+// probability of the likelihood's observation, up to l's scale), added in the fixed order of
+// kernels::SumExp.
+double PredictPriorTimes(const MotionStep& step, const double* posterior, Eigen::Index n,
+                         const double* l, double* out);
 
 }  // namespace bsf_vpr

@@ -317,6 +317,15 @@ double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long
   return StepSumsPortable(p, n, w, taps, s_lo, moved);
 }
 
+double ScaleShiftMultiply(double* x, Eigen::Index n, double a, double b, const double* l) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const Isa isa = CurrentIsa();
+  if (isa >= Isa::kAvx512) return ScaleShiftMultiplyAvx512(x, n, a, b, l);
+  if (isa == Isa::kAvx2) return ScaleShiftMultiplyAvx2(x, n, a, b, l);
+#endif
+  return ScaleShiftMultiplyPortable(x, n, a, b, l);
+}
+
 void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen::Index n) {
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
   const Isa isa = CurrentIsa();

@@ -35,6 +35,11 @@ double SumExp(const double* x, Eigen::Index n, double shift);
 double StepSums(const double* p, Eigen::Index n, const double* w, int taps, long s_lo,
                 double* moved);
 
+// x[k] = (a x[k] + b) l[k] for k < n, each multiply and add rounded in that order (the
+// filter's prior, normalised, times a likelihood); returns sum_k x[k], added in the fixed
+// order SumExp adds its terms.
+double ScaleShiftMultiply(double* x, Eigen::Index n, double a, double b, const double* l);
+
 // y[k] += a[j] x[j][k] for k < n and j = 0, 1, ..., m - 1 in that order, each product
 // rounded and then added (as Eigen's y += a * x, one column after another, computes it).
 void AddScaled(double* y, const double* const* x, const double* a, int m, Eigen::Index n);

@@ -104,20 +104,24 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// AVX-512 does float32 batches two queries to a register in AVX2's order: the same bits, on
-// batches that take every tile shape, any thread count and both metrics.
+// AVX-512 does float32 batches two queries to a register, or by lane from 32 queries, in
+// AVX2's order: the same bits, on batches that take every tile shape, any thread count and
+// both metrics.
 TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
   if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
     GTEST_SKIP() << "this CPU has no AVX-512";
   }
-  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 37 and
-  // 40: enough for the rows to be packed (kPackQueries). 197 rows on 2 threads: blocks of 96
-  // and of 2 or 3 rows; 110 rows: blocks of 55, nine packed tiles and a row left over each.
+  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 32 and
+  // more: by lane (kPackQueries), in panels of 12 queries (37: three and one of 1; 36: three
+  // whole; 100: eight and one of 4) and 32 rows (197 rows on 2 threads: 98 and 99 rows, three
+  // panels and one of 2 or 3; 110: 55 each, one panel and one of 23; 20: 10 each, one panel
+  // of 10, under half a register), with elements past d in the last step (d = 5, 13, 1029, 2051).
   for (auto [nq, d, rows] :
        {std::tuple{19, 8, 197}, std::tuple{20, 517, 197}, std::tuple{19, 1029, 197},
         std::tuple{20, 1029, 197}, std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
-        std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197}, std::tuple{40, 4096, 110}}) {
+        std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197}, std::tuple{40, 4096, 110},
+        std::tuple{32, 5, 20}, std::tuple{36, 8, 65}, std::tuple{100, 1031, 70}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
     const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9));
     for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {

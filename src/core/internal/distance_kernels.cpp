@@ -71,28 +71,18 @@ void Sweep(Isa isa, TileArgs a, const T* rows, int b0, int b1) {
 }
 
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
-// The same over pairs of queries (a.pairs, a.out and a.lanes at the pair's first query). With
-// `packed`, the row block's first `tiles` tiles of NR rows are read from there
-// (PackRowTilesAvx512); the rows left over one by one.
+// The same over pairs of queries (a.pairs, a.out and a.lanes at the pair's first query).
 template <int NP, int NR>
-void SweepPairs(TileArgs a, const float* packed, int tiles, const float* rows, int b0, int b1) {
+void SweepPairs(TileArgs a, const float* rows, int b0, int b1) {
   float* const out = a.out;
   float* const lanes = a.lanes;
-  const int blocks = (a.d + kLanes - 1) / kLanes;
   const auto at = [&](int row) {
     a.out = out + (row - b0);
     a.lanes = lanes ? lanes + (row - b0) * 2 * kLanes : nullptr;
     return rows + static_cast<size_t>(row) * a.d;
   };
   int r = b0;
-  if (packed != nullptr) {
-    for (int t = 0; t < tiles; ++t, r += NR) {
-      at(r);
-      TilePairsPackedAvx512<NP, NR>(a, packed + static_cast<size_t>(t) * blocks * NR * kLanes);
-    }
-  } else {
-    for (; r + NR <= b1; r += NR) TilePairsAvx512<NP, NR>(a, at(r), a.d);
-  }
+  for (; r + NR <= b1; r += NR) TilePairsAvx512<NP, NR>(a, at(r), a.d);
   for (; r < b1; ++r) TilePairsAvx512<NP, 1>(a, at(r), a.d);
 }
 #endif
@@ -100,14 +90,53 @@ void SweepPairs(TileArgs a, const float* packed, int tiles, const float* rows, i
 // Queries from which a tile gains by passes over L1-sized pieces of the rows (and by an
 // aligned copy of the queries).
 constexpr int kBatchQueries = 8;
-// Queries from which the AVX-512 tiles read a row block packed: the copy reads and writes the
-// block once, and each group of 8 queries then reads one stream instead of 6 rows.
+// Queries from which the AVX-512 kernel runs a batch by lane (DotsLanesAvx512): the rows'
+// packing is paid back by the panels of queries that pass over them.
 constexpr int kPackQueries = 32;
+
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+// A large float32 batch on the AVX-512 kernel: the rows 32 at a time packed by lane
+// (PackRowLanesAvx512, in L2 while every panel of 12 queries passes over them), then made
+// distances while in cache. Measured on a 2-core AMD EPYC (Zen 5), 500 queries x 9000 rows x
+// 4096: 95-99% of OpenBLAS sgemm's throughput, where the pair tiles over packed rows reached
+// 79-85% (their 18.7 bytes loaded per FMA against the lane tiles' 7.7).
+void DotsLanesAvx512(const float* rows, int r0, int r1, const Queries& queries, float* out,
+                     int out_stride, const ToDistancesArgs* finish) {
+  const int d = queries.cols, steps = queries.lane_steps, num_queries = queries.rows;
+  std::vector<float> packing(static_cast<size_t>(kLanes) * steps * kLaneRows + 16);
+  float* packed = packing.data();
+  packed += (16 - (reinterpret_cast<uintptr_t>(packed) / sizeof(float)) % 16) % 16;
+  const size_t panel = static_cast<size_t>(kLanes) * steps * kLaneQueries;
+  for (int b0 = r0; b0 < r1; b0 += kLaneRows) {
+    const int count = std::min(kLaneRows, r1 - b0);
+    PackRowLanesAvx512(rows, d, b0, count, packed);
+    for (int q0 = 0; q0 < num_queries; q0 += kLaneQueries) {
+      TileLanesAvx512(queries.lanes.data() + (q0 / kLaneQueries) * panel, packed, steps,
+                      out + static_cast<size_t>(q0) * out_stride + (b0 - r0), out_stride,
+                      std::min(kLaneQueries, num_queries - q0), count);
+    }
+    if (finish != nullptr) {
+      for (int q = 0; q < num_queries; ++q) {
+        formula::ToDistances(finish->metric, finish->query_squared_norms[q],
+                             finish->row_squared_norms + b0, 0, count,
+                             out + static_cast<size_t>(q) * out_stride + (b0 - r0));
+      }
+    }
+  }
+}
+#endif
 
 template <class T>
 void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& queries, float* out,
                int out_stride, const ToDistancesArgs* finish) {
   const Isa isa = CurrentIsa();
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  if constexpr (std::is_same_v<T, float>) {
+    if (isa >= Isa::kAvx512 && !queries.lanes.empty()) {
+      return DotsLanesAvx512(rows, r0, r1, queries, out, out_stride, finish);
+    }
+  }
+#endif
   const int d = queries.cols, num_queries = queries.rows;
   // Like a matrix product's blocking: rows in blocks of 96 (in L2 while a block of 32
   // queries passes over them), and rows cut into passes of 1024 elements, so that a tile's
@@ -126,28 +155,8 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
   const int chunk = num_queries >= kBatchQueries && !int8_rows ? 1024 : d;
   std::vector<float> lanes(chunk < d ? static_cast<size_t>(kQueryBlock) * kRowBlock * kLanes : 0);
   const int lanes_stride = kRowBlock * kLanes;
-  // The AVX-512 tiles of a large batch read their row block packed (PackRowTilesAvx512).
-  // Measured on a 2-core AMD EPYC (Zen 5), 500 queries x 9000 rows x 4096: the distances
-  // from about 75% to about 80-85% of OpenBLAS sgemm's throughput, with the tiles' pointers
-  // stepped and the distances made per row block (ToDistancesArgs).
-  constexpr int kPackRows = 6;
-  std::vector<float> packing;
-  float* packed = nullptr;
-  if (pairs && num_queries >= kPackQueries) {
-    const size_t size =
-        static_cast<size_t>(std::min(kRowBlock, r1 - r0)) * ((d + kLanes - 1) / kLanes) * kLanes;
-    packing.resize(size + 16);
-    packed = packing.data();
-    packed += (16 - (reinterpret_cast<uintptr_t>(packed) / sizeof(float)) % 16) % 16;
-  }
   for (int b0 = r0; b0 < r1; b0 += kRowBlock) {
     const int b1 = std::min(r1, b0 + kRowBlock);
-    [[maybe_unused]] const int tiles = (b1 - b0) / kPackRows;  // (x86 kernels only)
-#ifdef BSF_VPR_HAVE_AVX2_KERNEL
-    if constexpr (std::is_same_v<T, float>) {
-      if (packed != nullptr) PackRowTilesAvx512<kPackRows>(rows, d, b0, tiles, packed);
-    }
-#endif
     for (int qb0 = 0; qb0 < num_queries; qb0 += kQueryBlock) {
       const int qb1 = std::min(num_queries, qb0 + kQueryBlock);
       for (int i0 = 0; i0 < d; i0 += chunk) {
@@ -182,12 +191,8 @@ void DotsTyped(const T* rows, float scale, int r0, int r1, const Queries& querie
               b.lanes_stride = 2 * lanes_stride;
               return b;
             };
-            for (; q + 8 <= qb1; q += 8) {
-              SweepPairs<4, kPackRows>(for_pair(q), packed, tiles, rows, b0, b1);
-            }
-            for (; q + 2 <= qb1; q += 2) {
-              SweepPairs<1, kPackRows>(for_pair(q), packed, tiles, rows, b0, b1);
-            }
+            for (; q + 8 <= qb1; q += 8) SweepPairs<4, 6>(for_pair(q), rows, b0, b1);
+            for (; q + 2 <= qb1; q += 2) SweepPairs<1, 6>(for_pair(q), rows, b0, b1);
           }
         }
 #endif
@@ -213,7 +218,29 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
   out.rows = rows;
   out.cols = cols;
   out.stride = stride;
-  if (rows >= kBatchQueries && CurrentIsa() >= Isa::kAvx512) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+  const bool by_lanes = rows >= kPackQueries && CurrentIsa() >= Isa::kAvx512;
+#else
+  const bool by_lanes = false;
+#endif
+  if (by_lanes) {
+#ifdef BSF_VPR_HAVE_AVX2_KERNEL
+    // Panels of 12 queries, each lane's elements in order (TileLanesAvx512).
+    const int steps = (cols + kLanes - 1) / kLanes;
+    const int panels = (rows + kLaneQueries - 1) / kLaneQueries;
+    out.lane_steps = steps;
+    out.lanes.assign(static_cast<size_t>(panels) * kLanes * steps * kLaneQueries, 0.0f);
+    for (int q = 0; q < rows; ++q) {
+      const float* from = data + static_cast<size_t>(q) * stride;
+      float* to = out.lanes.data() +
+                  static_cast<size_t>(q / kLaneQueries) * kLanes * steps * kLaneQueries +
+                  q % kLaneQueries;
+      for (int i = 0; i < cols; ++i) {
+        to[(static_cast<size_t>(i % kLanes) * steps + i / kLanes) * kLaneQueries] = from[i];
+      }
+    }
+#endif
+  } else if (rows >= kBatchQueries && CurrentIsa() >= Isa::kAvx512) {
     // Pairs of queries interleaved in blocks of eight, zero-padded to a whole block, for
     // the AVX-512 tiles (an odd last query is read where it is).
     const int blocks = (cols + kLanes - 1) / kLanes;

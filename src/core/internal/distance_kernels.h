@@ -46,11 +46,16 @@ struct Queries {
   std::vector<float> aligned;   // holds `data` when copied
   std::vector<int16_t> levels;  // rows x cols, for int8 rows
   std::vector<float> scales;    // rows, for int8 rows
-  // Batches on the AVX-512 kernel: queries 2p and 2p + 1 interleaved in blocks of eight
-  // elements (block b of query 2p at p * pairs_stride + 16 b, of 2p + 1 eight further),
-  // zero-padded to a whole block; an odd last query is not in it.
+  // Batches of 8 to 31 queries on the AVX-512 kernel: queries 2p and 2p + 1 interleaved in
+  // blocks of eight elements (block b of query 2p at p * pairs_stride + 16 b, of 2p + 1 eight
+  // further), zero-padded to a whole block; an odd last query is not in it.
   std::vector<float> pairs;
   int pairs_stride = 0;
+  // Batches of 32 queries or more on the AVX-512 kernel: the queries in panels of 12
+  // (zero-padded), each lane's elements in order: query 12 P + k's element 8 t + j at
+  // lanes[((P * 8 + j) * lane_steps + t) * 12 + k], lane_steps = ceil(cols / 8), zero past cols.
+  std::vector<float> lanes;
+  int lane_steps = 0;
 };
 // `data`: `rows` queries of `cols` floats, query q at data + q * stride (not copied unless
 // the batch is large enough to gain from it: keep it alive while the result is in use).
@@ -74,9 +79,10 @@ float SelfDot(const float* x, int n);
 
 // "avx512", "avx2" or "portable": the kernel this process uses (AVX2 when the CPU has AVX2,
 // FMA and F16C; AVX-512 when it also has AVX-512 F and DQ). The AVX-512 kernel is the AVX2
-// one with float32 batches done two queries to a register, in the same order: the two give
-// the same bits. Force() picks one ("auto" restores the choice by CPU); throws
-// std::invalid_argument for an unknown name or for a kernel the CPU cannot run.
+// one with float32 batches done two queries to a register, or from 32 queries one lane at a
+// time as a matrix product (each lane's sums in the same order): the two give the same bits.
+// Force() picks one ("auto" restores the choice by CPU); throws std::invalid_argument for an
+// unknown name or for a kernel the CPU cannot run.
 std::string Active();
 void Force(const std::string& name);
 

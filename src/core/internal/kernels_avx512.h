@@ -15,8 +15,8 @@ namespace {
 // half of a register holds query 2p's lanes for a row and the high half query 2p + 1's, the
 // row's eight elements broadcast to both halves. A 4-pair x 6-row tile keeps 24 registers of
 // sums (384 pairs' lanes) busy for 10 loads per eight elements, where the AVX2 tile of 4 x 3
-// keeps 12 for 7 loads. Float32 rows in batches only; the rest is the AVX2 kernel's. In a
-// large batch the tiles read their rows packed (TilePairsPackedAvx512).
+// keeps 12 for 7 loads. Float32 rows in batches of 8 to 31 queries only (larger ones run by
+// lane, TileLanesAvx512); the rest is the AVX2 kernel's.
 
 // GCC 12's _mm512_broadcast_f32x8 starts from an undefined register, which it then warns of.
 #pragma GCC diagnostic push
@@ -85,46 +85,138 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
   }
   FinishPairLanes(a, acc);
 }
-// The same tile over rows packed by PackRowTilesAvx512: row k's elements [8 b, 8 b + 8) at
-// r + (b * NR + k) * 8, the last block zero-padded, so that a tile reads one stream (its rows
-// one after another would be NR streams, each starting cold at every pass). The same
-// elements in the same order: the same bits as TilePairsAvx512.
-template <int NP, int NR>
-BSF_VPR_AVX512 void TilePairsPackedAvx512(const TileArgs& a, const float* r) {
-  __m512 acc[NP][NR];
-  StartPairLanes(a, acc);
-  const int end = a.i1 < a.d ? a.i1 : (a.d + kLanes - 1) / kLanes * kLanes;  // padded at d
-  const float* block = r + static_cast<size_t>(a.i0 / kLanes) * NR * kLanes;
-  const float* pair = a.pairs + 2 * static_cast<size_t>(a.i0);
-  for (int i = a.i0; i < end; i += kLanes, block += NR * kLanes, pair += 2 * kLanes) {
-    __m512 qv[NP];
-    for (int p = 0; p < NP; ++p) qv[p] = _mm512_loadu_ps(pair + p * a.pairs_stride);
-    for (int k = 0; k < NR; ++k) {
-      const __m512 rv = _mm512_broadcast_f32x8(_mm256_load_ps(block + k * kLanes));
-      for (int p = 0; p < NP; ++p) acc[p][k] = _mm512_fmadd_ps(qv[p], rv, acc[p][k]);
-    }
+// ---- AVX-512 lane-major tiles: one matrix product per lane ------------------------------
+// Lane j of a pair (query, row) is the sum, from zero, of one FMA per element i = j (mod 8)
+// in increasing i: for each lane, a matrix product of the queries' and the rows' elements of
+// that lane, each output accumulated in order. So a tile of kLaneQueries queries x 32 rows
+// runs as a matrix product's micro-kernel does: per element, one query element broadcast
+// (from memory, into the FMA) against 16 rows' elements in a register, two registers of rows,
+// 24 registers of sums. The eight lanes run one after another and are added in ReduceLanes's
+// tree: the same bits as the other kernels, with about a third of the pair tiles' load traffic
+// per FMA.
+constexpr int kLaneQueries = 12;
+constexpr int kLaneRows = 32;
+
+// Rows [b0, b0 + count) (count <= 32; d floats each) packed for TileLanesAvx512: lane j's
+// step t (element 8 t + j of each row; zero past d and past count) at
+// packed + (j * steps + t) * 32, steps = ceil(d / 8). `packed` on 64 bytes. Eight rows at a
+// time, each block of eight elements transposed in registers (rows to lanes).
+BSF_VPR_AVX512 void PackRowLanesAvx512(const float* rows, int d, int b0, int count, float* packed) {
+  const int steps = (d + kLanes - 1) / kLanes, full = d / kLanes;
+  alignas(32) float tail[kLaneRows][kLanes] = {};  // each row's last block, zero-padded
+  for (int k = 0; k < count && full < steps; ++k) {
+    PadTail(rows + static_cast<size_t>(b0 + k) * d, full * kLanes, d, tail[k]);
   }
-  FinishPairLanes(a, acc);
-}
-// Rows [b0, b0 + NR * tiles) of `rows` (d floats each) laid out for TilePairsPackedAvx512<., NR>:
-// tile t's block b (its NR rows' elements [8 b, 8 b + 8), zero-padded past d) at
-// packed + (t * blocks + b) * NR * 8, blocks = ceil(d / 8); `packed` on 32 bytes.
-template <int NR>
-BSF_VPR_AVX512 void PackRowTilesAvx512(const float* rows, int d, int b0, int tiles, float* packed) {
-  const int blocks = (d + kLanes - 1) / kLanes, full = d / kLanes;
-  for (int t = 0; t < tiles; ++t) {
-    const float* row = rows + static_cast<size_t>(b0 + t * NR) * d;
-    float* to = packed + static_cast<size_t>(t) * blocks * NR * kLanes;
-    for (int b = 0; b < full; ++b, to += NR * kLanes) {
-      for (int k = 0; k < NR; ++k) {
-        _mm256_store_ps(to + k * kLanes,
-                        _mm256_loadu_ps(row + static_cast<size_t>(k) * d + b * kLanes));
+  for (int g = 0; g < kLaneRows / kLanes; ++g) {
+    const float* row[kLanes];
+    for (int k = 0; k < kLanes; ++k) {
+      const int r = g * kLanes + k;
+      row[k] = r < count ? rows + static_cast<size_t>(b0 + r) * d : nullptr;
+    }
+    for (int t = 0; t < steps; ++t) {
+      __m256 v[kLanes];
+      for (int k = 0; k < kLanes; ++k) {
+        v[k] = row[k] == nullptr ? _mm256_setzero_ps()
+               : t < full        ? _mm256_loadu_ps(row[k] + t * kLanes)
+                                 : _mm256_load_ps(tail[g * kLanes + k]);
+      }
+      // The 8 x 8 transpose: lane j of rows 0..7 into c[j].
+      const __m256 u0 = _mm256_unpacklo_ps(v[0], v[1]), u1 = _mm256_unpackhi_ps(v[0], v[1]);
+      const __m256 u2 = _mm256_unpacklo_ps(v[2], v[3]), u3 = _mm256_unpackhi_ps(v[2], v[3]);
+      const __m256 u4 = _mm256_unpacklo_ps(v[4], v[5]), u5 = _mm256_unpackhi_ps(v[4], v[5]);
+      const __m256 u6 = _mm256_unpacklo_ps(v[6], v[7]), u7 = _mm256_unpackhi_ps(v[6], v[7]);
+      const __m256 w0 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0));
+      const __m256 w1 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2));
+      const __m256 w2 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0));
+      const __m256 w3 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2));
+      const __m256 w4 = _mm256_shuffle_ps(u4, u6, _MM_SHUFFLE(1, 0, 1, 0));
+      const __m256 w5 = _mm256_shuffle_ps(u4, u6, _MM_SHUFFLE(3, 2, 3, 2));
+      const __m256 w6 = _mm256_shuffle_ps(u5, u7, _MM_SHUFFLE(1, 0, 1, 0));
+      const __m256 w7 = _mm256_shuffle_ps(u5, u7, _MM_SHUFFLE(3, 2, 3, 2));
+      const __m256 c[kLanes] = {
+          _mm256_permute2f128_ps(w0, w4, 0x20), _mm256_permute2f128_ps(w1, w5, 0x20),
+          _mm256_permute2f128_ps(w2, w6, 0x20), _mm256_permute2f128_ps(w3, w7, 0x20),
+          _mm256_permute2f128_ps(w0, w4, 0x31), _mm256_permute2f128_ps(w1, w5, 0x31),
+          _mm256_permute2f128_ps(w2, w6, 0x31), _mm256_permute2f128_ps(w3, w7, 0x31)};
+      for (int j = 0; j < kLanes; ++j) {
+        _mm256_store_ps(packed + (static_cast<size_t>(j) * steps + t) * kLaneRows + g * kLanes,
+                        c[j]);
       }
     }
-    if (full < blocks) {
-      for (int k = 0; k < NR; ++k)
-        PadTail(row + static_cast<size_t>(k) * d, full * kLanes, d, to + k * kLanes);
+  }
+}
+
+// One lane of a tile: acc[q][h] = sum over the steps, from zero, of a[q] * b[16 h ..] (FMA),
+// a stepping by kLaneQueries and b by 32.
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void LanePassAvx512(
+    const float* a, const float* b, int steps, __m512 (&acc)[kLaneQueries][2]) {
+  for (int q = 0; q < kLaneQueries; ++q) acc[q][0] = acc[q][1] = _mm512_setzero_ps();
+  for (int t = 0; t < steps; ++t, a += kLaneQueries, b += kLaneRows) {
+    const __m512 r0 = _mm512_load_ps(b), r1 = _mm512_load_ps(b + 16);
+    for (int q = 0; q < kLaneQueries; ++q) {
+      const __m512 x = _mm512_set1_ps(a[q]);
+      acc[q][0] = _mm512_fmadd_ps(x, r0, acc[q][0]);
+      acc[q][1] = _mm512_fmadd_ps(x, r1, acc[q][1]);
     }
+  }
+}
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void KeepLanesAvx512(
+    const __m512 (&acc)[kLaneQueries][2], float* keep) {
+  for (int q = 0; q < kLaneQueries; ++q) {
+    _mm512_store_ps(keep + q * kLaneRows, acc[q][0]);
+    _mm512_store_ps(keep + q * kLaneRows + 16, acc[q][1]);
+  }
+}
+// acc = keep + acc (a float sum's operands commute: the bits of acc + keep).
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void AddKeptLanesAvx512(
+    const float* keep, __m512 (&acc)[kLaneQueries][2]) {
+  for (int q = 0; q < kLaneQueries; ++q) {
+    acc[q][0] = _mm512_add_ps(_mm512_load_ps(keep + q * kLaneRows), acc[q][0]);
+    acc[q][1] = _mm512_add_ps(_mm512_load_ps(keep + q * kLaneRows + 16), acc[q][1]);
+  }
+}
+
+// The inner products of a panel of queries (packed: lane j's step t at
+// a + (j * steps + t) * kLaneQueries) with a panel of rows (PackRowLanesAvx512) into
+// out[q * out_stride + r] for q < queries, r < rows: the lanes in the order 0 4 1 5 2 6 3 7,
+// each pair added as it completes, ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)).
+BSF_VPR_AVX512 void TileLanesAvx512(const float* a, const float* b, int steps, float* out,
+                                    int out_stride, int queries, int rows) {
+  __m512 acc[kLaneQueries][2];
+  alignas(64) float keep[3][kLaneQueries * kLaneRows];
+  const auto lane_a = [a, steps](int j) {
+    return a + static_cast<size_t>(j) * steps * kLaneQueries;
+  };
+  const auto lane_b = [b, steps](int j) { return b + static_cast<size_t>(j) * steps * kLaneRows; };
+  LanePassAvx512(lane_a(0), lane_b(0), steps, acc);
+  KeepLanesAvx512(acc, keep[0]);
+  LanePassAvx512(lane_a(4), lane_b(4), steps, acc);
+  AddKeptLanesAvx512(keep[0], acc);  // l0 + l4
+  KeepLanesAvx512(acc, keep[0]);
+  LanePassAvx512(lane_a(1), lane_b(1), steps, acc);
+  KeepLanesAvx512(acc, keep[1]);
+  LanePassAvx512(lane_a(5), lane_b(5), steps, acc);
+  AddKeptLanesAvx512(keep[1], acc);  // l1 + l5
+  AddKeptLanesAvx512(keep[0], acc);  // (l0 + l4) + (l1 + l5)
+  KeepLanesAvx512(acc, keep[0]);
+  LanePassAvx512(lane_a(2), lane_b(2), steps, acc);
+  KeepLanesAvx512(acc, keep[1]);
+  LanePassAvx512(lane_a(6), lane_b(6), steps, acc);
+  AddKeptLanesAvx512(keep[1], acc);  // l2 + l6
+  KeepLanesAvx512(acc, keep[1]);
+  LanePassAvx512(lane_a(3), lane_b(3), steps, acc);
+  KeepLanesAvx512(acc, keep[2]);
+  LanePassAvx512(lane_a(7), lane_b(7), steps, acc);
+  AddKeptLanesAvx512(keep[2], acc);  // l3 + l7
+  AddKeptLanesAvx512(keep[1], acc);  // (l2 + l6) + (l3 + l7)
+  AddKeptLanesAvx512(keep[0], acc);  // the whole tree
+  const __mmask16 low = rows >= 16 ? 0xffff : static_cast<__mmask16>((1u << rows) - 1);
+  const __mmask16 high = rows >= 32  ? 0xffff
+                         : rows > 16 ? static_cast<__mmask16>((1u << (rows - 16)) - 1)
+                                     : 0;
+  for (int q = 0; q < queries; ++q) {
+    _mm512_mask_storeu_ps(out + static_cast<size_t>(q) * out_stride, low, acc[q][0]);
+    _mm512_mask_storeu_ps(out + static_cast<size_t>(q) * out_stride + 16, high, acc[q][1]);
   }
 }
 

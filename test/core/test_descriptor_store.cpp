@@ -104,9 +104,9 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// AVX-512 does float32 batches two queries to a register, or by lane from 32 queries, in
-// AVX2's order: the same bits, on batches that take every tile shape, any thread count and
-// both metrics.
+// AVX-512 does float32 batches two queries to a register, and float32 and float16 batches by
+// lane from 32 queries, in AVX2's order: the same bits, on batches that take every tile shape,
+// any thread count and both metrics.
 TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
   if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
@@ -123,16 +123,20 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
         std::tuple{37, 1029, 110}, std::tuple{40, 2051, 197}, std::tuple{40, 4096, 110},
         std::tuple{32, 5, 20}, std::tuple{36, 8, 65}, std::tuple{100, 1031, 70}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
-    const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9));
-    for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
-      const testing::ScopedDistanceThreads threads(2);
-      SetDistanceKernel("avx2");
-      const RowMatrixXf avx2 = ComputeDistances(m, q, set);
-      SetDistanceKernel("avx512");
-      const RowMatrixXf avx512 = ComputeDistances(m, q, set);
-      SetDistanceKernel("auto");
-      EXPECT_TRUE((avx2.array() == avx512.array()).all())
-          << nq << " queries, d=" << d << " " << ToString(m);
+    for (StoragePrecision p : {StoragePrecision::kFloat32, StoragePrecision::kFloat16}) {
+      ReferenceMap map;
+      map.SetStoragePrecision(p);
+      map.Add(MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9)));
+      for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
+        const testing::ScopedDistanceThreads threads(2);
+        SetDistanceKernel("avx2");
+        const RowMatrixXf avx2 = ComputeDistances(m, q, map.set(0));
+        SetDistanceKernel("avx512");
+        const RowMatrixXf avx512 = ComputeDistances(m, q, map.set(0));
+        SetDistanceKernel("auto");
+        EXPECT_TRUE((avx2.array() == avx512.array()).all())
+            << nq << " queries, d=" << d << " " << ToString(m) << " " << ToString(p);
+      }
     }
   }
 }

@@ -97,18 +97,20 @@ BSF_VPR_AVX512 void TilePairsAvx512(const TileArgs& a, const float* r, int r_str
 constexpr int kLaneQueries = 12;
 constexpr int kLaneRows = 32;
 
-// Rows [b0, b0 + count) (count <= 32; d floats each) packed for TileLanesAvx512: lane j's
-// step t (element 8 t + j of each row; zero past d and past count) at
+// Rows [b0, b0 + count) (count <= 32; d float32 or float16 values each) packed for
+// TileLanesAvx512 as floats: lane j's step t (element 8 t + j of each row; zero past d and
+// past count) at
 // packed + (j * steps + t) * 32, steps = ceil(d / 8). `packed` on 64 bytes. Eight rows at a
 // time, each block of eight elements transposed in registers (rows to lanes).
-BSF_VPR_AVX512 void PackRowLanesAvx512(const float* rows, int d, int b0, int count, float* packed) {
+template <class T>
+BSF_VPR_AVX512 void PackRowLanesAvx512(const T* rows, int d, int b0, int count, float* packed) {
   const int steps = (d + kLanes - 1) / kLanes, full = d / kLanes;
   alignas(32) float tail[kLaneRows][kLanes] = {};  // each row's last block, zero-padded
   for (int k = 0; k < count && full < steps; ++k) {
     PadTail(rows + static_cast<size_t>(b0 + k) * d, full * kLanes, d, tail[k]);
   }
   for (int g = 0; g < kLaneRows / kLanes; ++g) {
-    const float* row[kLanes];
+    const T* row[kLanes];
     for (int k = 0; k < kLanes; ++k) {
       const int r = g * kLanes + k;
       row[k] = r < count ? rows + static_cast<size_t>(b0 + r) * d : nullptr;
@@ -117,7 +119,7 @@ BSF_VPR_AVX512 void PackRowLanesAvx512(const float* rows, int d, int b0, int cou
       __m256 v[kLanes];
       for (int k = 0; k < kLanes; ++k) {
         v[k] = row[k] == nullptr ? _mm256_setzero_ps()
-               : t < full        ? _mm256_loadu_ps(row[k] + t * kLanes)
+               : t < full        ? Load8(row[k] + t * kLanes)
                                  : _mm256_load_ps(tail[g * kLanes + k]);
       }
       // The 8 x 8 transpose: lane j of rows 0..7 into c[j].

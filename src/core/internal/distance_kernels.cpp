@@ -98,7 +98,7 @@ constexpr int kPackQueries = 32;
 // A large float32 or float16 batch on the AVX-512 kernel: the rows 32 at a time packed by lane
 // (PackRowLanesAvx512, in L2 while every panel of 12 queries passes over them), then made
 // distances while in cache. Measured on a 2-core AMD EPYC (Zen 5), 500 queries x 9000 rows x
-// 4096: 95-99% of OpenBLAS sgemm's throughput, where the pair tiles over packed rows reached
+// 4096: 93-99% of OpenBLAS sgemm's throughput, where the pair tiles over packed rows reached
 // 79-85% (their 18.7 bytes loaded per FMA against the lane tiles' 7.7).
 template <class T>
 void DotsLanesAvx512(const T* rows, int r0, int r1, const Queries& queries, float* out,

@@ -5,9 +5,12 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "bsf_vpr/core/likelihood.h"
 #include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/selection.h"
 #include "src/tools/benchmark/benchmark_util.h"
 
 namespace bsf_vpr {
@@ -81,7 +84,11 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
   const ApproximateIndex& index = *recognizer.distance_stage().index();
   // Where a query's time goes: the first stage's approximate distances, the re-ranking of
   // its candidates, and the decision on the distances (selection, likelihoods, fusion).
-  std::vector<double> stage_ms, approximate_ms, rerank_ms, decide_ms;
+  // Of the decision, the likelihoods alone: each set's statistics and its likelihood
+  // (PlaceMatchLogLikelihood: the rank counts and the Gaussian term over its 100,000
+  // distances), the sets spread over the distance threads as the fusion spreads them.
+  std::vector<double> stage_ms, approximate_ms, rerank_ms, decide_ms, likelihood_ms;
+  std::vector<std::vector<double>> log_l(static_cast<size_t>(m));
   for (int q = 0; q < repeats; ++q) {
     const RowMatrixXf one = queries.row(q);
     const auto start = Clock::now();
@@ -91,9 +98,27 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
     stage_ms.push_back(Ms(start));
     approximate_ms.push_back(times.approximate_ms);
     rerank_ms.push_back(times.rerank_ms);
+    const std::vector<RowMatrixXf> kept = dist;
     const auto decide = Clock::now();
     recognizer.Decide(QueryDistances::AllPresent(std::move(dist)), false);
     decide_ms.push_back(Ms(decide));
+    const auto likelihoods = Clock::now();
+    const int threads = m * n >= 50000 ? std::min(DistanceThreads(), m) : 1;  // as the fusion
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (int u = t; u < m; u += threads) {
+          const RowMatrixXf& d = kept[static_cast<size_t>(u)];
+          const SetDistances view{d.data(), nullptr, static_cast<int>(d.size())};
+          std::vector<double>& out = log_l[static_cast<size_t>(u)];
+          out.resize(d.size());
+          PlaceMatchLogLikelihood(view, ComputeDistanceStats(view), LikelihoodOptions{},
+                                  out.data());
+        }
+      });
+    }
+    for (std::thread& th : pool) th.join();
+    likelihood_ms.push_back(Ms(likelihoods));
   }
   std::printf(
       "large   M=%d N=%d D=%d int8 (%.0f MB resident, made in %.1f s; random data: time only): "
@@ -105,9 +130,12 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
       exact_ms / pca_ms);
   std::printf(
       "large   time split of a pca query (medians): first stage %.1f ms, re-rank %.1f ms, "
-      "decision (selection, likelihoods over %d distances, fusion; %s, fusion %s) %.1f ms\n",
+      "decision (selection, likelihoods over %d distances, fusion; %s, fusion %s) %.1f ms; "
+      "of the decision, the likelihoods alone (rank counts and Gaussian term, timed apart) "
+      "%.1f ms\n",
       Median(approximate_ms), Median(rerank_ms), m * n, recognizer.options().method.c_str(),
-      ToString(recognizer.options().method_options.fusion).c_str(), Median(decide_ms));
+      ToString(recognizer.options().method_options.fusion).c_str(), Median(decide_ms),
+      Median(likelihood_ms));
 }
 
 }  // namespace tools

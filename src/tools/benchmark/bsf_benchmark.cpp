@@ -70,7 +70,8 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            of the same image to the describer's input size alone
   large    one query against M=10 sets of N=100,000 places, D=4096, int8 storage (4.1 GB of
            random data: time only), exact vs the pca first stage with re-ranking (its index's
-           build time and memory too)
+           build time and memory too), and where a pca query's time goes: first stage,
+           re-rank, decision, and of the decision the likelihoods timed apart
   scaling  time per query and resident memory for N in {1k,10k,100k}, M in {1,3,10},
            D in {256,1024,4096} (combinations needing over 3/4 of the memory available are
            skipped), with the references stored at --storage float32|float16|int8 (default

@@ -492,9 +492,10 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
         posterior.resize(num_places);
         predictive = PredictPriorTimes(step, from->posterior.data(), num_places, l[h]->data(),
                                        posterior.data());
-      } else {
-        posterior = (*l[h] * uniform).matrix();
-        predictive = posterior.sum();
+      } else {  // a uniform prior: (0 x + 1 / N) L_h, summed as above
+        posterior.setZero(num_places);
+        predictive =
+            kernels::ScaleShiftMultiply(posterior.data(), num_places, 0.0, uniform, l[h]->data());
       }
       to.score = lambda * (from != nullptr ? from->score : mean_score) + std::log(predictive);
     };

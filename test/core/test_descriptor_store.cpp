@@ -114,9 +114,9 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
   }
   // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 32 and
   // more: by lane (kPackQueries), in panels of 12 queries (37: three and one of 1; 36: three
-  // whole; 100: eight and one of 4) and 32 rows (197 rows on 2 threads: 98 and 99 rows, three
-  // panels and one of 2 or 3; 110: 55 each, one panel and one of 23; 20: 10 each, one panel
-  // of 10, under half a register), with elements past d in the last step (d = 5, 13, 1029, 2051).
+  // whole; 100: eight and one of 4) and of 32 rows, whole and partial (the rows are split
+  // between the threads only for a large enough batch), with elements past d in the last step
+  // (d = 5, 13, 1029, 1031, 2051).
   for (auto [nq, d, rows] :
        {std::tuple{19, 8, 197}, std::tuple{20, 517, 197}, std::tuple{19, 1029, 197},
         std::tuple{20, 1029, 197}, std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
@@ -139,6 +139,56 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
       }
     }
   }
+}
+
+// The lane tiles' inner products themselves (not only the distances made from them, which
+// can absorb a last-bit difference): bit for bit the AVX2 kernel's, float32 and float16 rows,
+// for panels of queries whole and partial (32, 37, 100), panels of rows whole, partial, of
+// exactly 16 and under 16 (1, 16, 17, 33, 48, 70), rows shorter than a block and with a tail
+// (d = 1, 5, 8, 13, 1031), and queries prepared on one kernel and run on the other.
+TEST(DescriptorStore, LaneTilesGiveTheAvx2KernelsInnerProducts) {
+  const std::vector<std::string> kernels = testing::AvailableKernels();
+  if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
+    GTEST_SKIP() << "this CPU has no AVX-512";
+  }
+  for (const int d : {1, 5, 8, 13, 1031}) {
+    const RowMatrixXf q = testing::RandomMatrix(100, d, 41);
+    const RowMatrixXf rows = testing::RandomMatrix(70, d, 42);
+    std::vector<uint16_t> halves(static_cast<size_t>(rows.size()));
+    for (Eigen::Index k = 0; k < rows.size(); ++k) {
+      halves[static_cast<size_t>(k)] = FloatToHalf(rows.data()[k]);
+    }
+    for (const StoragePrecision p : {StoragePrecision::kFloat32, StoragePrecision::kFloat16}) {
+      kernels::RefRows refs;
+      refs.precision = p;
+      refs.data = p == StoragePrecision::kFloat32 ? static_cast<const void*>(rows.data())
+                                                  : static_cast<const void*>(halves.data());
+      refs.cols = d;
+      for (const int nq : {32, 37, 100}) {
+        for (const int count : {1, 16, 17, 33, 48, 70}) {
+          const auto dots = [&](const std::string& prepare_on, const std::string& run_on) {
+            SetDistanceKernel(prepare_on);
+            const kernels::Queries prepared = kernels::PrepareQueries(q.data(), nq, d, d, false);
+            SetDistanceKernel(run_on);
+            std::vector<float> out(static_cast<size_t>(nq) * count, -1.0f);
+            kernels::Dots(refs, 0, count, prepared, out.data(), count);
+            return out;
+          };
+          const std::vector<float> avx2 = dots("avx2", "avx2");
+          const std::string at = ToString(p) + " d=" + std::to_string(d) +
+                                 " Q=" + std::to_string(nq) + " rows=" + std::to_string(count);
+          for (const auto& [prepare_on, run_on] :
+               {std::pair{"avx512", "avx512"}, std::pair{"avx512", "avx2"},
+                std::pair{"avx2", "avx512"}}) {
+            const std::vector<float> other = dots(prepare_on, run_on);
+            ASSERT_EQ(std::memcmp(other.data(), avx2.data(), avx2.size() * sizeof(float)), 0)
+                << at << ", prepared on " << prepare_on << ", run on " << run_on;
+          }
+        }
+      }
+    }
+  }
+  SetDistanceKernel("auto");
 }
 
 // Every kernel (AVX2 and AVX-512 where the CPU has them, and the portable one), every storage and
@@ -179,7 +229,7 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
 TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
   for (const int d : {8, 31, 32, 33, 256, 1029, 4096}) {
-    const RowMatrixXf q = testing::RandomMatrix(11, d, 21);
+    const RowMatrixXf q = testing::RandomMatrix(40, d, 21);
     const RowMatrixXf rows = testing::RandomMatrix(100, d, 22);
     std::vector<int8_t> codes(static_cast<size_t>(rows.size()));
     for (Eigen::Index k = 0; k < rows.size(); ++k) {
@@ -197,11 +247,11 @@ TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
     RowMatrixXf first_distances;
     for (const std::string& kernel : kernels) {
       SetDistanceKernel(kernel);
-      for (int nq : {1, 11}) {  // one query (tiles of 1 x 6) and a batch (4 x 3)
+      for (int nq : {1, 11, 40}) {  // one query (tiles of 1 x 6) and batches (4 x 3)
         const kernels::Queries prepared = kernels::PrepareQueries(q.data(), nq, d, d, true);
         std::vector<float> dots(static_cast<size_t>(nq) * 100);
         kernels::Dots(refs, 0, 100, prepared, dots.data(), 100);
-        if (first.size() < dots.size()) first = dots;
+        if (first.size() < dots.size()) first = dots;  // the largest batch of the first kernel
         for (size_t k = 0; k < dots.size(); ++k) {
           ASSERT_EQ(dots[k], first[k]) << kernel << " d=" << d << " Q=" << nq << " entry " << k;
         }

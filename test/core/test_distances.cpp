@@ -54,9 +54,10 @@ TEST(Distances, AnyThreadCountGivesBitwiseTheSameDistances) {
   EXPECT_GE(DistanceThreads(), 1);
 }
 
-// A batch large enough for every part of the batch path: several blocks of 96 rows and of
-// 32 queries, threads splitting the rows, the AVX-512 tiles' packed rows (32 queries or more)
-// and the distances made per row block: both metrics against a straightforward loop.
+// A batch large enough for every part of the batch path: on AVX-512 the lane tiles (32
+// queries or more: panels of 12 queries and 32 rows, whole and partial), elsewhere blocks of
+// 96 rows and of 32 queries, and the distances made per block of rows: both metrics against
+// a straightforward loop.
 TEST(Distances, ALargeBatchMatchesNaiveLoopsForBothMetrics) {
   RowMatrixXf q = testing::RandomMatrix(45, 61, 31);
   RowMatrixXf r = testing::RandomMatrix(230, 61, 32);

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <string>
 
@@ -55,25 +56,30 @@ TEST(TemporalFilter, AStepBeyondAnyMapGivesAUniformPrior) {
 TEST(TemporalFilter, PredictPriorTimesIsThePriorTimesTheLikelihood) {
   for (const std::string& kernel : testing::AvailableKernels()) {
     SetDistanceKernel(kernel);
-    for (const int n : {1, 13, 300}) {
-      Eigen::VectorXd post(n), l(n);
-      for (int i = 0; i < n; ++i) {
-        post(i) = 1.0 + std::sin(0.7 * i);
-        l(i) = std::exp(std::cos(1.3 * i) * 5);
-      }
-      TemporalFilterOptions o;
-      for (const double step : {1.0, 2.5, 1e6}) {  // 1e6: beyond the route, a uniform prior
-        const MotionStep m = MotionStepOf(o, step);
-        const Eigen::VectorXd want = PredictPrior(post, o, step).cwiseProduct(l);
-        Eigen::VectorXd got(n);
-        const double sum = PredictPriorTimes(m, post.data(), n, l.data(), got.data());
-        double lanes[8] = {};
-        for (int i = 0; i < n; ++i) lanes[i % 8] += want(i);
-        const double want_sum = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5])) +
-                                ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
-        const std::string at = kernel + " n " + std::to_string(n) + " step " + std::to_string(step);
-        ASSERT_EQ(std::memcmp(got.data(), want.data(), sizeof(double) * n), 0) << at;
-        ASSERT_EQ(sum, want_sum) << at;
+    for (const int n : {1, 13, 16, 300}) {
+      for (const int kind : {0, 1, 2}) {  // a belief; all zero; one NaN (no mass: uniform)
+        Eigen::VectorXd post(n), l(n);
+        for (int i = 0; i < n; ++i) {
+          post(i) = kind == 1 ? 0.0 : 1.0 + std::sin(0.7 * i);
+          l(i) = std::exp(std::cos(1.3 * i) * 5);
+        }
+        if (kind == 2) post(n / 2) = std::numeric_limits<double>::quiet_NaN();
+        TemporalFilterOptions o;
+        for (const double step : {1.0, 2.5, 1e6}) {  // 1e6: beyond the route, a uniform prior
+          const MotionStep m = MotionStepOf(o, step);
+          const Eigen::VectorXd want = PredictPrior(post, o, step).cwiseProduct(l);
+          Eigen::VectorXd got(n);
+          const double sum = PredictPriorTimes(m, post.data(), n, l.data(), got.data());
+          double lanes[8] = {};
+          for (int i = 0; i < n; ++i) lanes[i % 8] += want(i);
+          const double want_sum = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5])) +
+                                  ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+          const std::string at = kernel + " n " + std::to_string(n) + " kind " +
+                                 std::to_string(kind) + " step " + std::to_string(step);
+          ASSERT_TRUE(want.allFinite()) << at;
+          ASSERT_EQ(std::memcmp(got.data(), want.data(), sizeof(double) * n), 0) << at;
+          ASSERT_EQ(sum, want_sum) << at;
+        }
       }
     }
   }

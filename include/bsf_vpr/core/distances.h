@@ -52,8 +52,9 @@ int DistanceThreads();
 // "avx2" (AVX2 + FMA + F16C), each chosen when the CPU has it, or "portable".
 // SetDistanceKernel("portable" | "avx2" | "avx512" | "avx512_vnni" | "auto") overrides the
 // choice for the process (tests, benchmarks); throws std::invalid_argument if the CPU cannot
-// run it. "avx512_vnni", "avx512" and "avx2" give the same bits (the same order and FMA,
-// batches two queries to a register); "portable" differs from them in the last bits of
+// run it. "avx512_vnni", "avx512" and "avx2" give the same bits (the same order and FMA;
+// AVX-512 batches two queries to a register, or from 32 queries one lane at a time);
+// "portable" differs from them in the last bits of
 // float32 and float16 rows. int8 rows are summed exactly in integers: the same bits on
 // every kernel.
 std::string DistanceKernel();

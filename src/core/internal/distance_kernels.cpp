@@ -92,7 +92,7 @@ void SweepPairs(TileArgs a, const float* rows, int b0, int b1) {
 constexpr int kBatchQueries = 8;
 // Queries from which the AVX-512 kernel runs a batch by lane (DotsLanesAvx512): the rows'
 // packing is paid back by the panels of queries that pass over them.
-constexpr int kPackQueries = 32;
+[[maybe_unused]] constexpr int kPackQueries = 32;  // (x86 kernels only)
 
 #ifdef BSF_VPR_HAVE_AVX2_KERNEL
 // A large float32 or float16 batch on the AVX-512 kernel: the rows 32 at a time packed by lane

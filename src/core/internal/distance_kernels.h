@@ -79,8 +79,9 @@ float SelfDot(const float* x, int n);
 
 // "avx512", "avx2" or "portable": the kernel this process uses (AVX2 when the CPU has AVX2,
 // FMA and F16C; AVX-512 when it also has AVX-512 F and DQ). The AVX-512 kernel is the AVX2
-// one with float32 batches done two queries to a register, or from 32 queries one lane at a
-// time as a matrix product (each lane's sums in the same order): the two give the same bits.
+// one with float32 batches done two queries to a register, or (float32 and float16 rows) from
+// 32 queries one lane at a time as a matrix product, each lane's sums in the same order: the
+// two give the same bits.
 // Force() picks one ("auto" restores the choice by CPU); throws std::invalid_argument for an
 // unknown name or for a kernel the CPU cannot run.
 std::string Active();

@@ -1,6 +1,8 @@
-// The AVX-512 kernel (AVX-512 F and DQ): two queries' eight lanes in one __m512, float32
-// batches only; CpuHasAvx512(). With AVX-512 VNNI (and BW) the int8 rows' integer inner
-// products too (CpuHasAvx512Vnni()). Included by distance_kernels.cpp alone.
+// The AVX-512 kernel (AVX-512 F and DQ), for batches only: float32 batches of 8-31 queries
+// with two queries' eight lanes in one __m512, float32 and float16 batches of 32 or more one
+// lane at a time as a matrix product; CpuHasAvx512(). With AVX-512 VNNI (and BW) the int8
+// rows' integer inner products too (CpuHasAvx512Vnni()). Included by distance_kernels.cpp
+// alone.
 #pragma once
 
 #include "src/core/internal/kernels_avx2.h"

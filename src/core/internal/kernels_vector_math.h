@@ -470,8 +470,9 @@ BSF_VPR_AVX512 void LogKernelAvx512(const double* x, Eigen::Index n, double* out
   for (; k < n; ++k) out[k] = LogOne(x[k]);
 }
 #pragma GCC diagnostic pop
-// The same a register of lanes at a time, each lane's operations those of the portable loop.
-// Lanes 0-3 and 4-7 of the sum in two registers (AVX2), all eight in one (AVX-512).
+// ScaleShiftMultiply a register of lanes at a time, each lane's operations those of the
+// portable loop: lanes 0-3 and 4-7 of the sum in two registers (AVX2), all eight in one
+// (AVX-512).
 BSF_VPR_AVX2 double ScaleShiftMultiplyAvx2(double* x, Eigen::Index n, double a, double b,
                                            const double* l) {
   const __m256d va = _mm256_set1_pd(a), vb = _mm256_set1_pd(b);
@@ -510,6 +511,7 @@ BSF_VPR_AVX512 double ScaleShiftMultiplyAvx512(double* x, Eigen::Index n, double
   ScaleShiftMultiplyScalar(x, k, n, a, b, l, lanes);
   return ReduceLanesDouble(lanes);
 }
+// The same a register of lanes at a time, each lane's operations those of the portable loop.
 BSF_VPR_AVX2 void AddScaledAvx2(double* y, const double* const* x, const double* a, int m,
                                 Eigen::Index n) {
   Eigen::Index k = 0;

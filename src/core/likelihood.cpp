@@ -120,17 +120,24 @@ void PlaceMatchLogLikelihood(const SetDistances& d, const LikelihoodOptions& opt
 void UnnormalisedPlaceMatchLogLikelihood(const SetDistances& d, const DistanceStats& st,
                                          const LikelihoodOptions& options,
                                          double* log_likelihood) {
-  // log c_k written where the sorted order finds it: the table is read in order (c falls).
+  // log c_k + e_k^2 / (2 sigma^2), written where the sorted order finds place k (the table of
+  // logs is read in order: c falls), in that one pass: a second pass over the places after
+  // the sort's scattered writes cost as much as the sort.
   const double* log_of = LogTable(std::max(d.count, 0));
-  RankCountsTo(d.values, d.count,
-               [log_of, log_likelihood](size_t k, int c) { log_likelihood[k] = log_of[c]; });
   const double var = st.stddev * st.stddev;
   const double half_inv_var = var > 0 ? 0.5 / var : 0.0;
-  const bool one_sided = options.variant == LikelihoodVariant::kOneSided;
-  for (int k = 0; k < d.count; ++k) {
-    double e = d.values[k] - st.mean;
-    if (one_sided) e = std::min(e, 0.0);
-    log_likelihood[k] += e * e * half_inv_var;
+  const double mean = st.mean;
+  const float* v = d.values;
+  if (options.variant == LikelihoodVariant::kOneSided) {  // no credit above the mean
+    RankCountsTo(v, d.count, [=](size_t k, int c) {
+      const double e = std::min(v[k] - mean, 0.0);
+      log_likelihood[k] = log_of[c] + e * e * half_inv_var;
+    });
+  } else {
+    RankCountsTo(v, d.count, [=](size_t k, int c) {
+      const double e = v[k] - mean;
+      log_likelihood[k] = log_of[c] + e * e * half_inv_var;
+    });
   }
 }
 

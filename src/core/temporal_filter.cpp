@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "src/core/internal/vector_math.h"
@@ -62,32 +63,36 @@ MotionStep MotionStepOf(const TemporalFilterOptions& options, std::optional<doub
   return step;
 }
 
-void PredictPrior(const MotionStep& step, const double* p, Eigen::Index n, double* prior) {
-  // moved(j) = sum_k w[k] p(j - s_k), the steps added in k order. The steps' weights need no
-  // normalising: the moved mass is normalised as a whole (mass moved past the end of the
-  // route is lost).
+namespace {
+
+// The moved mass into `moved`, and the prior as a x moved + b: moved(j) = sum_k w[k] p(j - s_k),
+// the steps added in k order. The steps' weights need no normalising: the moved mass is
+// normalised as a whole (mass moved past the end of the route is lost). Where none is left
+// (or the belief held NaN), `moved` is zeroed and the prior is uniform (a = 0, b = 1 / n).
+std::pair<double, double> MoveMass(const MotionStep& step, const double* p, Eigen::Index n,
+                                   double* moved) {
   const double total = kernels::StepSums(p, n, step.weights.data(),
-                                         static_cast<int>(step.weights.size()), step.first, prior);
-  Eigen::Map<Eigen::ArrayXd> out(prior, n);
+                                         static_cast<int>(step.weights.size()), step.first, moved);
   if (!(total > 0)) {
-    out.setConstant(1.0 / static_cast<double>(n));
-    return;
+    std::fill(moved, moved + n, 0.0);
+    return {0.0, 1.0 / static_cast<double>(n)};
   }
   const double r = step.relocalization;
-  out = ((1 - r) / total) * out + r / static_cast<double>(n);
+  return {(1 - r) / total, r / static_cast<double>(n)};
+}
+
+}  // namespace
+
+void PredictPrior(const MotionStep& step, const double* p, Eigen::Index n, double* prior) {
+  const auto [a, b] = MoveMass(step, p, n, prior);
+  Eigen::Map<Eigen::ArrayXd> out(prior, n);
+  out = a * out + b;
 }
 
 double PredictPriorTimes(const MotionStep& step, const double* p, Eigen::Index n, const double* l,
                          double* out) {
-  const double total = kernels::StepSums(p, n, step.weights.data(),
-                                         static_cast<int>(step.weights.size()), step.first, out);
-  // The prior's entries as PredictPrior rounds them, then times l.
-  if (!(total > 0)) {  // no mass moved onto the route: the uniform prior
-    std::fill(out, out + n, 0.0);
-    return kernels::ScaleShiftMultiply(out, n, 0.0, 1.0 / static_cast<double>(n), l);
-  }
-  const double r = step.relocalization;
-  return kernels::ScaleShiftMultiply(out, n, (1 - r) / total, r / static_cast<double>(n), l);
+  const auto [a, b] = MoveMass(step, p, n, out);  // the prior's entries as PredictPrior's
+  return kernels::ScaleShiftMultiply(out, n, a, b, l);
 }
 
 Eigen::VectorXd PredictPrior(const Eigen::VectorXd& p, const TemporalFilterOptions& options,

@@ -23,6 +23,13 @@ namespace {
 
 // ---- driver: tiles over a block of rows that stays in cache ---------------------------
 
+// `buffer` sized for `count` floats starting on a 64-byte boundary; returns that start.
+float* On64Bytes(size_t count, std::vector<float>* buffer) {
+  buffer->resize(count + 16);
+  float* p = buffer->data();
+  return p + (16 - (reinterpret_cast<uintptr_t>(p) / sizeof(float)) % 16) % 16;
+}
+
 // In order of what they add: each runs whatever the one before it runs.
 enum class Isa { kPortable, kAvx2, kAvx512, kAvx512Vnni };
 std::atomic<int> g_forced{-1};  // -1: by CPU
@@ -104,9 +111,8 @@ template <class T>
 void DotsLanesAvx512(const T* rows, int r0, int r1, const Queries& queries, float* out,
                      int out_stride, const ToDistancesArgs* finish) {
   const int d = queries.cols, steps = queries.lane_steps, num_queries = queries.rows;
-  std::vector<float> packing(static_cast<size_t>(kLanes) * steps * kLaneRows + 16);
-  float* packed = packing.data();
-  packed += (16 - (reinterpret_cast<uintptr_t>(packed) / sizeof(float)) % 16) % 16;
+  std::vector<float> packing;
+  float* const packed = On64Bytes(static_cast<size_t>(kLanes) * steps * kLaneRows, &packing);
   const size_t panel = static_cast<size_t>(kLanes) * steps * kLaneQueries;
   for (int b0 = r0; b0 < r1; b0 += kLaneRows) {
     const int count = std::min(kLaneRows, r1 - b0);
@@ -255,9 +261,7 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
     }
   } else if (rows >= kBatchQueries) {  // a batch reads every query many times: align its rows
     const int aligned_stride = (cols + 15) / 16 * 16;
-    out.aligned.resize(static_cast<size_t>(rows) * aligned_stride + 16);
-    float* base = out.aligned.data();
-    base += (16 - (reinterpret_cast<uintptr_t>(base) / sizeof(float)) % 16) % 16;
+    float* const base = On64Bytes(static_cast<size_t>(rows) * aligned_stride, &out.aligned);
     for (int q = 0; q < rows; ++q) {
       const float* from = data + static_cast<size_t>(q) * stride;
       std::copy(from, from + cols, base + static_cast<size_t>(q) * aligned_stride);

@@ -180,40 +180,39 @@ BSF_VPR_AVX512 inline __attribute__((always_inline)) void AddKeptLanesAvx512(
   }
 }
 
+// Lanes j and j + 4 of a tile (lane j's step t at a + (j * steps + t) * kLaneQueries, and at
+// b + (j * steps + t) * 32): acc = l_j + l_{j+4}, lane j kept in `scratch` meanwhile.
+BSF_VPR_AVX512 inline __attribute__((always_inline)) void LanePairAvx512(
+    const float* a, const float* b, int steps, int j, float* scratch,
+    __m512 (&acc)[kLaneQueries][2]) {
+  const auto lane_a = [a, steps](int k) {
+    return a + static_cast<size_t>(k) * steps * kLaneQueries;
+  };
+  const auto lane_b = [b, steps](int k) { return b + static_cast<size_t>(k) * steps * kLaneRows; };
+  LanePassAvx512(lane_a(j), lane_b(j), steps, acc);
+  KeepLanesAvx512(acc, scratch);
+  LanePassAvx512(lane_a(j + 4), lane_b(j + 4), steps, acc);
+  AddKeptLanesAvx512(scratch, acc);
+}
+
 // The inner products of a panel of queries (packed: lane j's step t at
 // a + (j * steps + t) * kLaneQueries) with a panel of rows (PackRowLanesAvx512) into
-// out[q * out_stride + r] for q < queries, r < rows: the lanes in the order 0 4 1 5 2 6 3 7,
-// each pair added as it completes, ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)).
+// out[q * out_stride + r] for q < queries, r < rows: lanes in pairs (0 4, 1 5, 2 6, 3 7),
+// added as ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)).
 BSF_VPR_AVX512 void TileLanesAvx512(const float* a, const float* b, int steps, float* out,
                                     int out_stride, int queries, int rows) {
   __m512 acc[kLaneQueries][2];
-  alignas(64) float keep[3][kLaneQueries * kLaneRows];
-  const auto lane_a = [a, steps](int j) {
-    return a + static_cast<size_t>(j) * steps * kLaneQueries;
-  };
-  const auto lane_b = [b, steps](int j) { return b + static_cast<size_t>(j) * steps * kLaneRows; };
-  LanePassAvx512(lane_a(0), lane_b(0), steps, acc);
+  alignas(64) float keep[3][kLaneQueries * kLaneRows];  // two partial sums and a scratch
+  LanePairAvx512(a, b, steps, 0, keep[2], acc);         // l0 + l4
   KeepLanesAvx512(acc, keep[0]);
-  LanePassAvx512(lane_a(4), lane_b(4), steps, acc);
-  AddKeptLanesAvx512(keep[0], acc);  // l0 + l4
+  LanePairAvx512(a, b, steps, 1, keep[2], acc);  // l1 + l5
+  AddKeptLanesAvx512(keep[0], acc);              // (l0 + l4) + (l1 + l5)
   KeepLanesAvx512(acc, keep[0]);
-  LanePassAvx512(lane_a(1), lane_b(1), steps, acc);
+  LanePairAvx512(a, b, steps, 2, keep[2], acc);  // l2 + l6
   KeepLanesAvx512(acc, keep[1]);
-  LanePassAvx512(lane_a(5), lane_b(5), steps, acc);
-  AddKeptLanesAvx512(keep[1], acc);  // l1 + l5
-  AddKeptLanesAvx512(keep[0], acc);  // (l0 + l4) + (l1 + l5)
-  KeepLanesAvx512(acc, keep[0]);
-  LanePassAvx512(lane_a(2), lane_b(2), steps, acc);
-  KeepLanesAvx512(acc, keep[1]);
-  LanePassAvx512(lane_a(6), lane_b(6), steps, acc);
-  AddKeptLanesAvx512(keep[1], acc);  // l2 + l6
-  KeepLanesAvx512(acc, keep[1]);
-  LanePassAvx512(lane_a(3), lane_b(3), steps, acc);
-  KeepLanesAvx512(acc, keep[2]);
-  LanePassAvx512(lane_a(7), lane_b(7), steps, acc);
-  AddKeptLanesAvx512(keep[2], acc);  // l3 + l7
-  AddKeptLanesAvx512(keep[1], acc);  // (l2 + l6) + (l3 + l7)
-  AddKeptLanesAvx512(keep[0], acc);  // the whole tree
+  LanePairAvx512(a, b, steps, 3, keep[2], acc);  // l3 + l7
+  AddKeptLanesAvx512(keep[1], acc);              // (l2 + l6) + (l3 + l7)
+  AddKeptLanesAvx512(keep[0], acc);              // the whole tree
   const __mmask16 low = rows >= 16 ? 0xffff : static_cast<__mmask16>((1u << rows) - 1);
   const __mmask16 high = rows >= 32  ? 0xffff
                          : rows > 16 ? static_cast<__mmask16>((1u << (rows - 16)) - 1)

@@ -82,7 +82,7 @@ std::string QueryDescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& d
 }
 
 std::string ImageFileProblem(const std::string& file) {
-  if (file.empty()) return "is empty";
+  if (file.empty()) return "";  // the row has no image
   if (file[0] == '/') return "'" + file + "' is absolute (it must be relative to images)";
   size_t start = 0;
   while (start <= file.size()) {

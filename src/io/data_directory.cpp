@@ -2,6 +2,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -337,6 +338,86 @@ void DataDirectory::Remove(const std::string& relative) const {
 int DataDirectory::RemoveStaleTemporaries() const {
   const Fd root(OpenRoot());
   return RemoveTemporariesBelow(root.get());
+}
+
+void DataDirectory::CreateFolder(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, true);
+  if (mkdirat(dir.get(), parts.back().c_str(), 0755) != 0) {
+    throw std::runtime_error(SystemError("create the folder", relative, errno));
+  }
+  fsync(dir.get());
+}
+
+bool DataDirectory::RemoveEmptyFolder(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  Fd dir;
+  try {
+    dir = OpenParent(root.get(), parts, relative, false);
+  } catch (const std::runtime_error&) {
+    if (!Exists(relative)) return true;  // a folder on the way is gone: so is this one
+    throw;
+  }
+  if (unlinkat(dir.get(), parts.back().c_str(), AT_REMOVEDIR) == 0) return true;
+  return errno == ENOENT;
+}
+
+DataDirectory::LockedFile& DataDirectory::LockedFile::operator=(LockedFile&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) close(fd_);
+    fd_ = o.fd_;
+    o.fd_ = -1;
+  }
+  return *this;
+}
+
+DataDirectory::LockedFile::~LockedFile() {
+  if (fd_ >= 0) close(fd_);  // releases the lock
+}
+
+DataDirectory::LockedFile DataDirectory::CreateLocked(const std::string& relative,
+                                                      const std::string& bytes) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, true);
+  const char* name = parts.back().c_str();
+  Fd file(openat(dir.get(), name, O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
+  if (file.get() < 0) throw std::runtime_error(SystemError("create", relative, errno));
+  int err = 0;
+  if (flock(file.get(), LOCK_EX) != 0) err = errno;
+  size_t written = 0;
+  while (err == 0 && written < bytes.size()) {
+    const ssize_t n = write(file.get(), bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) err = errno;
+    if (n > 0) written += static_cast<size_t>(n);
+  }
+  if (err == 0 && fsync(file.get()) != 0) err = errno;
+  if (err == 0 && fsync(dir.get()) != 0) err = errno;
+  if (err != 0) {
+    unlinkat(dir.get(), name, 0);
+    throw std::runtime_error(SystemError("write", relative, err));
+  }
+  return LockedFile(file.release());
+}
+
+std::optional<std::string> DataDirectory::ReadIfUnlocked(const std::string& relative,
+                                                         LockedFile* lock) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
+  Fd file(openat(dir.get(), parts.back().c_str(),
+                 O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+  if (file.get() < 0) throw std::runtime_error(SystemError("open", relative, errno));
+  if (flock(file.get(), LOCK_EX | LOCK_NB) != 0) {
+    if (errno == EWOULDBLOCK) return std::nullopt;
+    throw std::runtime_error(SystemError("lock", relative, errno));
+  }
+  std::string bytes = ReadRegularFile(file.get(), relative);
+  *lock = LockedFile(file.release());
+  return bytes;
 }
 
 std::string QuotedForMessage(const std::string& text, size_t max_chars) {

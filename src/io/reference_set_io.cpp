@@ -13,10 +13,14 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
+#include "src/io/internal/save_journal.h"
 #include "src/io/internal/saved_descriptors.h"
 
 namespace bsf_vpr {
 namespace {
+
+// Marks a save's own image folders: "<stem>_images.<8 characters>".
+constexpr char kSavedImagesMarker[] = "_images.";
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
@@ -100,6 +104,7 @@ void CheckImageFilesExist(const FileAccess& files, const std::string& folder,
                           const std::string& field, const std::vector<std::string>& names) {
   std::map<std::string, std::vector<std::string>> listed = {{"", files.list(folder)}};
   for (size_t k = 0; k < names.size(); ++k) {
+    if (names[k].empty()) continue;  // the row has no image
     const size_t slash = names[k].rfind('/');
     const std::string sub = slash == std::string::npos ? "" : names[k].substr(0, slash);
     auto it = listed.find(sub);
@@ -290,7 +295,8 @@ std::string ImagesField(const std::string& images, const std::string& yaml_folde
 }
 
 std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
-                        const std::string& yaml_folder) {
+                        const std::string& yaml_folder, const std::string& images,
+                        const std::vector<std::string>& image_files) {
   YAML::Emitter out;
   out << YAML::BeginMap;
   out << YAML::Key << "name" << YAML::Value << set.name;
@@ -309,12 +315,79 @@ std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
     }
     out << YAML::EndSeq;
   }
-  if (!set.image_files.empty()) {
-    out << YAML::Key << "images" << YAML::Value << ImagesField(set.images, yaml_folder);
-    out << YAML::Key << "image_files" << YAML::Value << YAML::Flow << set.image_files;
+  if (!image_files.empty()) {
+    out << YAML::Key << "images" << YAML::Value << ImagesField(images, yaml_folder);
+    out << YAML::Key << "image_files" << YAML::Value << YAML::Flow << image_files;
   }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
+}
+
+// A new folder for a save's images: "<stem>_images.<8 characters>", not there yet.
+std::string SavedImageFolder(const DataDirectory& dir, const std::string& stem) {
+  for (;;) {
+    const std::string folder = stem + kSavedImagesMarker + RandomChars(8);
+    if (!dir.Exists(folder)) return folder;
+  }
+}
+
+// Whether `folder` (relative) is a folder SavedImageFolder made for `stem`.
+bool IsSavedImageFolder(const std::string& folder, const std::string& stem) {
+  const std::string prefix = stem + kSavedImagesMarker;
+  return folder.size() == prefix.size() + 8 && folder.compare(0, prefix.size(), prefix) == 0 &&
+         folder.find('/', prefix.size()) == std::string::npos;
+}
+
+// Row `row`'s image file name, "" for a row without an image: "000042.png" or ".jpg".
+std::string SavedImageName(size_t row, const std::string& encoded) {
+  if (encoded.empty()) return "";
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06zu%s", row,
+                encoded.size() > 3 && encoded.compare(1, 3, "PNG") == 0 ? ".png" : ".jpg");
+  return name;
+}
+
+// Adds to *files what the YAML at `yaml` (the set about to be replaced) names that is the
+// set's own, made by an earlier save: its descriptors `<stem>.<hash>.npy` and the images in
+// a folder SavedImageFolder made. A file a person put there (another name, another folder)
+// is never the save's to remove.
+void AddReplacedFiles(const DataDirectory& dir, const std::string& yaml, const std::string& stem,
+                      SaveFiles* files) {
+  YAML::Node old;
+  try {
+    old = YAML::Load(dir.Read(yaml));
+  } catch (const std::exception&) {
+    return;  // an unreadable old YAML: what it names stays where it is
+  }
+  if (!old.IsMap()) return;
+  const FileAccess below = Below(dir);
+  try {
+    if (old["descriptors"] && old["descriptors"].IsScalar()) {
+      const std::string npy = below.resolve(yaml, old["descriptors"].as<std::string>());
+      // "<stem>.<12 hex digits>.npy": this stem's, not another's that starts with it.
+      if (npy != files->descriptors && npy.size() == stem.size() + 1 + 12 + 4 &&
+          npy.rfind(stem + ".", 0) == 0 && HasSavedDescriptorName(BaseName(npy))) {
+        files->replaced.push_back(npy);
+      }
+    }
+  } catch (const std::exception&) {
+  }
+  try {
+    if (!old["images"] || !old["images"].IsScalar() || !old["image_files"] ||
+        !old["image_files"].IsSequence()) {
+      return;
+    }
+    const std::string folder = below.resolve(yaml, old["images"].as<std::string>());
+    if (!IsSavedImageFolder(folder, stem)) return;
+    for (const YAML::Node& image : old["image_files"]) {
+      const std::string name = image.as<std::string>();
+      if (!name.empty() && ImageFileProblem(name).empty()) {
+        files->replaced.push_back(dir.Relative(folder + "/" + name));
+      }
+    }
+    files->replaced_folders.push_back(folder);
+  } catch (const std::exception&) {
+  }
 }
 
 }  // namespace
@@ -358,6 +431,13 @@ void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
 
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace) {
+  SaveOptions options;
+  options.replace = replace;
+  SaveReferenceSet(dir, set, yaml_request, options);
+}
+
+SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                             const std::string& yaml_request, const SaveOptions& options) {
   const std::string name_problem = SetNameProblem(set.name);
   if (!name_problem.empty()) throw std::invalid_argument(name_problem);
   set.Validate();
@@ -366,44 +446,106 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     throw std::invalid_argument("a reference set is saved as a .yaml, got " +
                                 QuotedForMessage(yaml_request));
   }
-  if (!replace && dir.Exists(yaml)) {
+  if (!options.replace && dir.Exists(yaml)) {
     throw std::invalid_argument(QuotedForMessage(yaml) +
                                 " exists already; choose another name (or ask to overwrite)");
   }
-  // The descriptors go to a file named by their content, then the YAML that names them is
-  // renamed into place: that rename is the one step that replaces the old set by the new
-  // one, so an interruption anywhere leaves either the old pair or the new pair whole.
+  if (options.images && options.images->size() != static_cast<size_t>(set.size())) {
+    throw std::invalid_argument("saving " + QuotedForMessage(set.name) + ": " +
+                                std::to_string(options.images->size()) + " images for " +
+                                std::to_string(set.size()) + " rows");
+  }
+  // Every file of the new set gets a name of its own (the descriptors by their content, the
+  // images in a new folder), then the YAML that names them is renamed into place: that rename
+  // is the one step that replaces the old set by the new one, so an interruption anywhere
+  // leaves either the old set or the new one whole, each with its own images. The journal
+  // (save_journal.h) lets the next start finish or undo a save that was killed.
   const std::string stem = yaml.substr(0, yaml.size() - 5);
   const std::string bytes = EncodeNpyMatrix(set.descriptors);
-  const std::string npy = SavedDescriptorPath(stem, bytes);
-  std::string old_npy;
-  if (dir.Exists(yaml)) {
-    try {
-      const YAML::Node old = YAML::Load(dir.Read(yaml));
-      if (old.IsMap() && old["descriptors"]) {
-        old_npy = Below(dir).resolve(yaml, old["descriptors"].as<std::string>());
-      }
-    } catch (const std::exception&) {
-      // An unreadable old YAML: its descriptors are left where they are.
+  SaveFiles files;
+  files.yaml = yaml;
+  files.descriptors = SavedDescriptorPath(stem, bytes);
+  files.created.push_back(files.descriptors);
+  std::string image_folder;
+  std::vector<std::string> image_files;
+  if (options.images && std::any_of(options.images->begin(), options.images->end(),
+                                    [](const std::string& image) { return !image.empty(); })) {
+    image_folder = SavedImageFolder(dir, stem);
+    files.created_folders.push_back(image_folder);
+    for (size_t row = 0; row < options.images->size(); ++row) {
+      image_files.push_back(SavedImageName(row, (*options.images)[row]));
+      if (!image_files.back().empty())
+        files.created.push_back(image_folder + "/" + image_files.back());
     }
   }
-  dir.WriteAtomically(npy, bytes);
+  if (dir.Exists(yaml)) AddReplacedFiles(dir, yaml, stem, &files);
+  SaveJournal journal(dir, files);              // nothing is written before it
+  std::vector<std::string> made, made_folders;  // for a roll-back: only what this save made
   try {
+    if (!image_folder.empty()) {
+      dir.CreateFolder(image_folder);  // refuses one that exists: never another's
+      made_folders.push_back(image_folder);
+      for (size_t row = 0; row < image_files.size(); ++row) {
+        if (image_files[row].empty()) continue;
+        const std::string image = image_folder + "/" + image_files[row];
+        dir.WriteAtomically(image, (*options.images)[row], /*replace=*/false);
+        made.push_back(image);  // (a write that fails leaves nothing)
+      }
+    }
+    dir.WriteAtomically(files.descriptors, bytes);
+    made.push_back(files.descriptors);
     const std::string folder = DirName(yaml) == "." ? dir.path() : dir.path() + "/" + DirName(yaml);
-    dir.WriteAtomically(yaml, SidecarText(set, BaseName(npy), folder), replace);
+    const std::string text =
+        image_folder.empty()
+            ? SidecarText(set, BaseName(files.descriptors), folder, set.images, set.image_files)
+            : SidecarText(set, BaseName(files.descriptors), folder, dir.path() + "/" + image_folder,
+                          image_files);
+    dir.WriteAtomically(yaml, text, options.replace);
   } catch (...) {
-    if (npy != old_npy) dir.Remove(npy);
+    journal.RollBack(made, made_folders);
     throw;
   }
-  // The old descriptors, if they were this set's own file (<stem>.npy or <stem>.<hash>.npy).
-  if (!old_npy.empty() && old_npy != npy && old_npy.rfind(stem + ".", 0) == 0 &&
-      EndsWith(old_npy, ".npy") && old_npy.find('/', stem.size()) == std::string::npos) {
+  journal.Finish(options.keep);
+  SavedImages saved;
+  if (!image_folder.empty()) {
+    saved.images = dir.path() + "/" + image_folder;
+    saved.image_files = std::move(image_files);
+  }
+  return saved;
+}
+
+std::set<std::string> FilesOfReferenceSets(const DataDirectory& dir,
+                                           const std::vector<std::string>& paths) {
+  std::set<std::string> below;
+  const std::string prefix = dir.path() == "/" ? "/" : dir.path() + "/";
+  const auto add = [&](const std::string& path) {
+    std::error_code ec;
+    std::string absolute = std::filesystem::weakly_canonical(AbsoluteFolder(path), ec).string();
+    if (ec) absolute = AbsoluteFolder(path);
+    if (absolute.compare(0, prefix.size(), prefix) != 0) return;
     try {
-      dir.Remove(old_npy);
+      below.insert(dir.Relative(absolute));
+    } catch (const std::invalid_argument&) {
+    }
+  };
+  for (const std::string& path : paths) {
+    add(path);
+    if (!EndsWith(path, ".yaml") && !EndsWith(path, ".yml")) continue;
+    try {
+      const YAML::Node root = YAML::Load(ReadFile(path));
+      if (!root.IsMap()) continue;
+      if (root["descriptors"] && root["descriptors"].IsScalar()) {
+        add(ResolvePath(DirName(path), root["descriptors"].as<std::string>()));
+      }
+      if (root["images"] && root["images"].IsScalar()) {
+        // The folder: every file in it is the set's (NamedFiles::Names).
+        add(ResolvePath(DirName(path), root["images"].as<std::string>()));
+      }
     } catch (const std::exception&) {
-      // Left behind: the new pair is whole; the old file only takes space.
+      // Unreadable: the set does not load either; its file itself is kept.
     }
   }
+  return below;
 }
 
 namespace {
@@ -417,6 +559,10 @@ std::string ReadImageOfRow(const std::string& name, const std::string& images,
   if (row < 0 || row >= size) {
     throw std::invalid_argument(who + " has rows 0.." + std::to_string(size - 1) + ", not " +
                                 std::to_string(row));
+  }
+  if (image_files[static_cast<size_t>(row)].empty()) {
+    throw std::invalid_argument(who + " row " + std::to_string(row) +
+                                " has no image (its recording kept no camera image for it)");
   }
   const std::string path = images + "/" + image_files[static_cast<size_t>(row)];
   try {

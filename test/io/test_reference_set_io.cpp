@@ -155,82 +155,6 @@ TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
   }
 }
 
-// The file names below `root` of the .npy files there, sorted.
-std::vector<std::string> NpyFiles(const std::string& root) {
-  std::vector<std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(root)) {
-    if (e.path().extension() == ".npy") out.push_back(fs::relative(e.path(), root).string());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-TEST_F(ReferenceSetIo, OrphanedDescriptorsOfInterruptedSavesAreRemovedAndNoOtherFile) {
-  const DataDirectory dir(dir_);
-  const auto save = [&](const std::string& yaml, uint64_t seed) {
-    SaveReferenceSet(dir, MakeReferenceSet("s", testing::RandomMatrix(3, 4, seed)), yaml, true);
-  };
-  // A kept pair, and a pair in a folder.
-  save("kept.yaml", 1);
-  save("night/kept.yaml", 2);
-  const std::vector<std::string> kept = NpyFiles(dir_);
-  // A kill between the .npy's rename and the YAML's: a new set's .npy without its YAML, and
-  // a replaced set's new .npy beside the old YAML (simulated: the YAML is put back).
-  save("new.yaml", 3);
-  fs::remove(Path("new.yaml"));
-  const std::string old_yaml = ReadFile(Path("night/kept.yaml"));
-  const std::string old_npy = ReadFile(Path(kept[1]));
-  save("night/kept.yaml", 4);
-  WriteRaw("night/kept.yaml", old_yaml);
-  WriteRaw(kept[1], old_npy);
-  const std::vector<std::string> all = NpyFiles(dir_);
-  std::vector<std::string> orphans;
-  std::set_difference(all.begin(), all.end(), kept.begin(), kept.end(),
-                      std::back_inserter(orphans));
-  ASSERT_EQ(orphans.size(), 2u);
-  // A user's files: a plain .npy, one that only looks like a save's (its bytes hash to
-  // another name), and a save's name a hand-written YAML elsewhere names.
-  WriteNpyMatrix(Path("mine.npy"), testing::RandomMatrix(2, 4, 5));
-  WriteRaw("lookalike.0123456789ab.npy", ReadFile(Path("mine.npy")));
-  save("sets/x.yaml", 6);
-  fs::remove(Path("sets/x.yaml"));
-  std::vector<std::string> named;  // the save's .npy in sets/
-  for (const std::string& f : NpyFiles(dir_)) {
-    if (f.rfind("sets/", 0) == 0) named.push_back(f);
-  }
-  ASSERT_EQ(named.size(), 1u);
-  fs::create_directories(Path("other"));
-  WriteRaw("other/uses.yml", "name: u\ndescriptors: " + dir_ + "/" + named[0] + "\n");
-
-  // A YAML that cannot be parsed might name any of them: nothing goes.
-  WriteRaw("broken.yaml", "[1, 2");
-  try {
-    RemoveOrphanedDescriptors(dir);
-    ADD_FAILURE() << "a broken YAML did not stop the removal";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("broken.yaml"), std::string::npos) << e.what();
-  }
-  EXPECT_EQ(NpyFiles(dir_).size(), all.size() + 3);
-  fs::remove(Path("broken.yaml"));
-
-  // Written a moment ago: each might be the new .npy of a save running beside this one.
-  EXPECT_TRUE(RemoveOrphanedDescriptors(dir).empty());
-  EXPECT_EQ(NpyFiles(dir_).size(), all.size() + 3);
-  for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
-    if (entry.is_regular_file()) {
-      fs::last_write_time(entry.path(), fs::file_time_type::clock::now() - std::chrono::hours(1));
-    }
-  }
-  EXPECT_EQ(RemoveOrphanedDescriptors(dir), orphans);
-  std::vector<std::string> expected = kept;
-  for (const std::string f : {"lookalike.0123456789ab.npy", "mine.npy"}) expected.push_back(f);
-  expected.push_back(named[0]);
-  std::sort(expected.begin(), expected.end());
-  EXPECT_EQ(NpyFiles(dir_), expected);
-  EXPECT_EQ(LoadReferenceSetFile(dir, "night/kept.yaml", "").size(), 3);
-  EXPECT_TRUE(RemoveOrphanedDescriptors(dir).empty());  // nothing left to remove
-}
-
 // A folder of image files (any content: only names and bytes matter here).
 void MakeImages(const std::string& folder, const std::vector<std::string>& names) {
   fs::create_directories(folder);
@@ -322,7 +246,6 @@ TEST_F(ReferenceSetIo, WrongImagesRefuseTheWholeSetNamingTheProblem) {
       {"images: imgs\nimage_files: [a.png, b.png, nosub/x.png]\n",
        "image_files[2] 'nosub/x.png' is not a file in images 'imgs'"},
       {"images: imgs\nimage_files: [a.png, b.png, sub]\n", "image_files[2] 'sub' is not a file"},
-      {"images: imgs\nimage_files: [a.png, b.png, '']\n", "image_files[2] is empty"},
   };
   for (const auto& [text, fragment] : bad) {
     WriteRaw("s.yaml", head + text);
@@ -335,6 +258,19 @@ TEST_F(ReferenceSetIo, WrongImagesRefuseTheWholeSetNamingTheProblem) {
   EXPECT_EQ(LoadReferenceSetFile(Path("s.yaml"), "").image_files.size(), 3u);
   WriteRaw("s.yaml", head + "images: imgs\nimage_files: [d.png, sub/x.png, a.png]\n");
   EXPECT_EQ(LoadReferenceSetFile(Path("s.yaml"), "").image_files[1], "sub/x.png");
+  // A row without an image: an empty entry, loaded as such; reading it says so.
+  WriteRaw("s.yaml", head + "images: imgs\nimage_files: [d.png, '', a.png]\n");
+  const ReferenceSet partial = LoadReferenceSetFile(Path("s.yaml"), "");
+  EXPECT_EQ(partial.image_files[1], "");
+  ReferenceMap map;
+  map.Add(partial);
+  EXPECT_EQ(ReadReferenceImage(map.set(0), 0, nullptr), "image d.png");
+  try {
+    ReadReferenceImage(map.set(0), 1, nullptr);
+    ADD_FAILURE() << "a row without an image was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("row 1 has no image"), std::string::npos) << e.what();
+  }
 }
 
 // The `images:` line a saved YAML holds.

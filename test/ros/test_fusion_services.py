@@ -283,6 +283,10 @@ class FusionServices(unittest.TestCase):
         self.assertEqual(r.num_received, 30)
         self.assertEqual(r.num_places, 30)
         self.assertIn("saved 30 place(s)", r.message)
+        # A stop with nothing running reports no count of the recording that ended.
+        r = self.stop(discard=False)
+        self.assertFalse(r.success)
+        self.assertEqual((r.num_received, r.num_descriptors), (0, 0), r.message)
         self.assertTrue(os.path.exists(os.path.join(self.data_dir, "tonight.yaml")))
         with open(os.path.join(self.data_dir, "tonight.yaml")) as f:
             npy = [l.split(":", 1)[1].strip() for l in f if l.startswith("descriptors:")][0]

@@ -355,8 +355,10 @@ class LiveRobot(unittest.TestCase):
             print("by pose (%s): %s" % (pose_as, r.message))
             if pose_as == "tf":
                 # save_images: each place keeps the camera image of its descriptor.
-                self.assertEqual(y["images"], "fall_live_images")
+                # (a folder of the save's own: fall_live_images.<8 characters>)
+                self.assertRegex(y["images"], r"^fall_live_images\.[a-z0-9]{8}$")
                 self.assertEqual(len(y["image_files"]), r.num_places)
+                self.assertTrue(all(y["image_files"]), "a place without its image: " + r.message)
                 for name in y["image_files"]:
                     with open(os.path.join(data, y["images"], name), "rb") as f:
                         self.assertEqual(f.read(3), b"\xff\xd8\xff", name)  # a JPEG
@@ -367,10 +369,14 @@ class LiveRobot(unittest.TestCase):
                 r = self.start(name="fall_localized", condition="fall", overwrite=False,
                                places="localized")
                 self.assertTrue(r.success, r.message)
-                robot.drive(route_schedule())
+                sent = robot.drive(route_schedule())
+                wait_for(lambda: all(s in self.beliefs for s, _ in sent[-3:]), 30, "beliefs")
                 time.sleep(1.0)
                 r = self.stop(discard=False)
                 self.assertTrue(r.success, r.message)
+                # Every frame counted, the unaccepted ones among the lost (by cause).
+                self.assertEqual(r.num_received, len(sent), r.message)
+                self.assertIn("not localised", r.message)
                 with open(os.path.join(data, "fall_localized.yaml")) as f:
                     y = yaml.safe_load(f)
                 rows = np.load(os.path.join(data, y["descriptors"]))

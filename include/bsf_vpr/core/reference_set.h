@@ -71,8 +71,9 @@ std::string DescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descri
 // are not held to it: a set's row k is its place, and a black frame stays a (distant) place.
 std::string QueryDescriptorProblem(const Eigen::Ref<const Eigen::RowVectorXf>& descriptor);
 
-// Why `file` cannot name a set's image below its folder ("" if it can): empty, absolute,
-// or with a ".." part (it would climb out of the folder).
+// Why `file` cannot name a set's image below its folder ("" if it can): absolute, or with a
+// ".." part (it would climb out of the folder). An empty `file` says the row has no image (a
+// recording that kept no camera image for it).
 std::string ImageFileProblem(const std::string& file);
 
 // Makes a set whose row k is place k (the usual case for frame-aligned traversals).

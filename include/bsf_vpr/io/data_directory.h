@@ -14,6 +14,7 @@
 // Thread-safe: every method is const and uses only the folder's handle.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,40 @@ class DataDirectory {
   // Removes what interrupted writes left behind anywhere below the folder: temporary files
   // of WriteAtomically. Returns how many were removed.
   int RemoveStaleTemporaries() const;
+
+  // Makes the folder at `relative` (and the folders on the way), which must not exist yet.
+  // Throws std::runtime_error naming it if it exists or cannot be made.
+  void CreateFolder(const std::string& relative) const;
+  // Removes the folder at `relative` if it exists and is empty; a folder that holds anything
+  // stays. Returns whether it is gone. Throws std::runtime_error if the folder above cannot
+  // be opened.
+  bool RemoveEmptyFolder(const std::string& relative) const;
+
+  // An exclusive lock (flock) on a file below the folder, held while this object lives (or
+  // until the process ends, however it ends).
+  class LockedFile {
+   public:
+    LockedFile() = default;
+    LockedFile(LockedFile&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
+    LockedFile& operator=(LockedFile&& o) noexcept;
+    LockedFile(const LockedFile&) = delete;
+    LockedFile& operator=(const LockedFile&) = delete;
+    ~LockedFile();
+    bool held() const { return fd_ >= 0; }
+
+   private:
+    friend class DataDirectory;
+    explicit LockedFile(int fd) : fd_(fd) {}
+    int fd_ = -1;
+  };
+  // Creates the file `relative` (it must not exist; missing folders are made), locks it,
+  // writes `bytes` and flushes the file and its folder. Throws std::runtime_error naming it;
+  // a file it created is removed again on failure.
+  LockedFile CreateLocked(const std::string& relative, const std::string& bytes) const;
+  // Locks the regular file at `relative` without waiting and returns its bytes, the lock
+  // kept in *lock; std::nullopt when another open file holds its lock (a process that is
+  // writing it, alive). Throws std::runtime_error naming it if it cannot be opened or read.
+  std::optional<std::string> ReadIfUnlocked(const std::string& relative, LockedFile* lock) const;
 
  private:
   int OpenRoot() const;  // a new handle on the folder; the caller closes it

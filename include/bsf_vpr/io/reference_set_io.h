@@ -17,7 +17,8 @@
 //                                     # (ListImageFiles' order), which must hold one per row
 //   image_files: [a.png, b/c.png]     # optional, only with images: one file per row,
 //                                     # relative to images (no absolute path, no '..'), for
-//                                     # sets whose rows are not the folder's images in order
+//                                     # sets whose rows are not the folder's images in order;
+//                                     # "" for a row that has no image
 //
 // Unknown keys are refused (a misspelt key would otherwise be silently ignored). A set whose
 // images are wrong (folder missing or not a folder, a count that does not match the rows, a
@@ -27,6 +28,7 @@
 #pragma once
 
 #include <cstddef>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -78,41 +80,67 @@ std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const Dat
 std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir);
 
 // Writes `set` as `yaml_path` plus its descriptors (float32) as `<stem>.<content hash>.npy`
-// beside it, which the YAML names. The pair is replaced as one: the .npy is written first
-// under its new name, then the YAML is renamed into place, then the old .npy (if it was
-// this set's) is removed; an interruption leaves the old or the new pair whole. Missing
+// beside it, which the YAML names. The set is replaced as one: every new file is written
+// under a name of its own first (the descriptors by their content, images in a new folder),
+// then the YAML is renamed into place, then the old set's own files are removed; an
+// interruption leaves the old set or the new one whole, each with its own images, and the
+// save's journal lets the next start finish or undo it (RecoverInterruptedSaves). Missing
 // folders are created. A set with images names its folder relative to the YAML's folder
 // when it lies below it (or is it), else absolute, and lists image_files explicitly.
 // Throws std::invalid_argument for an invalid set
 // (ReferenceSet::Validate, SetNameProblem), std::runtime_error naming the file when writing
-// fails (nothing
-// is replaced then). A set a map holds is saved from StoredReferenceSet::ToReferenceSet(),
-// which refuses one held at reduced precision only.
+// fails (nothing is replaced then, and nothing the save wrote is left). A set a map holds is
+// saved from StoredReferenceSet::ToReferenceSet(), which refuses one held at reduced
+// precision only.
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
 
+struct SaveOptions {
+  // Whether an existing YAML is replaced (never, when false).
+  bool replace = false;
+  // One encoded image (PNG or JPEG bytes) per row of the set, "" for a row without one:
+  // written to a new folder of this save's own, `<stem>_images.<8 characters>`, as
+  // `<row, 6 digits>.png` or `.jpg`, and named in the YAML instead of the set's own images
+  // (rows without one get an empty image_files entry). Null: the set's images as they are.
+  const std::vector<std::string>* images = nullptr;
+  // Files (relative to the directory) that are never removed as the replaced set's: the
+  // caller's configured sets.
+  std::set<std::string> keep;
+};
+
 // The same below a data directory (`yaml_request` as for DataDirectory::Relative, ending
-// in .yaml). With `replace` false an existing YAML is never replaced.
+// in .yaml). Replacing a set removes what was its own: its descriptors if the save named
+// them (`<stem>.<hash>.npy`) and its images if a save wrote them (`<stem>_images.<...>`),
+// each only when no YAML below `dir` and no file of options.keep names it.
 void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                       const std::string& yaml_request, bool replace);
+// Returns where the images of options.images went (ReferenceSet::images, absolute, and
+// image_files), for the caller's copy of the set; both empty when none was given.
+struct SavedImages {
+  std::string images;
+  std::vector<std::string> image_files;
+};
+SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                             const std::string& yaml_request, const SaveOptions& options);
 
-// Removes the descriptor files that interrupted saves left below `dir` and returns their
-// paths (relative to dir), for the caller to report each. SaveReferenceSet renames the new
-// `<stem>.<hash>.npy` into place before the YAML that names it, and removes the old one
-// after: a kill in between leaves a whole .npy that no YAML names, for ever.
-// Such a file is removed only when all of these hold, so that no user's file is touched:
-//  - its name has the save's form (`<stem>.<12 hex digits>.npy`);
-//  - its bytes hash to the digits in its name (the save's own writing, not a file that only
-//    looks like one);
-//  - no YAML (a regular .yaml or .yml file) anywhere below `dir` names a file of that file
-//    name in its `descriptors` (compared by file name alone, whatever folder or spelling the
-//    YAML uses, so that a file a YAML names is never taken for an orphan);
-//  - it was last written 10 minutes ago or more (a younger one may be the new .npy of a
-//    save running in another process, its YAML not renamed yet).
-// If a YAML below `dir` cannot be read or parsed, or a folder listed, nothing is removed and
-// std::runtime_error names it: what it would name is unknown. A file that cannot be read or
-// removed stays. YAMLs outside `dir` are not
-// seen. Call it at start-up, before anything saves below `dir` (as RemoveStaleTemporaries):
-// a save running meanwhile in another process could lose its new .npy.
-std::vector<std::string> RemoveOrphanedDescriptors(const DataDirectory& dir);
+// The files below `dir` (relative paths) that the sets at `paths` (absolute: configured .npy
+// or .yaml files, wherever they lie) consist of: each file itself and, for a YAML, the
+// descriptors and images it names. For SaveOptions::keep and RecoverInterruptedSaves: a
+// configured set's files are never removed, even when no YAML below `dir` names them. A
+// YAML that cannot be read adds only itself.
+std::set<std::string> FilesOfReferenceSets(const DataDirectory& dir,
+                                           const std::vector<std::string>& paths);
+
+// Finishes or undoes the saves (SaveReferenceSet) that a killed process left below `dir`,
+// by their journals: where the new YAML is in place, the files of the set it replaced go;
+// where it is not, the files the save had written go, and the old set is as it was. Only
+// files a journal lists are removed, and none that a YAML below `dir` or `keep` (relative
+// paths: the configured sets' files) names; a file found lying around is never removed,
+// whatever its name. A journal that a running save holds (another process) is left alone.
+// Returns a line for each save it finished or undid, for the caller to log. If a YAML below
+// `dir` cannot be read (it might name anything), nothing is removed and the line says so.
+// Call it at start-up; it removes stale temporaries first (RemoveStaleTemporaries), as a
+// killed save leaves them in the folders it made.
+std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
+                                                 const std::set<std::string>& keep = {});
 
 }  // namespace bsf_vpr

@@ -37,24 +37,31 @@ void FusionNode::Start() {
   params_ = LoadFusionParams(pnh_);
   if (!params_.data_directory.empty()) {
     data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
+    // The configured sets' files are never removed, wherever their YAML lies.
+    std::vector<std::string> configured;
+    for (const ReferenceSetEntry& e : params_.reference_sets) {
+      try {
+        configured.push_back(ResolveConfiguredPath(data_dir_->path(), e.path));
+      } catch (const std::exception&) {
+        // Refused with its message when the map loads it.
+      }
+    }
+    keep_ = FilesOfReferenceSets(*data_dir_, configured);
+    // A save killed on the way (kill -9, a power cut) is finished or undone by its journal;
+    // nothing else is removed, whatever its name or age.
+    for (const std::string& line : RecoverInterruptedSaves(*data_dir_, keep_)) {
+      ROS_WARN("bsf_vpr: %s: %s", data_dir_->path().c_str(), line.c_str());
+    }
     const int stale = data_dir_->RemoveStaleTemporaries();
     if (stale > 0) {
       ROS_WARN("bsf_vpr: removed %d temporary file(s) left in %s by an interrupted save", stale,
                data_dir_->path().c_str());
     }
-    try {
-      for (const std::string& orphan : RemoveOrphanedDescriptors(*data_dir_)) {
-        ROS_WARN("bsf_vpr: removed %s/%s: descriptors an interrupted save left that no YAML names",
-                 data_dir_->path().c_str(), orphan.c_str());
-      }
-    } catch (const std::exception& e) {
-      ROS_WARN("bsf_vpr: kept every descriptor file in %s: %s", data_dir_->path().c_str(),
-               e.what());
-    }
   }
   recording_ = std::make_unique<Recording>(
       data_dir_.get(), RecordingLimits{params_.recording_max_descriptors,
                                        int64_t{params_.recording_max_megabytes} * 1000000});
+  recording_->set_keep(keep_);
   decider_ = PlaceDecider(params_.recognizer.method, params_.recognizer.method_options);
   map_ = MakeMap(nh_, params_, data_dir_.get());  // calls back only once started, below
   layout_ = map_->layout();
@@ -281,6 +288,8 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   if (r && localized && r->belief.accepted) {
     Record(d, msg->descriptor_type, std::nullopt,
            LocalizedPlace{r->belief.match, r->belief.confidence}, msg->header.stamp.toSec());
+  } else if (localized && recording_->accepting()) {
+    recording_->NoteLost(r ? "not localised (no accepted match)" : "no belief for it");
   }
 }
 

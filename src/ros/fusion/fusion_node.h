@@ -120,6 +120,7 @@ class FusionNode {
   FusionParams params_;  // as read at start; what changes later is the decider's or the map's
   std::mutex mutex_;
   std::unique_ptr<DataDirectory> data_dir_;  // null: the file services are off
+  std::set<std::string> keep_;  // the configured sets' files below data_dir_: never removed
   std::unique_ptr<MapBackend> map_;          // over data_dir_
   MapBackend::Layout layout_;                // the map's layout the decider is on
   PlaceDecider decider_;

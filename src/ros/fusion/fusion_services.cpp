@@ -149,8 +149,11 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     {
       std::lock_guard<std::mutex> lock(mutex_);
       // Also in a refusal: what arrived and what is kept.
-      res.num_descriptors = recording_->count();
-      res.num_received = recording_->counts().received;
+      // (Nothing when no recording runs: the counts of an ended one are not this answer's.)
+      if (recording_->recording()) {
+        res.num_descriptors = recording_->count();
+        res.num_received = recording_->counts().received;
+      }
       if (req.discard) {
         summary = recording_->recording() ? recording_->Summary() : "";
         try {

@@ -171,31 +171,6 @@ void Recording::AddImage(double stamp_s, std::string encoded) {
   if (early_images_.size() > kEarlyImages) early_images_.pop_front();
 }
 
-std::string Recording::SaveImages(const std::vector<int>& source, ReferenceSet* set) const {
-  std::vector<std::string> files;
-  int missing = 0;
-  for (int row : source) {
-    const std::string& bytes = images_[static_cast<size_t>(row)];
-    missing += bytes.empty();
-    char name[32];
-    std::snprintf(name, sizeof(name), "%06d%s", row,
-                  bytes.size() > 3 && bytes.compare(1, 3, "PNG") == 0 ? ".png" : ".jpg");
-    files.push_back(name);
-  }
-  if (missing > 0) {
-    return "saved without images: " + std::to_string(missing) + " of its " +
-           std::to_string(source.size()) + " places had no camera image with the descriptor's " +
-           "stamp (is the fusion node's image topic the camera's?)";
-  }
-  const std::string folder = recorder_.name() + "_images";
-  for (size_t k = 0; k < source.size(); ++k) {
-    data_dir_->WriteAtomically(folder + "/" + files[k], images_[static_cast<size_t>(source[k])]);
-  }
-  set->images = data_dir_->path() + "/" + folder;
-  set->image_files = std::move(files);
-  return "";
-}
-
 void Recording::NoteLost(const std::string& cause) {
   if (!accepting()) return;
   ++counts_.received;
@@ -273,8 +248,31 @@ void Recording::RunSave(SaveJob& job) const {
     return;
   }
   try {
-    if (save_images_) job.saved.note = SaveImages(source, &job.saved.set);
-    SaveReferenceSet(*data_dir_, job.saved.set, path, overwrite_);
+    // Each place's image, "" where none came with its descriptor: the set keeps those that
+    // came (an image is never given to another place, nor the whole set saved without).
+    std::vector<std::string> images;
+    int missing = 0;
+    if (save_images_) {
+      for (int row : source) {
+        images.push_back(images_[static_cast<size_t>(row)]);
+        missing += images.back().empty();
+      }
+    }
+    SaveOptions options;
+    options.replace = overwrite_;
+    options.images = save_images_ ? &images : nullptr;
+    options.keep = keep_;
+    SavedImages saved = SaveReferenceSet(*data_dir_, job.saved.set, path, options);
+    job.saved.set.images = std::move(saved.images);
+    job.saved.set.image_files = std::move(saved.image_files);
+    if (missing > 0) {
+      job.saved.note = "saved " + std::to_string(source.size() - missing) + " of its " +
+                       std::to_string(source.size()) +
+                       " places with an image: " + std::to_string(missing) +
+                       " had no camera image with the descriptor's stamp (recorded before the "
+                       "image subscription connected, or is the fusion node's image topic the "
+                       "camera's?)";
+    }
   } catch (const std::exception& e) {
     job.error = std::string("saving failed: ") + e.what();
     return;

@@ -22,6 +22,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -52,6 +53,10 @@ class Recording {
   explicit Recording(const DataDirectory* data_dir, RecordingLimits limits = {})
       : data_dir_(data_dir), limits_(limits) {}
 
+  // Files below the data directory (relative paths) that a save never removes when it
+  // replaces a set (SaveOptions::keep): the configured sets' files.
+  void set_keep(std::set<std::string> keep) { keep_ = std::move(keep); }
+
   // Starts recording `name` (saved as `name`.yaml below the data directory), with the
   // dimension of the sets in `loaded` (any dimension while it holds none). Throws
   // std::invalid_argument naming the problem, and changes nothing, if there is no data
@@ -61,7 +66,9 @@ class Recording {
   // message says how to save or discard it).
   // `places` says how descriptors become places (reference_recorder.h); localized needs a
   // loaded set to localise against. With `save_images`, each descriptor's camera image
-  // (AddImage) is saved beside the set (folder NAME_images), so that the match image shows it.
+  // (AddImage) is saved beside the set (a folder of the save's own, NAME_images.<8
+  // characters>, SaveOptions::images), so that the match image shows it; a place whose
+  // image did not come is saved without one (the stop's answer says how many).
   void Start(const std::string& name, const std::string& condition, bool overwrite,
              const PlaceLayout& loaded, RecordingPlaces places = RecordingPlaces::kSequential,
              bool save_images = false);
@@ -169,6 +176,7 @@ class Recording {
  private:
   const DataDirectory* data_dir_;
   RecordingLimits limits_;
+  std::set<std::string> keep_;
   ReferenceRecorder recorder_;
   int64_t bytes_ = 0;          // the rows' floats and the images kept
   bool limit_warned_ = false;  // the 90% warning was given
@@ -184,9 +192,6 @@ class Recording {
   std::vector<double> stamps_;
   std::vector<std::string> images_;
   std::deque<std::pair<double, std::string>> early_images_;
-  // Writes the images of the set's rows (`source`: the recorded row of each) below the data
-  // directory and names them in `set`; returns "" or why it saved none (a row without one).
-  std::string SaveImages(const std::vector<int>& source, ReferenceSet* set) const;
   // Ends the recording and forgets its rows and images (its counts stay, for the answer).
   void End();
 };

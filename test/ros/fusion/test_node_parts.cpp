@@ -228,22 +228,32 @@ TEST_F(RecordingTest, WithSaveImagesEachPlaceKeepsTheImageOfItsDescriptor) {
   EXPECT_EQ(saved.note, "");
   const ReferenceSet back = LoadReferenceSetFile(*dir_, "tonight.yaml", "");
   ASSERT_EQ(back.image_files.size(), 2u);
-  EXPECT_EQ(back.images, dir_->path() + "/tonight_images");
+  // A folder of this save's own, "tonight_images.<8 characters>".
+  EXPECT_EQ(back.images.rfind(dir_->path() + "/tonight_images.", 0), 0u) << back.images;
+  EXPECT_EQ(back.images.size(), (dir_->path() + "/tonight_images.").size() + 8) << back.images;
+  EXPECT_EQ(back.images, saved.set.images);  // the loaded set shows them too
   for (int k = 0; k < 2; ++k) {
     const cv::Mat image = cv::imread(back.images + "/" + back.image_files[static_cast<size_t>(k)]);
     ASSERT_FALSE(image.empty()) << k;
     EXPECT_NEAR(image.at<cv::Vec3b>(4, 4)[0], 10 * (k + 1), 2) << k;
   }
-  // A place without its image: the set is saved without images, and the answer says so.
+  // A place without its image (the first descriptor, before the image subscription
+  // connected): saved without one, the others with theirs, and the answer says so.
   rec.Start("partial", "", false, map_, RecordingPlaces::kSequential, true);
   rec.Add(Row(1), "", std::nullopt, std::nullopt, 5.0);
-  rec.AddImage(5.0, jpeg(50));
   rec.Add(Row(2), "", std::nullopt, std::nullopt, 6.0);
+  rec.AddImage(6.0, jpeg(60));
   const Recording::Saved partial = rec.Save(DistanceMetric::kCosine);
-  EXPECT_NE(partial.note.find("saved without images: 1 of its 2 places"), std::string::npos)
+  EXPECT_NE(partial.note.find("saved 1 of its 2 places with an image: 1 had no camera image"),
+            std::string::npos)
       << partial.note;
-  EXPECT_TRUE(LoadReferenceSetFile(*dir_, "partial.yaml", "").image_files.empty());
-  EXPECT_FALSE(dir_->Exists("partial_images"));
+  const ReferenceSet partial_back = LoadReferenceSetFile(*dir_, "partial.yaml", "");
+  ASSERT_EQ(partial_back.image_files.size(), 2u);
+  EXPECT_EQ(partial_back.image_files[0], "");
+  const cv::Mat second = cv::imread(partial_back.images + "/" + partial_back.image_files[1]);
+  ASSERT_FALSE(second.empty());
+  EXPECT_NEAR(second.at<cv::Vec3b>(4, 4)[0], 60, 2);
+  EXPECT_EQ(partial.set.image_files, partial_back.image_files);
 }
 
 TEST_F(RecordingTest, SavesTheDescriptorsAsASetBelowTheDataDirectoryAndEnds) {

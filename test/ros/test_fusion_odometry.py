@@ -4,7 +4,11 @@
 The reference set has 50 places 1 m apart; only place 0 has a distinctive descriptor, all
 others share one. After a query showing place 0, a query showing "some other place" can only
 be placed by the prior: with odometry reporting 5 m, the belief must move to place 5 (the
-filter's own step distribution, 1 place per query, would say place 1)."""
+filter's own step distribution, 1 place per query, would say place 1).
+
+A last odometry message with a NaN position, after which odometry stops, must be refused and
+not spoil the queries after it: every query still gets a belief, and diagnostics say the
+odometry is stale and count the refused message."""
 import os
 import shutil
 import sys
@@ -16,6 +20,7 @@ import numpy as np
 import rospy
 import rostest
 import tf2_ros
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 
@@ -104,6 +109,59 @@ class FusionOdometry(unittest.TestCase):
         self.assertEqual(query(COMMON, 2).match, 5)
         position.move_to(7.0)
         self.assertEqual(query(COMMON, 3).match, 7)
+
+    def test_a_nan_odometry_message_then_silence_loses_no_query(self):
+        ns = "/odom_nan"
+        rospy.wait_for_service(ns + "/load_reference_set", timeout=60)
+        r = rospy.ServiceProxy(ns + "/load_reference_set", LoadReferenceSet)(
+            path="route.yaml", name="", condition="")
+        self.assertTrue(r.success, r.message)
+        beliefs, statuses = {}, []
+        rospy.Subscriber(ns + "/belief", Belief, lambda b: beliefs.update({b.header.stamp: b}))
+        rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: statuses.extend(
+            s for s in a.status if s.name.startswith("odom_nan/fusion") or "odom_nan" in s.name))
+        pub = rospy.Publisher(ns + "/descriptor", Descriptor, queue_size=100)
+        odom = rospy.Publisher("/test_odom_nan", Odometry, queue_size=100)
+        wait_for(lambda: pub.get_num_connections() > 0, 30, "the fusion node to subscribe")
+        wait_for(lambda: odom.get_num_connections() > 0, 30, "the odometry subscriber")
+        sent = []
+
+        def query(secs):
+            d = Descriptor()
+            d.header.stamp = rospy.Time(secs)
+            d.data = COMMON
+            pub.publish(d)
+            sent.append(d.header.stamp)
+
+        # Odometry moving, then one NaN message, then none.
+        for i in range(20):
+            o = Odometry()
+            o.pose.pose.position.x = 0.1 * i
+            odom.publish(o)
+            time.sleep(0.01)
+        query(1)
+        wait_for(lambda: rospy.Time(1) in beliefs, 20, "the first belief")
+        o = Odometry()
+        o.pose.pose.position.x = float("nan")
+        odom.publish(o)
+        # Queries for 2 s at 10 Hz after the NaN: the first ones within odometry_timeout_s,
+        # the rest on stale odometry.
+        for i in range(20):
+            query(2 + i)
+            time.sleep(0.1)
+        wait_for(lambda: all(s in beliefs for s in sent), 30,
+                 "a belief for each of the %d queries (%d came)" % (len(sent), len(beliefs)))
+
+        def stale_said():
+            for s in statuses:
+                values = {v.key: v.value for v in s.values}
+                if (s.level == DiagnosticStatus.WARN and "odometry is stale" in s.message
+                        and values.get("odometry") == "stale"
+                        and values.get("odometry refused: not finite") == "1"
+                        and int(values.get("queries on stale odometry", "0")) > 0):
+                    return True
+            return False
+        wait_for(stale_said, 30, "diagnostics saying the odometry is stale, one refused")
 
     def test_odometry_topic_moves_the_belief(self):
         self.run_case("/odom_topic", use_tf=False)

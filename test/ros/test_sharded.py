@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """rostest: a sharded map (launch/sharded.launch, three shard processes and the combiner)
 against a single fusion node holding the same sets, on the shipped Nordland-100 data."""
+import copy
 import math
 import os
 import re
@@ -200,6 +201,8 @@ class Sharded(unittest.TestCase):
         # had (1 ns off a real one, 11 days ahead) are never decided and hold up nothing; a
         # NaN or impossible answer makes that shard missing for its query, which is decided.
         self.check_hostile_answers()
+        # A rogue's latched shard_info on a shard's topic changes nothing (issue 41 row 9).
+        self.check_forged_shard_info()
 
         # 5. Restarted with other sets (another storage precision: another fingerprint):
         # detected, the map follows.
@@ -370,6 +373,45 @@ class Sharded(unittest.TestCase):
         self.assertGreater(unheard, 0, counted())
         self.assertLessEqual(unheard, len(forged), counted())
         self.assertIn(" 3 with impossible distances", counted())
+
+    def check_forged_shard_info(self):
+        """Latched shard_info published on shard_1's topic by this node, not the shard: one
+        without fall, then one with fall's fingerprint changed. Both are refused and counted;
+        the map keeps fall and every belief has it."""
+        real = []
+        sub = rospy.Subscriber("/bsf_vpr/shard_1/shard_info", ShardInfo, real.append)
+        wait_for(lambda: real, 10, "shard_1's latched shard_info")
+        sub.unregister()
+        model = real[-1]
+        self.assertEqual([s.name for s in model.sets], ["fall"])
+        rogue = rospy.Publisher("/bsf_vpr/shard_1/shard_info", ShardInfo, queue_size=1,
+                                latch=True)
+        wait_for(lambda: rogue.get_num_connections() > 0, 20, "the combiner to hear the rogue")
+
+        def refused():
+            for array in list(self.diagnostics):
+                for st in array.status:
+                    for kv in st.values:
+                        if kv.key == "shard /bsf_vpr/shard_1":
+                            m = re.search(r"(\d+) shard_info refused: published by another node",
+                                          kv.value)
+                            if m:
+                                yield int(m.group(1))
+
+        rogue.publish(ShardInfo(header=model.header, shard=model.shard, distance=model.distance,
+                                sets=[]))
+        wait_for(lambda: max(refused(), default=0) >= 1, 20, "the forged shard_info counted")
+        changed = copy.deepcopy(model)
+        changed.sets[0].fingerprint ^= 1
+        rogue.publish(changed)
+        wait_for(lambda: max(refused(), default=0) >= 2, 20, "the second forged one counted")
+        self.assertEqual([s.name for s in self.list().sets], SETS)
+        stamps = self.publish(range(20, 40))
+        wait_for(lambda: all(s in self.sharded for s in stamps), 30, "beliefs after the forgery")
+        for s in stamps:
+            self.assertEqual(list(self.sharded[s].set_names), SETS, "query at %d ns" % s)
+            self.assertEqual(list(self.sharded[s].missing_sets), [], "query at %d ns" % s)
+        rogue.unregister()
 
     def check_outage(self, stamps, missing):
         """The queries at `stamps` were all decided, and some without the sets `missing`,

@@ -36,6 +36,7 @@ constexpr char kSelectionStatisticsService[] = "get_selection_statistics";
 constexpr char kShardDistancesTopic[] = "distances";  // bsf_vpr/ShardDistances out
 constexpr char kShardInfoTopic[] = "shard_info";      // bsf_vpr/ShardInfo out, latched
 constexpr char kShardDistancesService[] = "get_distances";
+constexpr char kShardInfoService[] = "get_shard_info";  // bsf_vpr/GetShardInfo
 
 }  // namespace names
 }  // namespace bsf_vpr

@@ -80,7 +80,8 @@ void FusionNode::Start() {
   const RecognitionPublisherOptions& publishing = params_;  // the parameters' own part
   publisher_ = std::make_unique<RecognitionPublisher>(nh_, pnh_, publishing, data_dir_.get());
   odometry_ = std::make_unique<OdometryTracker>(
-      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame);
+      nh_, params_.odometry_source, params_.odometry_topic, params_.odom_frame, params_.base_frame,
+      params_.odometry_timeout_s);
   RobotPoseOptions pose_options;
   pose_options.source = params_.pose_source;
   pose_options.topic = params_.pose_topic;
@@ -414,6 +415,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
   const PlaceLayout& map = *layout_;
   const std::string map_problem = map_->Problem();
+  const std::string odometry_problem = odometry_->Problem();
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
   } else if (rejected_ > 0 && processed_ == 0) {
@@ -438,6 +440,8 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, map_problem);
   } else if (map.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
+  } else if (!odometry_problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, odometry_problem);
   } else if (!type_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, type_mismatch_);
   } else {
@@ -455,12 +459,14 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped: bad", rejected_);
   status.add("dropped: queue overflow", lost_);
   status.add("dropped: queue overflow since start", lost_total_);
+  status.add("beliefs published", publisher_->beliefs_published());
   status.add("method", decider_.method_name());
   if (!last_reconfigure_refusal_.empty()) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);
   }
   status.add("distance", ToString(map_->metric()));
   map_->Diagnose(status);  // the first stage; a sharded map's shards
+  odometry_->Diagnose(status);
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());
   status.add("places", map.num_places());

@@ -160,6 +160,12 @@ const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
               "stretch of route); 0: half the median place spacing",
               "m", AtLeast(0))
           .Add(
+              "publish_queue_size", [](auto& p) -> auto& { return p.publish_queue_size; },
+              "messages the belief, match and pose publishers each hold for a subscriber "
+              "that has not taken them yet, before roscpp drops the oldest unseen (a gap in "
+              "header.seq): 100 is 10 s at 10 Hz, 3 s at 30 Hz",
+              "messages", Between(1, 100000))
+          .Add(
               "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
               "distance between places drawn in rviz when they do not all have poses; 0: the "
               "places are spread over marker_view_size_m",
@@ -209,7 +215,14 @@ const OptionTable<OdometryParams>& OdometryParamsTable() {
               "distance between places along the route: turns odometry into a step in places "
               "(+filter), and spaces the places a recording by pose makes where the map has "
               "none; 0: the median spacing of the loaded place poses (1 m without any)",
-              "m", AtLeast(0));
+              "m", AtLeast(0))
+          .Add(
+              "odometry_timeout_s", [](auto& p) -> auto& { return p.odometry_timeout_s; },
+              "odometry last heard longer ago than this is stale: a query then gets the "
+              "filter's step distribution (filter_step_mean_places), as without odometry, and "
+              "diagnostics warn; a non-finite odometry position is refused (counted) and never "
+              "taken as the latest. Several odometry periods (odometry is usually 20-100 Hz)",
+              "s", Above(0));
   return kTable;
 }
 

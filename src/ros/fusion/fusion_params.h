@@ -60,6 +60,7 @@ struct OdometryParams {
   std::string odom_frame = "odom";
   std::string base_frame = "base_link";  // also the robot's frame for recording by pose
   double place_spacing_m = 0;
+  double odometry_timeout_s = 1.0;  // odometry last heard longer ago is stale
 };
 
 // Recording by pose (start_recording places: pose): where the robot's pose in map_frame

@@ -3,6 +3,7 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/console.h>
 
+#include <algorithm>
 #include <utility>
 
 #include "bsf_vpr/core/place_layout.h"
@@ -17,10 +18,11 @@ RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle&
                                            const DataDirectory* data_dir)
     : options_(std::move(options)),
       view_(nh, pnh, options_.view, options_.ground_truth_topic, data_dir) {
-  belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, 10);
-  match_pub_ = nh.advertise<Match>(names::kMatchTopic, 10);
+  const auto queue = static_cast<uint32_t>(std::max(1, options_.publish_queue_size));
+  belief_pub_ = nh.advertise<Belief>(names::kBeliefTopic, queue);
+  match_pub_ = nh.advertise<Match>(names::kMatchTopic, queue);
   if (options_.publish_pose) {
-    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(names::kPoseTopic, 10);
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(names::kPoseTopic, queue);
   }
   if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 }
@@ -30,6 +32,7 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
                                    double seconds) {
   auto belief = boost::make_shared<Belief>();
   belief->header = header;
+  belief->header.seq = static_cast<uint32_t>(beliefs_++);
   ToBeliefMsg(r, layout, decider, options_.belief_top_k, belief.get());
   belief->processing_time = seconds;
   belief_pub_.publish(belief);
@@ -37,6 +40,7 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
     auto match = boost::make_shared<Match>();
     match->header = header;
     match->header.frame_id = options_.map_frame;
+    match->header.seq = static_cast<uint32_t>(matches_++);
     const bool pose_ok = ToMatchMsg(r, layout, match.get());
     if (!pose_ok) {
       ROS_ERROR_THROTTLE(1.0,
@@ -69,6 +73,7 @@ void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Rec
   auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
   msg->header = header;
   msg->header.frame_id = options_.map_frame;
+  msg->header.seq = static_cast<uint32_t>(poses_++);
   ToPoseWithCovarianceMsg(*e, &msg->pose);
   pose_pub_.publish(msg);
 }

@@ -7,6 +7,13 @@
 // matched place whose pose ToMatchPose refuses gets its match without a pose, no tf and no
 // robot's pose, and a throttled error.
 //
+// Each of the belief, match and pose topics numbers its messages itself: header.seq is 0, 1,
+// 2, ... per topic (the stamp and frame are the query's), so a subscriber tells a message
+// lost on the way (a full queue, publish_queue_size) from a gap in it. roscpp numbers what
+// it sends over TCP the same way; a nodelet in the same manager gets this number too, where
+// it would otherwise see the descriptor's. What the publisher's own queue drops cannot be
+// seen from here (roscpp drops the oldest silently): published() counts what was handed on.
+//
 // Not thread-safe: the fusion node holds its lock.
 #pragma once
 
@@ -37,6 +44,9 @@ struct RecognitionPublisherOptions {
   bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
   // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
   double pose_min_std_m = 0;
+  // Messages each of the belief, match and pose publishers holds per subscriber before
+  // roscpp drops the oldest.
+  int publish_queue_size = 100;
 };
 
 class RecognitionPublisher {
@@ -51,6 +61,10 @@ class RecognitionPublisher {
   void Publish(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
                const PlaceDecider& decider, double seconds);
 
+  // Beliefs published since start (the next belief's header.seq), and matches.
+  uint64_t beliefs_published() const { return beliefs_; }
+  uint64_t matches_published() const { return matches_; }
+
  private:
   void PublishPose(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
                    const PlaceDecider& decider);
@@ -58,6 +72,7 @@ class RecognitionPublisher {
   RecognitionPublisherOptions options_;
   ros::Publisher belief_pub_, match_pub_, pose_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
+  uint64_t beliefs_ = 0, matches_ = 0, poses_ = 0;      // published, each its own seq
   BeliefView view_;
 };
 

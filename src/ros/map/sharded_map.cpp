@@ -1,6 +1,7 @@
 #include "src/ros/map/sharded_map.h"
 
 #include <bsf_vpr/GetShardDistances.h>
+#include <bsf_vpr/GetShardInfo.h>
 #include <bsf_vpr/UnloadReferenceSet.h>
 #include <ros/callback_queue.h>
 
@@ -170,9 +171,12 @@ void ShardedMap::Start(Callbacks callbacks) {
   for (size_t k = 0; k < shards_.size(); ++k) {
     Shard& s = shards_[k];
     const int index = static_cast<int>(k);
-    s.info_sub =
-        nh_.subscribe<ShardInfo>(s.name + "/" + names::kShardInfoTopic, 1,
-                                 [this, index](const ShardInfo::ConstPtr& m) { OnInfo(index, m); });
+    ros::SubscribeOptions info;
+    info.initByFullCallbackType<const ros::MessageEvent<const ShardInfo>&>(
+        s.name + "/" + names::kShardInfoTopic, 1,
+        [this, index](const ros::MessageEvent<const ShardInfo>& e) { OnInfo(index, e); });
+    info.callback_queue = &info_queue_;
+    s.info_sub = nh_.subscribe(info);
     s.distances_sub = nh_.subscribe<ShardDistances>(
         s.name + "/" + names::kShardDistancesTopic,
         static_cast<uint32_t>(std::max(1, options_.queue_size)),
@@ -180,8 +184,27 @@ void ShardedMap::Start(Callbacks callbacks) {
   }
   ROS_INFO(
       "bsf_vpr: sharded map over %zu shard(s), waiting %.2f s for each; its sets come "
-      "with the shards' shard_info",
+      "with the shards' shard_info, as each shard's get_shard_info confirms it",
       shards_.size(), options_.timeout_s);
+  // Asks again the shards that did not answer get_shard_info.
+  ros::WallTimerOptions confirm(
+      ros::WallDuration(1.0),
+      [this](const ros::WallTimerEvent&) {
+        for (size_t k = 0; k < shards_.size(); ++k) {
+          ShardInfo::ConstPtr msg;
+          std::string publisher;
+          {
+            std::lock_guard<std::mutex> guard(mutex_);
+            std::swap(msg, shards_[k].unconfirmed);
+            publisher = shards_[k].unconfirmed_publisher;
+          }
+          if (msg) ConfirmInfo(static_cast<int>(k), msg, publisher);
+        }
+      },
+      &info_queue_);
+  confirm_timer_ = nh_.createWallTimer(confirm);
+  info_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &info_queue_);
+  info_spinner_->start();
   // Decides the queries whose missing answers time out (every answer may have arrived).
   timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.timeout_s / 5)),
                                [this](const ros::WallTimerEvent&) {
@@ -205,7 +228,9 @@ ShardedMap::~ShardedMap() {
     }
   }
   timer_.stop();
+  confirm_timer_.stop();
   for (ros::Subscriber& s : subscribers) s.shutdown();
+  if (info_spinner_) info_spinner_->stop();
   nh_.getCallbackQueue()->removeByID(reinterpret_cast<uint64_t>(this));
 }
 
@@ -268,8 +293,66 @@ int ShardedMap::LeastLoaded() const {
   return best;
 }
 
-void ShardedMap::OnInfo(int k, const ShardInfo::ConstPtr& msg) {
-  TakeShardInfo(k, msg);
+void ShardedMap::OnInfo(int k, const ros::MessageEvent<const ShardInfo>& event) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    shards_[static_cast<size_t>(k)].unconfirmed.reset();  // superseded
+  }
+  ConfirmInfo(k, event.getConstMessage(), event.getPublisherName());
+}
+
+void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::string& publisher) {
+  std::string name;
+  std::shared_ptr<std::atomic<int>> stalled;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    name = shards_[static_cast<size_t>(k)].name;
+    stalled = shards_[static_cast<size_t>(k)].stalled_calls;
+  }
+  GetShardInfo ask;
+  const std::string why =
+      CallShard(name + "/" + names::kShardInfoService, &ask, stalled, options_.call_timeout_s);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    Shard& shard = shards_[static_cast<size_t>(k)];
+    if (!why.empty()) {
+      // Not believed until the shard says so (a shard starting, or stalled): asked again.
+      if (!shard.unconfirmed) {
+        shard.unconfirmed = msg;
+        shard.unconfirmed_publisher = publisher;
+      }
+      ROS_WARN_THROTTLE(5.0,
+                        "bsf_vpr: shard %s %s: its shard_info (from %s) is not taken until it "
+                        "confirms it; asking again every second",
+                        name.c_str(), why.c_str(), publisher.c_str());
+      return;
+    }
+    shard.node = ask.response.node;
+    if (publisher != ask.response.node) {
+      // Another process publishing on the shard's topic: refused, whatever it says.
+      ++shard.foreign_infos;
+      shard.last_foreign = publisher;
+      ROS_ERROR_THROTTLE(5.0,
+                         "bsf_vpr: refused a shard_info on %s/%s published by %s, not by the "
+                         "shard (%s): %lu refused so far; the map keeps the shard's sets",
+                         name.c_str(), names::kShardInfoTopic, publisher.c_str(),
+                         ask.response.node.c_str(),
+                         static_cast<unsigned long>(shard.foreign_infos));
+      return;
+    }
+  }
+  ShardInfo::ConstPtr confirmed = msg;
+  if (!SameSets(msg.get(), &ask.response.info)) {
+    // The shard's own answer is what it holds (its shard_info was superseded, or forged
+    // under its name).
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++shards_[static_cast<size_t>(k)].corrected_infos;
+    ROS_WARN("bsf_vpr: a shard_info of %s says it holds %s, the shard's get_shard_info %s: "
+             "the map takes the shard's answer",
+             name.c_str(), SetList(msg.get()).c_str(), SetList(&ask.response.info).c_str());
+    confirmed = boost::make_shared<const ShardInfo>(ask.response.info);
+  }
+  TakeShardInfo(k, confirmed);
   Deliver();  // the new layout, if any
 }
 
@@ -744,6 +827,15 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
       state += "answering: " + SetList(shard.info.get());
     }
     if (!shard.lost.empty()) state += "; lost at its last change: " + shard.lost;
+    if (shard.unconfirmed) state += "; a shard_info waits for the shard to confirm it";
+    if (shard.foreign_infos > 0) {
+      state += "; " + std::to_string(shard.foreign_infos) +
+               " shard_info refused: published by another node (last " + shard.last_foreign + ")";
+    }
+    if (shard.corrected_infos > 0) {
+      state += "; " + std::to_string(shard.corrected_infos) +
+               " shard_info other than the shard's own answer (its answer taken)";
+    }
     if (*shard.stalled_calls > 0) {
       state += "; " + std::to_string(shard.stalled_calls->load()) +
                " service call(s) not answered in time, still pending";

@@ -12,6 +12,12 @@
 // norms) makes that shard missing for the query. Every call to a shard's service waits a
 // bounded time (ShardCall in sharded_map.cpp): a stalled shard is reported, not waited on.
 //
+// A shard_info is not believed on its own (ROS 1 cannot authenticate a publisher): the map
+// asks the shard's own get_shard_info service (bounded, on a thread of its own) and takes the
+// shard's answer. A shard_info whose publisher is not the node the shard's service names is
+// refused and counted; one that says other than the shard's answer is counted, and the answer
+// taken. A shard that does not answer is asked again every second until it does.
+//
 // A shard that comes back holding other sets (another fingerprint) changes the layout; a
 // shard's sets that cannot share the map with the others' are refused (the layout keeps
 // them out) and tried again when another shard's change.
@@ -22,6 +28,8 @@
 
 #include <bsf_vpr/ShardDistances.h>
 #include <bsf_vpr/ShardInfo.h>
+#include <ros/callback_queue.h>
+#include <ros/spinner.h>
 #include <ros/ros.h>
 
 #include <atomic>
@@ -78,6 +86,14 @@ class ShardedMap : public MapBackend {
     ros::Subscriber info_sub, distances_sub;
     ShardInfo::ConstPtr info;  // the last taken; null before the first
     uint64_t info_count = 0;
+    std::string node;                   // the shard's node name, as its service last said
+    // A shard_info waiting for the shard's service to confirm it (its call failed), and its
+    // publisher; asked again every second.
+    ShardInfo::ConstPtr unconfirmed;
+    std::string unconfirmed_publisher;
+    uint64_t foreign_infos = 0;    // shard_info from a publisher that is not the shard: refused
+    uint64_t corrected_infos = 0;  // shard_info other than the shard's answer: the answer taken
+    std::string last_foreign;      // who published the last refused one
     std::string refused;               // why its last shard_info was refused ("" if taken)
     ShardInfo::ConstPtr refused_info;  // that shard_info, tried again when the map changes
     uint64_t refusals = 0;
@@ -98,7 +114,11 @@ class ShardedMap : public MapBackend {
     Layout layout;
   };
 
-  void OnInfo(int k, const ShardInfo::ConstPtr& msg);
+  void OnInfo(int k, const ros::MessageEvent<const ShardInfo>& event);
+  // Asks shard k's get_shard_info about `msg` (published by `publisher`) and takes what the
+  // shard answers; keeps `msg` to ask again when the shard does not answer. Without mutex_,
+  // on the info thread.
+  void ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::string& publisher);
   // OnInfo's work under mutex_ (a new layout is queued for the callbacks).
   void TakeShardInfo(int k, const ShardInfo::ConstPtr& msg);
   void OnDistances(int k, const ShardDistances::ConstPtr& msg);
@@ -145,6 +165,10 @@ class ShardedMap : public MapBackend {
   std::deque<Outgoing> outbox_;
   std::mutex deliver_;  // held while a callback runs: one at a time, in order
   ros::WallTimer timer_;
+  // shard_info and its confirmation (service calls) on a queue and thread of their own.
+  ros::CallbackQueue info_queue_;
+  std::unique_ptr<ros::AsyncSpinner> info_spinner_;
+  ros::WallTimer confirm_timer_;  // on info_queue_
 };
 
 }  // namespace bsf_vpr

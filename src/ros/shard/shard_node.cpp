@@ -31,10 +31,8 @@ void ShardNode::Start() {
   distances_pub_ = pnh_.advertise<ShardDistances>(names::kShardDistancesTopic,
                                                   static_cast<uint32_t>(params_.queue_size));
   info_pub_ = pnh_.advertise<ShardInfo>(names::kShardInfoTopic, 1, /*latch=*/true);
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    PublishInfo();
-  }
+  services_.push_back(
+      pnh_.advertiseService(names::kShardInfoService, &ShardNode::OnInfo, this));
   services_.push_back(
       pnh_.advertiseService(names::kListReferenceSetsService, &ShardNode::OnList, this));
   services_.push_back(
@@ -46,6 +44,11 @@ void ShardNode::Start() {
                                                          &ShardNode::OnLoad, this, &load_queue_));
   load_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &load_queue_);
   load_spinner_->start();
+  {
+    // After the services: a combiner confirms it with get_shard_info.
+    std::lock_guard<std::mutex> lock(mutex_);
+    PublishInfo();
+  }
 
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID("bsf_vpr");
@@ -61,13 +64,22 @@ void ShardNode::Start() {
            map_->num_sets(), ToString(map_->metric()).c_str());
 }
 
-void ShardNode::PublishInfo() {
+ShardInfo ShardNode::Info() const {
   ShardInfo info;
   info.header.stamp = ros::Time::now();
   info.shard = pnh_.getNamespace();
   info.distance = ToString(map_->metric());
   info.sets = map_->ShardSets();
-  info_pub_.publish(info);
+  return info;
+}
+
+void ShardNode::PublishInfo() { info_pub_.publish(Info()); }
+
+bool ShardNode::OnInfo(GetShardInfo::Request&, GetShardInfo::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  res.node = ros::this_node::getName();
+  res.info = Info();
+  return true;
 }
 
 void ShardNode::OnDescriptor(const Descriptor::ConstPtr& msg) {

@@ -10,8 +10,11 @@
 // bitwise the single node's), queue_size and diagnostic_period) are the fusion node's
 // names for the same things; any other is refused at start. Its sets are a LocalMap, as a
 // fusion node's own. What it holds is latched on
-// ~shard_info (bsf_vpr/ShardInfo) and published again on every change; ~list_reference_sets,
-// ~load_reference_set, ~unload_reference_set and ~get_distances serve the combiner (and operators).
+// ~shard_info (bsf_vpr/ShardInfo) and published again on every change; ~get_shard_info answers
+// the same, with the shard's node name, so that the combiner can confirm a shard_info before it
+// believes it (docs/ros.md, "Threat model"); ~list_reference_sets, ~load_reference_set,
+// ~unload_reference_set and ~get_distances serve the combiner (and operators). The services
+// are advertised before the first shard_info, so that a combiner can confirm it at once.
 //
 // The map has its own lock; mutex_ guards the shard's counters and what it publishes.
 // load_reference_set reads its files on a thread of its own.
@@ -19,6 +22,7 @@
 
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/GetShardDistances.h>
+#include <bsf_vpr/GetShardInfo.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/ShardDistances.h>
@@ -54,6 +58,8 @@ class ShardNode {
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Publishes what the shard holds now (latched). Caller holds mutex_.
   void PublishInfo();
+  // What the shard holds now. Caller holds mutex_.
+  ShardInfo Info() const;
   // A load or unload: `change` runs on the map (its message answers), then what the shard
   // holds is published; a refusal answers with its reason. Without mutex_.
   template <typename Response>
@@ -65,6 +71,7 @@ class ShardNode {
   bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res);
   bool OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res);
   bool OnCompute(GetShardDistances::Request& req, GetShardDistances::Response& res);
+  bool OnInfo(GetShardInfo::Request& req, GetShardInfo::Response& res);
 
   ros::NodeHandle nh_, pnh_;
   ShardParams params_;

@@ -5,11 +5,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/io/reference_set_io.h"
 #include "src/ros/common/conversions.h"
+#include "src/ros/fusion/odometry_progress.h"
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recording.h"
 #include "src/ros/fusion/selection_counters.h"
@@ -75,6 +77,45 @@ PlaceRecognizer TwoSetsWithPoses() {
   r.AddReferenceSet(day);
   r.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3), "dark"));
   return r;
+}
+
+// Issue 41 row 8: the last odometry message NaN, then odometry stopped, dropped every query.
+TEST(OdometryProgress, ANonFinitePositionIsRefusedAndNeverBecomesTheLatest) {
+  OdometryProgress odometry(/*timeout_s=*/1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(odometry.Hear({0, 0, 0}, 10.0));
+  EXPECT_EQ(odometry.StepPlaces(10.1, 2.0), std::nullopt);  // the first step
+  EXPECT_TRUE(odometry.Hear({4, 0, 0}, 10.2));
+  EXPECT_FALSE(odometry.Hear({nan, 0, 0}, 10.3));
+  EXPECT_FALSE(odometry.Hear({5, std::numeric_limits<double>::infinity(), 0}, 10.3));
+  EXPECT_EQ(odometry.refused(), 2u);
+  const std::optional<double> step = odometry.StepPlaces(10.4, 2.0);
+  ASSERT_TRUE(step.has_value());
+  EXPECT_DOUBLE_EQ(*step, 2.0);  // from (0,0,0) to the last finite (4,0,0), 2 m a place
+  EXPECT_EQ(odometry.StateAt(10.4), OdometryProgress::State::kFresh);
+}
+
+TEST(OdometryProgress, StaleOdometryGivesNoStepAndTheStepAfterItStartsAfresh) {
+  OdometryProgress odometry(/*timeout_s=*/1.0);
+  EXPECT_EQ(odometry.StateAt(0.0), OdometryProgress::State::kNone);
+  EXPECT_EQ(odometry.StepPlaces(0.0, 1.0), std::nullopt);
+  EXPECT_EQ(odometry.stale_steps(), 0u);  // none heard is not stale
+  odometry.Hear({0, 0, 0}, 1.0);
+  EXPECT_EQ(odometry.StepPlaces(1.5, 1.0), std::nullopt);
+  odometry.Hear({3, 0, 0}, 1.9);
+  EXPECT_EQ(odometry.StepPlaces(2.0, 1.0), std::optional<double>(3.0));
+  // Odometry stops: still a step of 0 within the timeout, then none (stale).
+  EXPECT_EQ(odometry.StepPlaces(2.8, 1.0), std::optional<double>(0.0));
+  EXPECT_EQ(odometry.StateAt(3.0), OdometryProgress::State::kStale);
+  EXPECT_NEAR(*odometry.AgeAt(3.0), 1.1, 1e-12);
+  EXPECT_EQ(odometry.StepPlaces(3.0, 1.0), std::nullopt);
+  EXPECT_EQ(odometry.StepPlaces(9.0, 1.0), std::nullopt);
+  EXPECT_EQ(odometry.stale_steps(), 2u);
+  // Back, 50 m on: the gap's motion is not one step (the filter predicted it meanwhile).
+  odometry.Hear({53, 0, 0}, 10.0);
+  EXPECT_EQ(odometry.StepPlaces(10.0, 1.0), std::nullopt);
+  odometry.Hear({54, 0, 0}, 10.5);
+  EXPECT_EQ(odometry.StepPlaces(10.5, 1.0), std::optional<double>(1.0));
 }
 
 TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {

@@ -141,7 +141,7 @@ class LaunchFiles(unittest.TestCase):
         mine_path = self.write_config("mine.yaml", mine)
         other_path = self.write_config("other.yaml", {"method": "bayes_full"})
         common = {"data_directory": self.fixture, "input": "descriptor",
-                  "input_topic": "/test/descriptor", "nodelet_args": "--no-bond"}
+                  "input_topic": "/test/descriptor"}
         for use_nodelets in ("true", "false"):
             # Misspelt keys an earlier launch left on the master: the nodes refuse unknown
             # keys, so they must not see them.
@@ -161,8 +161,7 @@ class LaunchFiles(unittest.TestCase):
         # extra_config:= alone, as README's robot command gives it: on top of fusion.yaml.
         gardens_point = os.path.join(self.pkg, "config", "gardens_point.yaml")
         with launched("bsf_vpr.launch", input_topic="/camera/image_raw", extra_config=gardens_point,
-                      data_directory=os.path.join(self.pkg, "data"),
-                      nodelet_args="--no-bond") as launch:
+                      data_directory=os.path.join(self.pkg, "data")) as launch:
             self.check_pipeline(launch, ["day_left"], {})
 
     def make_bag(self):
@@ -179,7 +178,7 @@ class LaunchFiles(unittest.TestCase):
     def replay(self, results, **extra):
         args = {"bag": self.bag, "results": results, "data_directory": self.fixture,
                 "extra_config": os.path.join(self.pkg, "config", "nordland.yaml"),
-                "nodelet_args": "--no-bond", "rate": "10"}
+                "rate": "10"}
         args.update(extra)
         return Roslaunch("replay.launch", args)
 

@@ -289,7 +289,7 @@ class LiveRobot(unittest.TestCase):
 
     def test_2_sets_that_cannot_match_the_camera_are_an_error_at_start_up(self):
         launch = Roslaunch("bsf_vpr.launch", {
-            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond",
+            "input_topic": "/camera/image_raw",
             "extra_config": os.path.join(self.pkg, "config", "gardens_point.yaml"),
             "data_directory": os.path.join(self.tmp, "gp")})
         try:
@@ -324,7 +324,7 @@ class LiveRobot(unittest.TestCase):
             else:
                 f.write("pose_source: tf\n")
         launch = Roslaunch("bsf_vpr.launch", {
-            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond", "config": config,
+            "input_topic": "/camera/image_raw", "config": config,
             "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
             "data_directory": data})
         return launch, data
@@ -418,7 +418,7 @@ class LiveRobot(unittest.TestCase):
         with open(config, "w") as f:
             f.write("pose_source: tf\npose_wait_s: 0\n")
         launch = Roslaunch("bsf_vpr.launch", {
-            "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond", "config": config,
+            "input_topic": "/camera/image_raw", "config": config,
             "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
             "data_directory": os.path.join(self.tmp, "nowait")})
         try:
@@ -447,7 +447,7 @@ class LiveRobot(unittest.TestCase):
                 f.write("pose_source: %s\npose_topic: /nobody/pose\npose_wait_s: 0.5\n"
                         % pose_source)
             launch = Roslaunch("bsf_vpr.launch", {
-                "input_topic": "/camera/image_raw", "nodelet_args": "--no-bond",
+                "input_topic": "/camera/image_raw",
                 "config": config,
                 "extra_config": os.path.join(self.pkg, "config", "robot_example.yaml"),
                 "data_directory": os.path.join(self.tmp, "noloc_" + pose_source)})

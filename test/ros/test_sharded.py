@@ -7,6 +7,7 @@ import os
 import re
 import signal
 import sys
+import threading
 import time
 import unittest
 import xmlrpc.client
@@ -203,6 +204,8 @@ class Sharded(unittest.TestCase):
         self.check_hostile_answers()
         # A rogue's latched shard_info on a shard's topic changes nothing (issue 41 row 9).
         self.check_forged_shard_info()
+        # A stalled combiner (issue 41 row 7): every query gets a belief or is counted.
+        self.check_stalled_combiner()
 
         # 5. Restarted with other sets (another storage precision: another fingerprint):
         # detected, the map follows.
@@ -309,6 +312,42 @@ class Sharded(unittest.TestCase):
         r = rospy.ServiceProxy("/bsf_vpr/query_place", QueryPlace)(descriptor=d)
         self.assertFalse(r.success)
         self.assertIn("dimension", r.message)
+
+    def stall_counts(self):
+        return sum(self.fusion_diagnostic(key) for key in (
+            "queries no shard answered", "dropped: queue overflow since start",
+            "dropped: the map's sets changed under the query since start"))
+
+    def check_stalled_combiner(self):
+        """The combiner stopped 3 s (SIGSTOP) during a 10 Hz stream of 30 queries, then
+        continued: each query has a belief or is counted by cause in diagnostics."""
+        self.until_complete()
+        counted_before = self.stall_counts()
+        combiner = self.shard_pid("/bsf_vpr/fusion")
+        stream = threading.Thread(target=lambda: setattr(
+            self, "stall_stamps", self.publish(range(30, 60), rate_hz=10.0)))
+        stream.start()
+        time.sleep(0.5)
+        os.kill(combiner, signal.SIGSTOP)
+        try:
+            time.sleep(3.0)
+        finally:
+            os.kill(combiner, signal.SIGCONT)
+        stream.join()
+        stamps = self.stall_stamps
+        # Everything in flight is decided or has timed out (shard_timeout 2 s) well before this.
+        deadline = time.monotonic() + 15
+        while time.monotonic() < deadline:
+            time.sleep(1.0)
+            answered = sum(1 for s in stamps if s in self.sharded)
+            counted = self.stall_counts() - counted_before
+            if answered + counted >= len(stamps):
+                break
+        print("stalled combiner: %d of %d queries with a belief, %d counted as lost"
+              % (answered, len(stamps), counted))
+        self.assertEqual(answered + counted, len(stamps),
+                         "%d beliefs + %d counted losses for %d queries"
+                         % (answered, counted, len(stamps)))
 
     def pid_or_none(self, name):
         try:

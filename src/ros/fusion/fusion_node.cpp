@@ -323,7 +323,10 @@ bool FusionNode::AdoptLayout(MapBackend::Layout layout) {
 std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query) {
   // A query on a layout the map has changed since (a sharded map's answers queued while a
   // load went through) is not decided: its sets are not the ones the belief now follows.
-  if (!AdoptLayout(query.layout)) return std::nullopt;
+  if (!AdoptLayout(query.layout)) {
+    ++superseded_;  // counted: no belief for it
+    return std::nullopt;
+  }
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
@@ -459,6 +462,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped: bad", rejected_);
   status.add("dropped: queue overflow", lost_);
   status.add("dropped: queue overflow since start", lost_total_);
+  status.add("dropped: the map's sets changed under the query since start", superseded_);
   status.add("beliefs published", publisher_->beliefs_published());
   status.add("method", decider_.method_name());
   if (!last_reconfigure_refusal_.empty()) {

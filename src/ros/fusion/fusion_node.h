@@ -146,6 +146,7 @@ class FusionNode {
   // Descriptors lost to a full queue before this node saw them (header.seq gaps): in the
   // last diagnostics period, and since start.
   uint64_t lost_ = 0, lost_total_ = 0;
+  uint64_t superseded_ = 0;  // queries decided on a layout the map had changed since
   SequenceGaps sequence_gaps_;
   // Recording by pose: descriptors without a pose, by cause (since start).
   std::map<std::string, long> pose_losses_;

@@ -12,6 +12,11 @@
 // on the wire from all of them (a bag replayed again, descriptors published out of stamp
 // order), decided as a single node would, and the stamps start afresh from it.
 //
+// Every query heard is decided or counted: one that no shard answered within `timeout_s` of
+// being heard (the shards' answers lost on the way, e.g. dropped from a publisher's queue
+// while this node was stalled) is counted as unanswered (unanswered()), and taken off that
+// count if its answers still come and it is decided after all.
+//
 // Only stamps the owner heard (Hear: a descriptor with that stamp reached this node) are
 // decided. An answer for a stamp no descriptor had (a forged or corrupted stamp, 1 ns off
 // or days ahead) is refused and counted, never decided, and holds up no query: it waits
@@ -92,7 +97,8 @@ class ShardJoin {
   // A descriptor stamped `stamp_ns` (not zero) reached the owner at `now_s`; `query_norm` is
   // its L2 norm, handed back with its decision. The queries now decided, in stamp order.
   std::vector<Decision> Hear(int64_t stamp_ns, double query_norm, double now_s) {
-    heard_[stamp_ns] = query_norm;  // a stamp heard again (a replay) stays heard
+    // A stamp heard again (a replay) stays heard, and is a query of its own.
+    heard_[stamp_ns] = Heard{query_norm, now_s, false, false};
     heard_order_.push_back(stamp_ns);
     latest_heard_ = stamp_ns;
     heard_any_ = true;
@@ -102,11 +108,18 @@ class ShardJoin {
       const int64_t oldest = heard_order_.front();
       heard_order_.pop_front();
       if (std::find(heard_order_.begin(), heard_order_.end(), oldest) == heard_order_.end()) {
-        heard_.erase(oldest);
+        const auto it = heard_.find(oldest);
+        // Forgotten undecided: it can never be decided now.
+        if (!it->second.decided && !it->second.unanswered && !pending_.count(oldest)) {
+          ++unanswered_;
+        }
+        heard_.erase(it);
       }
     }
+    TakeBackRefused(stamp_ns, now_s);
     std::vector<Decision> out;
     Flush(now_s, &out);
+    CountUnanswered(now_s);
     return out;
   }
 
@@ -159,6 +172,7 @@ class ShardJoin {
   std::vector<Decision> Tick(double now_s) {
     std::vector<Decision> out;
     Flush(now_s, &out);
+    CountUnanswered(now_s);
     return out;
   }
 
@@ -167,12 +181,30 @@ class ShardJoin {
   // Whether a query waits for shard k's answer now (up to the timeout).
   bool Expected(int k) const { return can_answer_(k); }
   size_t pending() const { return pending_.size(); }
+  // Queries heard that no shard answered within the timeout (and not decided since).
+  int64_t unanswered() const { return unanswered_; }
 
  private:
   struct Pending {
     std::vector<AnswerPtr> answers;  // one per shard
     double first_s = 0;              // when the first answer came
   };
+  struct Heard {
+    double query_norm = 0;
+    double heard_s = 0;       // when its descriptor reached the owner
+    bool decided = false;     // handed on
+    bool unanswered = false;  // counted in unanswered_
+  };
+
+  // Counts the heard queries that no shard answered within the timeout.
+  void CountUnanswered(double now_s) {
+    for (auto& [stamp, heard] : heard_) {
+      if (heard.decided || heard.unanswered || now_s - heard.heard_s < timeout_s_) continue;
+      if (pending_.count(stamp)) continue;  // answered: decided at its own timeout
+      heard.unanswered = true;
+      ++unanswered_;
+    }
+  }
 
   void RefuseUnheard(int k, int64_t stamp_ns) {
     ++shards_[static_cast<size_t>(k)].unheard;
@@ -183,12 +215,31 @@ class ShardJoin {
   }
 
   // Refuses every answer of the pending stamp at `it` (no descriptor had it); the next entry.
+  // The refused answers are kept a while (the last queue_size stamps): a descriptor held up
+  // longer than the timeout (this node stalled, its descriptors queued behind the answers)
+  // still finds them when it is heard, and its query is decided after all.
   typename std::map<int64_t, Pending>::iterator RefusePending(
       typename std::map<int64_t, Pending>::iterator it) {
     for (size_t k = 0; k < shards_.size(); ++k) {
       if (it->second.answers[k]) RefuseUnheard(static_cast<int>(k), it->first);
     }
+    refused_[it->first] = std::move(it->second);
+    while (refused_.size() > queue_size_) refused_.erase(refused_.begin());
     return pending_.erase(it);
+  }
+
+  // The descriptor of refused answers came after all: they were a query's, not forged.
+  void TakeBackRefused(int64_t stamp_ns, double now_s) {
+    const auto it = refused_.find(stamp_ns);
+    if (it == refused_.end()) return;
+    if (!(decided_any_ && stamp_ns <= last_decided_) && !pending_.count(stamp_ns)) {
+      for (size_t k = 0; k < shards_.size(); ++k) {
+        if (it->second.answers[k]) --shards_[k].unheard;
+      }
+      it->second.first_s = now_s;
+      pending_[stamp_ns] = std::move(it->second);
+    }
+    refused_.erase(it);
   }
 
   void MarkAnswering(int k, double now_s) {
@@ -247,7 +298,12 @@ class ShardJoin {
       }
       last_decided_ = it->first;
       decided_any_ = true;
-      out->push_back(Decision{it->first, heard->second, std::move(p.answers)});
+      heard->second.decided = true;
+      if (heard->second.unanswered) {
+        heard->second.unanswered = false;  // its answers came after all
+        --unanswered_;
+      }
+      out->push_back(Decision{it->first, heard->second.query_norm, std::move(p.answers)});
       pending_.erase(it);
     }
   }
@@ -261,14 +317,17 @@ class ShardJoin {
   // Answers for stamps at or before last_decided_: late ones, or (when every shard's comes)
   // a query that came late on the wire from every shard.
   std::map<int64_t, Pending> past_;
+  // Answers refused for a stamp no descriptor had yet (the last queue_size): TakeBackRefused.
+  std::map<int64_t, Pending> refused_;
   int64_t last_decided_ = 0;
   bool decided_any_ = false;
   // The stamps heard (with their query's norm), the last 2 x queue_size + 16 in the order
   // heard, and the latest.
-  std::map<int64_t, double> heard_;
+  std::map<int64_t, Heard> heard_;
   std::deque<int64_t> heard_order_;
   int64_t latest_heard_ = 0;
   bool heard_any_ = false;
+  int64_t unanswered_ = 0;
 };
 
 }  // namespace bsf_vpr

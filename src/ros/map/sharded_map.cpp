@@ -811,6 +811,9 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
   status.add("map layouts taken", layouts_);
   status.add("queries decided", decided_);
   status.add("decided without some shard", decided_partial_);
+  // Heard, but no shard's answer came within shard_timeout_s (lost on the way, e.g. from a
+  // shard's full publisher queue while this node stalled): no belief for them.
+  status.add("queries no shard answered", join_.unanswered());
   for (size_t k = 0; k < shards_.size(); ++k) {
     const Shard& shard = shards_[k];
     const Join::ShardCounts& counts = join_.counts(static_cast<int>(k));

@@ -77,6 +77,60 @@ TEST(ShardJoin, AnswersBeforeTheirDescriptorWaitForIt) {
   EXPECT_EQ(d[0].query_norm, 2.5);
 }
 
+TEST(ShardJoin, EveryQueryHeardIsDecidedOrCountedAsUnanswered) {
+  // A combiner stalled 3 s at 10 Hz (issue 41): the shards answered every query, but what
+  // they sent while it was stopped was dropped on the way (their publishers' queues), so
+  // 19 of 30 descriptors reach it with no answer at all. Each is counted once its timeout
+  // has passed, and none is decided twice or forgotten.
+  Fixture f(2, /*timeout_s=*/0.5, /*queue=*/10);
+  int decided = 0;
+  double now = 0;
+  for (int64_t stamp = 1; stamp <= 30; ++stamp, now += 0.1) {
+    decided += static_cast<int>(f.Hear(stamp, now).size());
+    if (stamp <= 11) {  // answered; the rest lost on the way
+      for (int k = 0; k < 2; ++k) decided += static_cast<int>(f.Answer(k, stamp, now).size());
+    }
+    decided += static_cast<int>(f.join.Tick(now).size());
+  }
+  EXPECT_LT(f.join.unanswered(), 19);  // the last ones are not past their timeout yet
+  for (int i = 0; i < 10; ++i) decided += static_cast<int>(f.join.Tick(now += 0.1).size());
+  EXPECT_EQ(decided, 11);
+  EXPECT_EQ(f.join.unanswered(), 19);
+  EXPECT_EQ(decided + f.join.unanswered(), 30);
+  // Forgotten past the heard window (2 x queue + 16) without a Tick: still counted once.
+  Fixture g(1, 0.5, 2);
+  for (int64_t stamp = 1; stamp <= 40; ++stamp) g.Hear(stamp, 0.0);
+  EXPECT_EQ(g.join.unanswered(), 40 - (2 * 2 + 16));
+  g.join.Tick(10.0);
+  EXPECT_EQ(g.join.unanswered(), 40);
+  // An answer that comes after all (within its pending timeout of its own): taken off.
+  Fixture h(1, 0.5, 100);
+  h.Hear(5, 0.0);
+  h.join.Tick(1.0);
+  EXPECT_EQ(h.join.unanswered(), 1);
+  EXPECT_EQ(Fixture::Stamps(h.Answer(0, 5, 1.1)), std::vector<int64_t>{5});
+  EXPECT_EQ(h.join.unanswered(), 0);
+}
+
+TEST(ShardJoin, AnswersRefusedForWantOfTheirDescriptorAreTakenBackWhenItComesLate) {
+  // After a stall the answers may be handled before the descriptors queued behind them, for
+  // longer than the timeout: refused then (no descriptor had the stamp yet), but the query
+  // is decided when its descriptor comes, and the refusal is taken back.
+  Fixture f(2, 0.5, 100);
+  f.Hear(5, 0.0);
+  for (int k = 0; k < 2; ++k) f.Answer(k, 5, 0.0);
+  for (int k = 0; k < 2; ++k) f.Answer(k, 10, 1.0);
+  f.join.Tick(2.0);  // timed out: refused
+  EXPECT_EQ(f.join.counts(0).unheard, 1);
+  const auto d = f.Hear(10, 2.1);
+  ASSERT_EQ(Fixture::Stamps(d), std::vector<int64_t>{10});
+  EXPECT_EQ(Fixture::Answered(d[0]), 2);
+  EXPECT_EQ(f.join.counts(0).unheard, 0);
+  EXPECT_EQ(f.join.counts(1).unheard, 0);
+  f.join.Tick(5.0);
+  EXPECT_EQ(f.join.unanswered(), 0);
+}
+
 TEST(ShardJoin, ASlowShardIsDecidedWithoutAtTheTimeoutAndTakenBackByAnAnswerInTime) {
   Fixture f(2, /*timeout_s=*/0.5);
   f.Hear(10, 0.0);

@@ -159,8 +159,22 @@ class ConfigFiles(unittest.TestCase):
                     fusion = [n for n in parsed.nodes if n.name == "fusion"][0]
                     self.assertIn(["image", image], [list(r) for r in fusion.remap_args], given)
             if "data_directory" not in args:  # not in the package's source folder
+                ros_home = os.environ.get("ROS_HOME") or os.path.expanduser("~/.ros")
                 self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
-                                 os.path.expanduser("~/.ros/bsf_vpr"), path)
+                                 os.path.join(ros_home, "bsf_vpr"), path)
+                # ROS_HOME moves it, as it moves ROS's own files.
+                with tempfile.TemporaryDirectory() as tmp:
+                    old_home = os.environ.get("ROS_HOME")
+                    os.environ["ROS_HOME"] = tmp
+                    try:
+                        moved = self.load_launch(path, args)
+                    finally:
+                        if old_home is None:
+                            del os.environ["ROS_HOME"]
+                        else:
+                            os.environ["ROS_HOME"] = old_home
+                    self.assertEqual(moved.params["/bsf_vpr/fusion/data_directory"].value,
+                                     os.path.join(tmp, "bsf_vpr"), path)
             # Every node starts from a clean private namespace: a key an earlier launch left
             # on the master (and the node would refuse) is cleared.
             for node in config.nodes:
@@ -215,6 +229,12 @@ class ConfigFiles(unittest.TestCase):
         self.assertIn("/bsf_vpr/belief_markers", topics)
         self.assertIn("/bsf_vpr/fusion/match_image", [d.get("Image Topic") for d in displays])
         self.assertEqual(rviz["Visualization Manager"]["Global Options"]["Fixed Frame"], "map")
+        # Names short enough for the Displays panel (they were cut: "Belief over places:
+        # bars P(p...").
+        for d in displays:
+            self.assertLessEqual(len(d["Name"]), 24, d["Name"])
+        self.assertIn("place_numbers", [d for d in displays
+                                        if d.get("Marker Topic")][0]["Namespaces"])
         # The docks are laid out by panel name: the state must name the match image display.
         image = [d["Name"] for d in displays if d.get("Image Topic")][0]
         state = rviz["Window Geometry"]["QMainWindow State"]

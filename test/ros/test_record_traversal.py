@@ -177,6 +177,7 @@ class RecordTraversal(unittest.TestCase):
         wait_for(lambda: self.tf.pub_tf.get_num_connections() > 0, 30, "a tf listener")
         r = self.start(name="no_map", condition="fall", overwrite=True, places="pose")
         self.assertTrue(r.success, r.message)
+        self.addCleanup(self.stop, discard=True)  # ended whatever happens (a no-op then)
         with rosbag.Bag(os.path.join(self.offline, "fall.bag")) as bag:
             frames = [m for t, m, _ in bag.read_messages(topics=["/camera/image_raw"])][:10]
         start = rospy.Time(3000)

@@ -276,5 +276,42 @@ class ConfigFiles(unittest.TestCase):
         rospy.delete_param("/bad")  # the private parameters set for these nodes
 
 
+    def test_start_up_messages_reach_rosout(self):
+        """What a plain node logs while it starts (the sets loaded, why it cannot start)
+        reaches /rosout, not only its console: it was logged before rosout had connected."""
+        from rosgraph_msgs.msg import Log
+        heard = []
+        # rostest starts no rosout: this test runs its own, as roscore and roslaunch do.
+        rosout = subprocess.Popen(["rosrun", "rosout", "rosout", "__name:=rosout"],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.addCleanup(rosout.wait)
+        self.addCleanup(rosout.terminate)
+        sub = rospy.Subscriber("/rosout_agg", Log, heard.append, queue_size=100)
+        wait_for(lambda: sub.get_num_connections() > 0, 30, "rosout's /rosout_agg")
+        rospy.set_param("/startup/ready/reference_sets",
+                        [{"name": "s", "path": os.path.join(
+                            self.pkg, "data", "nordland_subset100", "summer_patchnorm.yaml")}])
+        node = subprocess.Popen(["rosrun", "bsf_vpr", "fusion_node", "__name:=ready",
+                                 "__ns:=/startup"], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        try:
+            def said(name, fragment):
+                return any(m.name == name and fragment in m.msg for m in list(heard))
+            wait_for(lambda: said("/startup/ready", "fusion ready"), 60,
+                     "the node's start-up message on /rosout_agg")
+            self.assertTrue(said("/startup/ready", "loaded reference set 's'"))
+            # A node that cannot start says why on /rosout too, then exits.
+            r = subprocess.run(["rosrun", "bsf_vpr", "fusion_node", "__name:=refused",
+                                "__ns:=/startup", "_gama_fraction:=0.1"],
+                               capture_output=True, text=True, timeout=60, check=False)
+            self.assertEqual(r.returncode, 1)
+            wait_for(lambda: said("/startup/refused", "unknown parameter"), 30,
+                     "the refusal on /rosout_agg")
+        finally:
+            node.terminate()
+            node.wait()
+            sub.unregister()
+            rospy.delete_param("/startup")
+
 if __name__ == "__main__":
     rostest.rosrun("bsf_vpr", "test_config_files", ConfigFiles)

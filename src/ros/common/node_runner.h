@@ -8,9 +8,12 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace bsf_vpr {
 
@@ -34,9 +37,14 @@ class NodeletOf : public nodelet::Nodelet {
 // /rosout publisher: what is logged before is printed but never reaches /rosout (nor
 // rqt_console, nor the log of a remote operator), and a node logs what it loaded and
 // which options it refused when it starts. The probe shares the log appender's publication
-// (one per topic in a process), so its subscribers are the appender's. Without rosout the
-// node starts after the timeout.
+// (one per topic in a process), so its subscribers are the appender's. Without a rosout
+// node on the master (rostest starts none) it does not wait.
 inline void WaitForRosout(const ros::NodeHandle& nh, double timeout_s) {
+  std::vector<std::string> nodes;
+  if (!ros::master::getNodes(nodes) ||
+      std::find(nodes.begin(), nodes.end(), "/rosout") == nodes.end()) {
+    return;
+  }
   ros::NodeHandle own(nh);
   const ros::Publisher probe = own.advertise<rosgraph_msgs::Log>("/rosout", 0);
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);

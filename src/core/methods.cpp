@@ -166,9 +166,9 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               LikelihoodVariantNames(), kLive)
           .Add(
               "threshold", [](auto& o) -> auto& { return o.threshold.value; },
-              "threshold h on the match, given as threshold_kind says; gates the Bayesian "
-              "methods and every +seq method",
-              "", {}, kLive)
+              "threshold h on the match, given as threshold_kind says (a probability in (0, 1) "
+              "or finite log-odds); gates the Bayesian methods and every +seq method",
+              "", Finite(), kLive)
           .AddChoice(
               "threshold_kind", [](auto& o) -> auto& { return o.threshold.kind; },
               "how threshold is given: probability (a posterior in (0, 1)) or log_odds "

@@ -188,9 +188,14 @@ void CheckOptionValue(const OptionInfo& info, const OptionValue& value, const st
       throw std::invalid_argument(shown + " must be a finite number" +
                                   (range.empty() ? "" : " " + range) + ", got " + PlainNumber(x));
     }
+    if (std::isnan(x)) {  // an option without bounds still needs a number
+      const std::string range = DescribeRange(info);
+      throw std::invalid_argument(shown + " must be a number" + (range.empty() ? "" : " " + range) +
+                                  ", got nan");
+    }
     const bool low = b.min_open ? !(x > b.min) : !(x >= b.min);
     const bool high = b.max_open ? !(x < b.max) : !(x <= b.max);
-    if (std::isnan(x) || low || high) {
+    if (low || high) {
       throw std::invalid_argument(shown + " must be " + DescribeRange(info) + ", got " +
                                   PlainNumber(x));
     }

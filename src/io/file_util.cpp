@@ -26,7 +26,16 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes) {
   DataDirectory(DirName(path)).WriteAtomically(BaseName(path), bytes);
 }
 
-std::string ReadRegularFile(int fd, const std::string& name) {
+namespace {
+
+std::string TooLargeMessage(const std::string& name, uint64_t size, uint64_t max_bytes) {
+  return QuotedForMessage(name) + " is " + std::to_string(size) + " bytes, more than the " +
+         std::to_string(max_bytes) + " allowed";
+}
+
+}  // namespace
+
+std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes) {
   struct stat st;
   if (fstat(fd, &st) != 0) {
     throw std::runtime_error("cannot inspect " + QuotedForMessage(name) + ": " +
@@ -36,7 +45,10 @@ std::string ReadRegularFile(int fd, const std::string& name) {
     throw std::runtime_error(QuotedForMessage(name) +
                              " is not a regular file (a folder, FIFO, socket or device)");
   }
-  std::string bytes(static_cast<size_t>(st.st_size), '\0');
+  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  if (size > max_bytes) throw std::runtime_error(TooLargeMessage(name, size, max_bytes));
+  // At most the size seen: a file that grows while being read is cut there.
+  std::string bytes(static_cast<size_t>(size), '\0');
   size_t got = 0;
   while (got < bytes.size()) {
     const ssize_t n = read(fd, bytes.data() + got, bytes.size() - got);
@@ -52,13 +64,13 @@ std::string ReadRegularFile(int fd, const std::string& name) {
   return bytes;
 }
 
-std::string ReadFile(const std::string& path) {
+std::string ReadFile(const std::string& path, uint64_t max_bytes) {
   // Non-blocking, so that a FIFO cannot hang the reader; only regular files are read.
   const Fd fd(open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
   if (fd.get() < 0) {
     throw std::runtime_error("cannot open '" + path + "': " + std::strerror(errno));
   }
-  return ReadRegularFile(fd.get(), path);
+  return ReadRegularFile(fd.get(), path, max_bytes);
 }
 
 void MakeDirectories(const std::string& dir) {

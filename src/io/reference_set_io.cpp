@@ -33,6 +33,16 @@ void CheckName(const std::string& name) {
   if (!problem.empty()) throw std::runtime_error(problem);
 }
 
+// Throws std::runtime_error with SetNameProblem's answer for `name`, a name the caller gave
+// for the file at `path`: the name is at fault, not the file.
+void CheckGivenName(const std::string& name, const std::string& path) {
+  const std::string problem = SetNameProblem(name);
+  if (!problem.empty()) {
+    throw std::runtime_error("the name given for " + QuotedForMessage(path) +
+                             " is refused: " + problem);
+  }
+}
+
 // Where the files of a reference set come from: the file system as the caller sees it
 // (command-line tools, the node's start-up configuration), or a data directory that no
 // request may leave (the node's services).
@@ -247,11 +257,7 @@ ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
 
 ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
                      const std::string& name) {
-  try {
-    CheckName(name);
-  } catch (const std::exception& e) {
-    throw std::runtime_error("'" + npy_path + "': " + e.what());
-  }
+  CheckGivenName(name, npy_path);
   ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
   try {
     set.Validate();
@@ -263,13 +269,7 @@ ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
 
 ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
-    if (!name.empty()) {
-      try {
-        CheckName(name);
-      } catch (const std::exception& e) {
-        throw std::runtime_error("reference set file '" + path + "': " + e.what());
-      }
-    }
+    if (!name.empty()) CheckGivenName(name, path);
     ReferenceSet set = LoadYaml(files, path);
     if (!name.empty()) set.name = name;
     return set;
@@ -393,16 +393,42 @@ void AddReplacedFiles(const DataDirectory& dir, const std::string& yaml, const s
 }  // namespace
 
 std::string SetNameProblem(const std::string& name) {
-  const std::string rule =
-      " (a set's name is 1 to " + std::to_string(kMaxSetNameBytes) + " bytes of printable UTF-8)";
+  const std::string rule = " (a set's name is 1 to " + std::to_string(kMaxSetNameBytes) +
+                           " bytes of printable UTF-8, without bidirectional controls or "
+                           "invisible characters, and neither starts nor ends with a space)";
   if (name.empty()) return "a reference set needs a non-empty name" + rule;
   if (name.size() > kMaxSetNameBytes) {
     // Shown cut short; the quote says its length.
     return "set name " + QuotedForMessage(name, 40) + " is too long" + rule;
   }
-  if (!IsPrintableUtf8(name)) {
-    return "set name " + QuotedForMessage(name) + " holds a control character or invalid UTF-8" +
-           rule;
+  const std::string unreadable = UnreadableCharacter(name);
+  if (!unreadable.empty()) {
+    return "set name " + QuotedForMessage(name) + " holds " + unreadable + rule;
+  }
+  // Spaces at the ends, which a reader cannot see (ASCII and the Unicode spaces: U+00A0,
+  // U+1680, U+2000-200A, U+202F, U+205F, U+3000), in UTF-8.
+  static const std::vector<std::string> kSpaces = {
+      " ",            "\xc2\xa0",     "\xe1\x9a\x80", "\xe2\x80\x80", "\xe2\x80\x81",
+      "\xe2\x80\x82", "\xe2\x80\x83", "\xe2\x80\x84", "\xe2\x80\x85", "\xe2\x80\x86",
+      "\xe2\x80\x87", "\xe2\x80\x88", "\xe2\x80\x89", "\xe2\x80\x8a", "\xe2\x80\xaf",
+      "\xe2\x81\x9f", "\xe3\x80\x80"};
+  std::string rest = name;  // without the spaces at its ends
+  for (bool trimmed = true; trimmed && !rest.empty();) {
+    trimmed = false;
+    for (const std::string& space : kSpaces) {
+      if (rest.compare(0, space.size(), space) == 0) {
+        rest.erase(0, space.size());
+        trimmed = true;
+      } else if (rest.size() >= space.size() &&
+                 rest.compare(rest.size() - space.size(), space.size(), space) == 0) {
+        rest.erase(rest.size() - space.size());
+        trimmed = true;
+      }
+    }
+  }
+  if (rest.empty()) return "set name " + QuotedForMessage(name) + " is only spaces" + rule;
+  if (rest != name) {
+    return "set name " + QuotedForMessage(name) + " starts or ends with a space" + rule;
   }
   return "";
 }
@@ -552,7 +578,7 @@ namespace {
 
 std::string ReadImageOfRow(const std::string& name, const std::string& images,
                            const std::vector<std::string>& image_files, int row,
-                           const DataDirectory* dir) {
+                           const DataDirectory* dir, uint64_t max_bytes) {
   const std::string who = "reference set " + QuotedForMessage(name);
   if (image_files.empty()) throw std::invalid_argument(who + " names no images");
   const int size = static_cast<int>(image_files.size());
@@ -568,9 +594,11 @@ std::string ReadImageOfRow(const std::string& name, const std::string& images,
   try {
     if (dir != nullptr) {
       const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
-      if (path.compare(0, below.size(), below) == 0) return dir->Read(path.substr(below.size()));
+      if (path.compare(0, below.size(), below) == 0) {
+        return dir->Read(path.substr(below.size()), max_bytes);
+      }
     }
-    return ReadFile(path);
+    return ReadFile(path, max_bytes);
   } catch (const std::exception& e) {
     throw std::runtime_error(who + " row " + std::to_string(row) + ": " + e.what());
   }
@@ -578,12 +606,14 @@ std::string ReadImageOfRow(const std::string& name, const std::string& images,
 
 }  // namespace
 
-std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir) {
-  return ReadImageOfRow(set.name(), set.images(), set.image_files(), row, dir);
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir,
+                               uint64_t max_bytes) {
+  return ReadImageOfRow(set.name(), set.images(), set.image_files(), row, dir, max_bytes);
 }
 
-std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir) {
-  return ReadImageOfRow(set.name, set.images, set.image_files, row, dir);
+std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir,
+                               uint64_t max_bytes) {
+  return ReadImageOfRow(set.name, set.images, set.image_files, row, dir, max_bytes);
 }
 
 }  // namespace bsf_vpr

@@ -313,6 +313,20 @@ TEST(Options, ValidateEnforcesTheTableBoundsOfOptionsBuiltInCode) {
   o.filter.step_mean_places = std::nan("");
   ExpectThrowsWith([&] { o.filter.Validate(); },
                    "filter_step_mean_places must be a finite number, got nan");
+  // NaN names the range, also where the table has none to say ("threshold must be , got
+  // nan" before).
+  o = MethodOptions();
+  o.threshold.value = std::nan("");
+  ExpectThrowsWith([&] { o.Validate(); }, "threshold must be a finite number, got nan");
+  OptionInfo free;
+  free.name = "free";
+  free.type = OptionType::kDouble;
+  ExpectThrowsWith([&] { CheckOptionValue(free, std::nan(""), "free"); },
+                   "free must be a number, got nan");
+  OptionInfo bounded = free;
+  bounded.bounds = AtLeast(2);
+  ExpectThrowsWith([&] { CheckOptionValue(bounded, std::nan(""), "b"); },
+                   "b must be a number >= 2, got nan");
   // Rules across fields stay in Validate().
   o = MethodOptions();
   o.sequence.min_velocity = 2;

@@ -316,6 +316,36 @@ TEST_F(DataDir, ImagesOutsideTheDataDirectoryAreNotRead) {
             (std::vector<std::string>{"a.png", "b.png"}));
 }
 
+// A reference set's YAML may name any file as an image: one larger than the limit (here a
+// sparse 1 GiB file, which takes no disk) is refused before a byte of it is read, through
+// the data directory and outside it, naming the set, the row and the sizes.
+TEST_F(DataDir, RefusesAReferenceImageLargerThanTheLimitBeforeReadingIt) {
+  WriteNpyMatrix(Data("sets/d.npy"), testing::RandomMatrix(2, 4, 5));
+  MakeImages(Data("sets/imgs"), {"a.png", "b.png"});
+  const std::string huge = Data("sets/imgs/b.png");
+  ASSERT_EQ(truncate(huge.c_str(), off_t{1} << 30), 0);
+  Write(Data("sets/s.yaml"), "name: s\ndescriptors: d.npy\nimages: imgs\n");
+  ReferenceMap map;
+  map.Add(LoadReferenceSetFile(*dir_, "sets/s.yaml", ""));
+  const uint64_t limit = 20u << 20;
+  EXPECT_EQ(ReadReferenceImage(map.set(0), 0, dir_.get(), limit), "image a.png");
+  for (const DataDirectory* dir : {static_cast<const DataDirectory*>(dir_.get()),
+                                   static_cast<const DataDirectory*>(nullptr)}) {
+    try {
+      ReadReferenceImage(map.set(0), 1, dir, limit);
+      ADD_FAILURE() << "read a file over the limit";
+    } catch (const std::runtime_error& e) {
+      const std::string why = e.what();
+      EXPECT_NE(why.find("reference set 's' row 1: "), std::string::npos) << why;
+      EXPECT_NE(why.find("b.png' is 1073741824 bytes, more than the 20971520 allowed"),
+                std::string::npos)
+          << why;
+    }
+  }
+  EXPECT_THROW(ReadFile(huge, 1000), std::runtime_error);
+  EXPECT_EQ(ReadFile(Data("sets/imgs/a.png"), 11), "image a.png");  // the limit is allowed
+}
+
 TEST_F(DataDir, ReadsReferenceImagesThroughTheDataDirectoryWhenTheyLieBelowIt) {
   WriteNpyMatrix(Data("sets/d.npy"), testing::RandomMatrix(2, 4, 5));
   MakeImages(Data("sets/imgs"), {"a.png", "b.png"});
@@ -399,6 +429,26 @@ TEST(QuotedForMessage, CutsLongInputAndEscapesControlCharacters) {
   EXPECT_FALSE(IsPrintableUtf8("\xc0\xaf"));      // overlong '/'
   EXPECT_FALSE(IsPrintableUtf8("\xed\xa0\x80"));  // surrogate
   EXPECT_FALSE(IsPrintableUtf8("abc\xe2\x82"));   // cut short
+}
+
+// What a refusal echoes is what was sent, byte for byte readable: invalid UTF-8 as \xNN
+// (it used to pass through raw), and the characters that reorder or hide the text around
+// them as \uNNNN; readable UTF-8 as it is.
+TEST(QuotedForMessage, EscapesInvalidUtf8BidiControlsAndInvisibleCharacters) {
+  EXPECT_EQ(QuotedForMessage("a\xff\xfe" "b"), "'a\\xff\\xfeb'");
+  EXPECT_EQ(QuotedForMessage("abc\xe2\x82"), "'abc\\xe2\\x82'");  // cut short
+  EXPECT_EQ(QuotedForMessage("\xc0\xaf"), "'\\xc0\\xaf'");        // overlong '/'
+  EXPECT_EQ(QuotedForMessage("abc\xe2\x80\xaegpj.exe"), "'abc\\u202egpj.exe'");
+  EXPECT_EQ(QuotedForMessage("a\xe2\x80\x8b" "b\xc2\x85"), "'a\\u200bb\\u0085'");
+  EXPECT_EQ(QuotedForMessage("nacht_\xc3\xa9t\xc3\xa9"), "'nacht_\xc3\xa9t\xc3\xa9'");
+  EXPECT_EQ(UnreadableCharacter("ok \xc3\xa9"), "");
+  EXPECT_EQ(UnreadableCharacter("ab\xe2\x80\xae"), "a bidirectional control (U+202E) at byte 2");
+  EXPECT_EQ(UnreadableCharacter("a\xff"), "invalid UTF-8 at byte 1");
+  for (const char* bidi : {"\xe2\x80\xaa", "\xe2\x80\xab", "\xe2\x80\xac", "\xe2\x80\xad",
+                           "\xe2\x81\xa6", "\xe2\x81\xa7", "\xe2\x81\xa8", "\xe2\x81\xa9",
+                           "\xe2\x80\x8e", "\xe2\x80\x8f", "\xd8\x9c"}) {
+    EXPECT_FALSE(IsPrintableUtf8(std::string("x") + bidi)) << bidi;
+  }
 }
 
 }  // namespace

@@ -103,9 +103,20 @@ TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
   WriteRaw("good.yaml", "name: good\ndescriptors: d.npy\n");
   const std::string long_name(5000, 'n');
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"a\nb", "'a\\x0ab' holds a control character or invalid UTF-8"},
+      {"a\nb", "'a\\x0ab' holds a control character (U+000A) at byte 1"},
       {"bell\a", "'bell\\x07'"},
-      {"\xff\xfe", "control character or invalid UTF-8"},
+      {"\xff\xfe", "'\\xff\\xfe' holds invalid UTF-8 at byte 0"},  // the bytes escaped
+      // A right-to-left override shows "abc<U+202E>gpj.exe" as "abcexe.jpg".
+      {"abc\xe2\x80\xaegpj.exe",
+       "'abc\\u202egpj.exe' holds a bidirectional control (U+202E) at byte 3"},
+      {"\xe2\x81\xa6x", "a bidirectional control (U+2066)"},
+      {"a\xe2\x80\x8b" "b", "an invisible character (U+200B)"},
+      {"a\xef\xbb\xbf", "an invisible character (U+FEFF)"},
+      {"a\xe2\x80\xa8" "b", "a line or paragraph separator (U+2028)"},
+      {" ", "set name ' ' is only spaces"},
+      {"\xe3\x80\x80 ", "is only spaces"},
+      {" lead", "set name ' lead' starts or ends with a space"},
+      {"trail\xc2\xa0", "starts or ends with a space"},
       {long_name, "(5000 characters) is too long"},
       {std::string(129, 'x'), "(129 characters) is too long"},
   };
@@ -140,6 +151,11 @@ TEST_F(ReferenceSetIo, EveryWayOfNamingASetMeetsTheSameNameRule) {
           SaveReferenceSet(MakeReferenceSet(name, testing::RandomMatrix(2, 4, 1)),
                            Path("saved.yaml"));
         })};
+    // A name the caller gave is blamed, not the file it was given for.
+    for (size_t k : {1, 2, 3}) {
+      EXPECT_EQ(refusals[k].rfind("the name given for '", 0), 0u) << refusals[k];
+      EXPECT_NE(refusals[k].find("' is refused: set name "), std::string::npos) << refusals[k];
+    }
     for (const std::string& why : refusals) {
       EXPECT_NE(why.find(expect), std::string::npos) << why;
       EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;

@@ -159,8 +159,22 @@ class ConfigFiles(unittest.TestCase):
                     fusion = [n for n in parsed.nodes if n.name == "fusion"][0]
                     self.assertIn(["image", image], [list(r) for r in fusion.remap_args], given)
             if "data_directory" not in args:  # not in the package's source folder
+                ros_home = os.environ.get("ROS_HOME") or os.path.expanduser("~/.ros")
                 self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value,
-                                 os.path.expanduser("~/.ros/bsf_vpr"), path)
+                                 os.path.join(ros_home, "bsf_vpr"), path)
+                # ROS_HOME moves it, as it moves ROS's own files.
+                with tempfile.TemporaryDirectory() as tmp:
+                    old_home = os.environ.get("ROS_HOME")
+                    os.environ["ROS_HOME"] = tmp
+                    try:
+                        moved = self.load_launch(path, args)
+                    finally:
+                        if old_home is None:
+                            del os.environ["ROS_HOME"]
+                        else:
+                            os.environ["ROS_HOME"] = old_home
+                    self.assertEqual(moved.params["/bsf_vpr/fusion/data_directory"].value,
+                                     os.path.join(tmp, "bsf_vpr"), path)
             # Every node starts from a clean private namespace: a key an earlier launch left
             # on the master (and the node would refuse) is cleared.
             for node in config.nodes:
@@ -215,6 +229,12 @@ class ConfigFiles(unittest.TestCase):
         self.assertIn("/bsf_vpr/belief_markers", topics)
         self.assertIn("/bsf_vpr/fusion/match_image", [d.get("Image Topic") for d in displays])
         self.assertEqual(rviz["Visualization Manager"]["Global Options"]["Fixed Frame"], "map")
+        # Names short enough for the Displays panel (they were cut: "Belief over places:
+        # bars P(p...").
+        for d in displays:
+            self.assertLessEqual(len(d["Name"]), 24, d["Name"])
+        self.assertIn("place_numbers", [d for d in displays
+                                        if d.get("Marker Topic")][0]["Namespaces"])
         # The docks are laid out by panel name: the state must name the match image display.
         image = [d["Name"] for d in displays if d.get("Image Topic")][0]
         state = rviz["Window Geometry"]["QMainWindow State"]
@@ -255,6 +275,43 @@ class ConfigFiles(unittest.TestCase):
         self.assertIn("/nonexistent/netvlad.onnx", r.stdout + r.stderr)
         rospy.delete_param("/bad")  # the private parameters set for these nodes
 
+
+    def test_start_up_messages_reach_rosout(self):
+        """What a plain node logs while it starts (the sets loaded, why it cannot start)
+        reaches /rosout, not only its console: it was logged before rosout had connected."""
+        from rosgraph_msgs.msg import Log
+        heard = []
+        # rostest starts no rosout: this test runs its own, as roscore and roslaunch do.
+        rosout = subprocess.Popen(["rosrun", "rosout", "rosout", "__name:=rosout"],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.addCleanup(rosout.wait)
+        self.addCleanup(rosout.terminate)
+        sub = rospy.Subscriber("/rosout_agg", Log, heard.append, queue_size=100)
+        wait_for(lambda: sub.get_num_connections() > 0, 30, "rosout's /rosout_agg")
+        rospy.set_param("/startup/ready/reference_sets",
+                        [{"name": "s", "path": os.path.join(
+                            self.pkg, "data", "nordland_subset100", "summer_patchnorm.yaml")}])
+        node = subprocess.Popen(["rosrun", "bsf_vpr", "fusion_node", "__name:=ready",
+                                 "__ns:=/startup"], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        try:
+            def said(name, fragment):
+                return any(m.name == name and fragment in m.msg for m in list(heard))
+            wait_for(lambda: said("/startup/ready", "fusion ready"), 60,
+                     "the node's start-up message on /rosout_agg")
+            self.assertTrue(said("/startup/ready", "loaded reference set 's'"))
+            # A node that cannot start says why on /rosout too, then exits.
+            r = subprocess.run(["rosrun", "bsf_vpr", "fusion_node", "__name:=refused",
+                                "__ns:=/startup", "_gama_fraction:=0.1"],
+                               capture_output=True, text=True, timeout=60, check=False)
+            self.assertEqual(r.returncode, 1)
+            wait_for(lambda: said("/startup/refused", "unknown parameter"), 30,
+                     "the refusal on /rosout_agg")
+        finally:
+            node.terminate()
+            node.wait()
+            sub.unregister()
+            rospy.delete_param("/startup")
 
 if __name__ == "__main__":
     rostest.rosrun("bsf_vpr", "test_config_files", ConfigFiles)

@@ -90,6 +90,30 @@ class FusionServices(unittest.TestCase):
         self.assertTrue(r.success, r.message)
         self.assertNotIn("day_again", self.names())
 
+    def test_query_place_warns_of_another_descriptor_type_as_the_topic_does(self):
+        """A descriptor of another type than a loaded set declares is answered, with the
+        warning the descriptor topic logs (it used to be answered silently)."""
+        self.ensure_day_loaded()
+        with open(os.path.join(self.data_dir, "day_typed.yaml"), "w") as f:
+            f.write("name: day_typed\ndistance: cosine\ndescriptors: day.npy\n"
+                    "descriptor_type: hdc_delf\n")
+        r = self.load(path="day_typed.yaml", name="", condition="")
+        self.assertTrue(r.success, r.message)
+        try:
+            d = Descriptor()
+            d.data = list(map(float, self.night[17]))
+            d.descriptor_type = "patchnorm"
+            r = self.query(descriptor=d)
+            self.assertTrue(r.success, r.message)
+            self.assertIn("answered, but descriptors of type 'patchnorm' meet set 'day_typed' "
+                          "of type 'hdc_delf'", r.message)
+            d.descriptor_type = "hdc_delf"
+            r = self.query(descriptor=d)
+            self.assertTrue(r.success, r.message)
+            self.assertEqual(r.message, "")
+        finally:
+            self.assertTrue(self.unload(name="day_typed").success)
+
     def test_failures_leave_the_sets_unchanged(self):
         self.ensure_day_loaded()
         before = self.names()
@@ -99,6 +123,15 @@ class FusionServices(unittest.TestCase):
             (dict(path="day.yaml", name="", condition=""), "already loaded"),
             (dict(path="../outside.yaml", name="", condition=""), "outside the data directory"),
             (dict(path="/etc/hostname", name="x", condition=""), "outside the data directory"),
+            # package:// as configurations resolve it, then confined like every request;
+            # the message names the path whole (it was cut to 'package:/bsf_vpr/...').
+            (dict(path="package://bsf_vpr/data/nordland_subset100/summer_patchnorm.yaml",
+                  name="", condition=""),
+             "path 'package://bsf_vpr/data/nordland_subset100/summer_patchnorm.yaml' is '"),
+            (dict(path="package://bsf_vpr/data/nordland_subset100/summer_patchnorm.yaml",
+                  name="", condition=""), "outside the data directory"),
+            (dict(path="package://no_such_package/x.yaml", name="", condition=""),
+             "names package 'no_such_package', which ROS does not find"),
         ]
         for request, fragment in cases:
             r = self.load(**request)

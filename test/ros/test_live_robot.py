@@ -464,7 +464,11 @@ class LiveRobot(unittest.TestCase):
                          "the last belief within 2 s of the last image (%s)" % pose_source)
                 r = self.stop(discard=False)
                 self.assertFalse(r.success)
-                self.assertIn("no pose received yet", r.message)
+                # The cause names what is missing (it said "no pose received yet").
+                self.assertIn({"tf": "no pose: no transform from 'map' to 'base_link': frame '",
+                               "topic": "no pose: no publisher on /nobody/pose"}[pose_source],
+                              r.message)
+                self.assertNotIn("no pose received yet", r.message)
                 self.assertEqual(r.num_received, len(sent), r.message)
             finally:
                 launch.stop()

@@ -29,6 +29,7 @@ import rospy
 import rostest
 import tf2_ros
 import yaml
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import Image
 
@@ -98,6 +99,8 @@ class RecordTraversal(unittest.TestCase):
         cls.beliefs = {}
         rospy.Subscriber("/bsf_vpr/belief", Belief,
                          lambda m: cls.beliefs.__setitem__(m.header.stamp, m), queue_size=100)
+        cls.diagnostics = []
+        rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append)
 
     def score(self, label, sets):
         """Replays the winter bag and scores it in metres; returns the summary row."""
@@ -154,6 +157,63 @@ class RecordTraversal(unittest.TestCase):
         r = self.stop(discard=False)
         self.assertTrue(r.success, r.message)
         return load_set(self.data_dir, name)
+
+    def fusion_warning(self, fragment):
+        """A WARN of the fusion node's diagnostics whose message holds `fragment`, or None."""
+        for array in list(self.diagnostics):
+            for s in array.status:
+                if ("fusion" in s.name and s.level == DiagnosticStatus.WARN
+                        and fragment in s.message):
+                    return s
+        return None
+
+    # Runs first (tests run in name order): tf must not know the frame 'map' yet, which the
+    # drives by pose of the next test broadcast.
+    def test_recording_by_pose_without_a_map_frame_says_the_frame_is_missing(self):
+        """A robot with odometry but no localiser (tf odom -> base_link only) recording by
+        pose: nothing can be kept, and the diagnostics and the stop say which frame is
+        missing instead of "no pose received yet"."""
+        wait_for(lambda: self.camera.get_num_connections() > 0, 30, "the ingest node")
+        wait_for(lambda: self.tf.pub_tf.get_num_connections() > 0, 30, "a tf listener")
+        r = self.start(name="no_map", condition="fall", overwrite=True, places="pose")
+        self.assertTrue(r.success, r.message)
+        self.addCleanup(self.stop, discard=True)  # ended whatever happens (a no-op then)
+        with rosbag.Bag(os.path.join(self.offline, "fall.bag")) as bag:
+            frames = [m for t, m, _ in bag.read_messages(topics=["/camera/image_raw"])][:10]
+        start = rospy.Time(3000)
+        # 'map' is missing, or only the parent of the node's own vpr_place (accepted
+        # matches): either way named, with the tree base_link is in.
+        missing = "no transform from 'map' to 'base_link': "
+
+        def named(text):
+            return ("frame 'map' does not exist" in text or
+                    "'base_link' is in the tf tree of 'odom', which nothing connects to 'map'"
+                    in text)
+
+        for i, image in enumerate(frames):
+            stamp = start + rospy.Duration(0.1 * i)
+            for when in (stamp, stamp + rospy.Duration(0.05)):  # odometry ahead of the camera
+                t = TransformStamped()
+                t.header.stamp = when
+                t.header.frame_id, t.child_frame_id = "odom", "base_link"
+                t.transform.translation.x = 4.0 * i
+                t.transform.rotation.w = 1.0
+                self.tf.sendTransform(t)
+            image.header.stamp = stamp
+            self.camera.publish(image)
+            wait_for(lambda: stamp in self.beliefs, 30, "the belief of image %d" % i)
+        wait_for(lambda: self.fusion_warning(missing) is not None, 30,
+                 "a fusion WARN naming the missing frame (got: %s)"
+                 % [s.message for a in self.diagnostics[-3:] for s in a.status])
+        warning = self.fusion_warning(missing).message
+        self.assertIn("recording 'no_map' by pose: no pose from tf map -> base_link", warning)
+        self.assertTrue(named(warning), warning)
+        self.assertNotIn("extrapolation", warning)
+        r = self.stop(discard=False)
+        self.assertFalse(r.success)  # nothing was kept: refused, naming the cause
+        self.assertIn("no pose: " + missing, r.message)
+        self.assertTrue(named(r.message), r.message)
+        self.assertNotIn("no pose received yet", r.message)
 
     def assert_fall_descriptors(self, ids, descriptors):
         """Each recorded place holds the fall image the offline import gave that place."""

@@ -15,6 +15,8 @@
 #pragma once
 
 #include <optional>
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -39,9 +41,11 @@ class DataDirectory {
   std::string Relative(const std::string& request) const;
 
   // The bytes of the regular file at `relative` (a path from Relative). Throws
-  // std::runtime_error naming it if it is missing, a link, a FIFO, a device, a folder or
-  // unreadable, or std::invalid_argument if `relative` is not a valid relative path.
-  std::string Read(const std::string& relative) const;
+  // std::runtime_error naming it if it is missing, a link, a FIFO, a device, a folder,
+  // larger than `max_bytes` (checked before anything is read) or unreadable, or
+  // std::invalid_argument if `relative` is not a valid relative path.
+  std::string Read(const std::string& relative,
+                   uint64_t max_bytes = std::numeric_limits<uint64_t>::max()) const;
 
   // The names of the regular files in the folder at `relative` (a path from Relative), sorted;
   // links (and folders, FIFOs...) are left out. The folder is reached like Read's files, one
@@ -112,11 +116,22 @@ class DataDirectory {
   std::string path_;
 };
 
-// `text` quoted for a message: control characters escaped and, past `max_chars`, cut with
-// the full length said ('abc...' (10000000 characters)). For echoing input in errors.
+// `text` quoted for a message: control characters and bytes that are not UTF-8 escaped
+// ('a\x0ab', '\xff'), bidirectional controls and invisible characters (UnreadableCharacter)
+// escaped as '\u202e', and, past `max_chars` characters, cut with the full length in bytes
+// said ('abc...' (10000000 characters)). For echoing input in errors: what is shown is
+// what was sent, and no part of it can reorder or hide the rest of the message.
 std::string QuotedForMessage(const std::string& text, size_t max_chars = 160);
 
-// Whether `text` is valid UTF-8 without control characters (a name a person can read).
+// Why `text` is not a name a person can read ("" when it is): the first invalid UTF-8
+// ("invalid UTF-8 at byte 3"), control character (C0, DEL, C1), bidirectional control
+// (U+202A-202E, U+2066-2069, U+200E, U+200F, U+061C), invisible character (zero-width
+// U+200B-200D, U+2060-2064, U+FEFF, soft hyphen U+00AD, U+034F, U+180E, U+FFF9-FFFB, tags
+// U+E0000-E007F) or line/paragraph separator (U+2028, U+2029), with its code point and byte
+// offset ("a bidirectional control (U+202E) at byte 4").
+std::string UnreadableCharacter(const std::string& text);
+
+// Whether `text` is valid UTF-8 without any of those (a name a person can read).
 bool IsPrintableUtf8(const std::string& text);
 
 }  // namespace bsf_vpr

@@ -1,6 +1,8 @@
 // Small file helpers shared by the writers of the core.
 #pragma once
 
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -12,8 +14,10 @@ namespace bsf_vpr {
 // removes the temporary file).
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 
-// Reads a whole file. Throws std::runtime_error naming the path if it cannot be read.
-std::string ReadFile(const std::string& path);
+// Reads a whole file. Throws std::runtime_error naming the path if it cannot be read or is
+// larger than `max_bytes` (checked before anything is read).
+std::string ReadFile(const std::string& path,
+                     uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
 
 // Creates `dir` and its missing parents (mode 0755). Throws std::runtime_error naming the
 // folder on failure, or when `dir` exists and is not a folder.

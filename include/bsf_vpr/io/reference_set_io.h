@@ -29,6 +29,8 @@
 
 #include <cstddef>
 #include <set>
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -44,8 +46,10 @@ namespace bsf_vpr {
 constexpr size_t kMaxSetNameBytes = 128;
 
 // Why `name` cannot name a reference set ("" if it can), quoting it safely (QuotedForMessage)
-// and saying the rule: a set's name is 1 to kMaxSetNameBytes bytes of printable UTF-8 (no
-// control characters). Every way of naming a set meets it: the YAML's name, a caller's name
+// and saying the rule: a set's name is 1 to kMaxSetNameBytes bytes of printable UTF-8
+// (IsPrintableUtf8: no control character, bidirectional control or invisible character)
+// that neither starts nor ends with a space (ASCII or Unicode), so it is not only spaces
+// either. Every way of naming a set meets it: the YAML's name, a caller's name
 // for a file (the loaders below, load_reference_set's request), a saved set and a recording.
 std::string SetNameProblem(const std::string& name);
 
@@ -75,9 +79,12 @@ ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& r
 // read through dir->Read when `dir` is given and the file lies below dir->path() (so a link
 // there is refused, as for every request), else with ReadFile. Throws
 // std::invalid_argument for a set without images or a row outside 0..size()-1, and
-// std::runtime_error naming the set, the row and the file when it cannot be read.
-std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir);
-std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir);
+// std::runtime_error naming the set, the row and the file when it cannot be read or is
+// larger than `max_bytes` (refused before anything is read).
+std::string ReadReferenceImage(const StoredReferenceSet& set, int row, const DataDirectory* dir,
+                               uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
+std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirectory* dir,
+                               uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
 
 // Writes `set` as `yaml_path` plus its descriptors (float32) as `<stem>.<content hash>.npy`
 // beside it, which the YAML names. The set is replaced as one: every new file is written

@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <cstdint>
+#include <limits>
 #include <string>
 
 namespace bsf_vpr {
@@ -38,8 +40,10 @@ class Fd {
 };
 
 // The bytes of the file open as `fd` (opened non-blocking), which must be a regular file.
-// Throws std::runtime_error naming `name` if it is a folder, FIFO, socket or device, or
+// Throws std::runtime_error naming `name` if it is a folder, FIFO, socket or device, is
+// larger than `max_bytes` (checked before anything is read, and again while reading), or
 // cannot be read.
-std::string ReadRegularFile(int fd, const std::string& name);
+std::string ReadRegularFile(int fd, const std::string& name,
+                            uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
 
 }  // namespace bsf_vpr

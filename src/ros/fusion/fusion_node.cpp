@@ -262,7 +262,7 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   if (recording && recording_->accepting() && recording_->places() == places && !localized) {
     if (!pose.pose && recording_->places() == RecordingPlaces::kPose) {
       // Reported and counted by cause; recognition goes on.
-      const std::string cause = ToString(pose.loss);
+      const std::string& cause = pose.cause;  // names what is missing
       recording_->NoteLost("no pose: " + cause);
       ++pose_losses_[cause];
       ROS_WARN_THROTTLE(1.0,
@@ -419,6 +419,11 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const PlaceLayout& map = *layout_;
   const std::string map_problem = map_->Problem();
   const std::string odometry_problem = odometry_->Problem();
+  // Recording by pose while the poses fail (a frame missing, no publisher) keeps nothing.
+  const std::string pose_problem =
+      recording_->accepting() && recording_->places() == RecordingPlaces::kPose
+          ? robot_pose_->Problem()
+          : "";
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
   } else if (rejected_ > 0 && processed_ == 0) {
@@ -439,6 +444,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "recording '" + recording_->name() +
                        "' is pending after a failed stop: " + recording_->pending_reason());
+  } else if (!pose_problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "recording '" + recording_->name() + "' by pose: " + pose_problem);
   } else if (!map_problem.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, map_problem);
   } else if (map.num_sets() == 0) {

@@ -173,18 +173,30 @@ const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
           .Add(
               "marker_view_size_m", [](auto& p) -> auto& { return p.view.view_size_m; },
               "size of the area the rviz view shows (rviz/bsf_vpr.rviz frames 100 m): markers "
-              "are sized for the smaller of it and the route's extent, and view_frame follows "
-              "the match on routes larger than it",
+              "are sized for the smaller of it and the route's extent, and a route larger than "
+              "it is drawn shrunk to fit it (the legend says how much)",
               "m", Above(0))
           .Add(
               "marker_log_scale", [](auto& p) -> auto& { return p.view.log_scale; },
               "belief bars and the match image's plot show log10 of the posterior over 4 "
               "decades instead of the posterior")
           .Add(
+              "match_image_max_file_mb",
+              [](auto& p) -> auto& { return p.view.match_image_max_file_mb; },
+              "the match image's reference image: a larger file is not read (a warning names "
+              "the set and row, and the image shows a placeholder)",
+              "MiB", Above(0))
+          .Add(
+              "match_image_max_megapixels",
+              [](auto& p) -> auto& { return p.view.match_image_max_megapixels; },
+              "the match image's reference image: one whose header claims more pixels (width "
+              "x height) is not decoded (a small PNG can claim gigapixels); only PNG, JPEG "
+              "and BMP are shown, the formats whose size is read before decoding",
+              "million pixels", Above(0))
+          .Add(
               "view_frame", [](auto& p) -> auto& { return p.view.view_frame; },
               "tf child of map_frame broadcast with the markers, which rviz/bsf_vpr.rviz "
-              "follows: at the route's centre when the route fits marker_view_size_m, else at "
-              "the match")
+              "follows: at the centre of the route as drawn")
           .Add(
               "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
               "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "

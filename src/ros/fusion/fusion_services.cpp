@@ -6,8 +6,34 @@
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/fusion/fusion_node.h"
+#include "src/ros/map/set_loading.h"
 
 namespace bsf_vpr {
+namespace {
+
+// A request's package://PACKAGE/PATH resolved as a configured set's is (the package's
+// folder), and still confined: it must then lie below the data directory `dir`, which
+// every request is read below (a package's folder holds what its author shipped, not what a
+// caller may read). Other paths, and requests for a shard (resolved on its computer), are
+// returned unchanged. Throws std::invalid_argument naming the path, what it resolved to
+// and the rule.
+std::string ResolvedRequestPath(const LoadReferenceSet::Request& req, const DataDirectory* dir) {
+  if (req.path.rfind("package://", 0) != 0 || !req.shard.empty() || dir == nullptr) {
+    return req.path;
+  }
+  const std::string resolved = ResolveConfiguredPath(dir->path(), req.path);
+  const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
+  if (resolved.compare(0, below.size(), below) != 0) {
+    throw std::invalid_argument(
+        "path " + QuotedForMessage(req.path) + " is " + QuotedForMessage(resolved) +
+        ", outside the data directory '" + dir->path() +
+        "': load_reference_set reads only below it (reference_sets in the configuration may "
+        "name package files; or copy the set into the data directory)");
+  }
+  return resolved;
+}
+
+}  // namespace
 
 bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response& res) {
   map_->List(&res);
@@ -34,7 +60,9 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
       AdoptLayout(map_->layout());
     };
     try {
-      res.message = map_->Load(req, not_recorded);
+      LoadReferenceSet::Request resolved = req;
+      resolved.path = ResolvedRequestPath(req, data_dir_.get());
+      res.message = map_->Load(resolved, not_recorded);
     } catch (...) {
       loaded();
       throw;
@@ -95,6 +123,12 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
     res.belief.processing_time =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     res.success = true;
+    // As on the descriptor topic: answered, with the warning (the topic's goes to the log and
+    // diagnostics, the service's to its caller).
+    const std::string mismatch = TypeMismatch(req.descriptor.descriptor_type, *layout_);
+    if (!mismatch.empty()) {
+      res.message = "answered, but " + mismatch + ": the distances compare unlike descriptors";
+    }
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();

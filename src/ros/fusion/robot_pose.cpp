@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "bsf_vpr/core/place_index.h"
 #include "bsf_vpr/core/place_layout.h"
@@ -40,6 +41,7 @@ const EnumNames<PoseLoss>& PoseLossNames() {
       {PoseLoss::kNone, "none"},
       {PoseLoss::kNoSource, "no pose source"},
       {PoseLoss::kNotYet, "no pose received yet"},
+      {PoseLoss::kNoTransform, "no transform between map_frame and base_frame"},
       {PoseLoss::kWaited, "no pose at or after the stamp within pose_wait_s"},
       {PoseLoss::kTooOld, "stamp older than the poses kept"},
       {PoseLoss::kGap, "gap in the poses around the stamp"},
@@ -154,15 +156,50 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
 }
 
 PoseLookup RobotPoseSource::PoseAt(const ros::Time& stamp, double wait_s) {
+  PoseLookup out;
   switch (options_.source) {
     case PoseSource::kTf:
-      return FromTf(stamp, wait_s);
+      out = FromTf(stamp, wait_s);
+      break;
     case PoseSource::kTopic:
-      return FromTopic(stamp, wait_s);
+      out = FromTopic(stamp, wait_s);
+      break;
     case PoseSource::kNone:
+      out.loss = PoseLoss::kNoSource;
+      out.detail = "pose_source is none";
       break;
   }
-  return {std::nullopt, PoseLoss::kNoSource, "pose_source is none"};
+  if (!out.pose && out.cause.empty()) out.cause = ToString(out.loss);
+  std::lock_guard<std::mutex> lock(problem_mutex_);
+  last_cause_ = out.pose ? "" : out.cause;
+  losses_in_row_ = out.pose ? 0 : losses_in_row_ + 1;
+  return out;
+}
+
+std::string RobotPoseSource::Problem() const {
+  std::lock_guard<std::mutex> lock(problem_mutex_);
+  if (last_cause_.empty()) return "";
+  return "no pose from " + Describe() + " for the last " + std::to_string(losses_in_row_) +
+         " descriptor(s): " + last_cause_;
+}
+
+std::string RobotPoseSource::TfDisconnection() const {
+  const std::string& map = options_.map_frame;
+  const std::string& base = options_.base_frame;
+  if (tf_buffer_->canTransform(map, base, ros::Time(0), ros::Duration(0))) return "";
+  const std::string head = "no transform from '" + map + "' to '" + base + "': ";
+  if (!tf_buffer_->_frameExists(map)) return head + "frame '" + map + "' does not exist";
+  if (!tf_buffer_->_frameExists(base)) return head + "frame '" + base + "' does not exist";
+  const auto root = [&](std::string frame) {
+    std::string parent;
+    for (int i = 0; i < 100 && tf_buffer_->_getParent(frame, ros::Time(0), parent); ++i) {
+      frame = parent;
+    }
+    return frame;
+  };
+  // (The map frame may exist only as the parent of this node's own frames, vpr_place.)
+  return head + "'" + base + "' is in the tf tree of '" + root(base) +
+         "', which nothing connects to '" + map + "' (tree of '" + root(map) + "')";
 }
 
 PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
@@ -173,6 +210,23 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
   // localiser costs recognition nothing.
   if (!tf_buffer_->canTransform(options_.map_frame, options_.base_frame, stamp, ros::Duration(0),
                                 &error)) {
+    // A frame missing is said so, not as tf's error at the stamp (which may be an
+    // extrapolation in a tree the other frame is not part of).
+    const std::string disconnected = TfDisconnection();
+    if (!disconnected.empty()) {
+      std::vector<std::string> frames;
+      tf_buffer_->_getFrameStrings(frames);
+      std::string known;
+      for (size_t i = 0; i < frames.size() && i < 20; ++i) {
+        known += (i ? ", " : "") + frames[i];
+      }
+      out.loss = PoseLoss::kNoTransform;
+      out.cause = disconnected;
+      out.detail = disconnected + " (tf has the frames: " +
+                   (frames.empty() ? std::string("none") : known) +
+                   (frames.size() > 20 ? ", ..." : "") + ")";
+      return out;
+    }
     const bool coming =
         error.find("future") != std::string::npos || error.find("only time") != std::string::npos;
     ros::Time latest;
@@ -207,8 +261,11 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
     const auto& q = t.transform.rotation;
     const PlacePose p = ToPlacePose(v.x, v.y, v.z, q.x, q.y, q.z, q.w);
     const std::string problem = PoseProblem(p);
-    if (!problem.empty())
-      return {std::nullopt, PoseLoss::kBadPose, "tf gave a pose that " + problem};
+    if (!problem.empty()) {
+      out.loss = PoseLoss::kBadPose;
+      out.detail = "tf gave a pose that " + problem;
+      return out;
+    }
     out.pose = p;
   } catch (const tf2::TransformException& e) {
     out.loss = PoseLoss::kWaited;
@@ -229,6 +286,12 @@ PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
   PoseLookup out;
   if (samples_.empty()) {
     out.loss = bad_loss_ != PoseLoss::kNone ? bad_loss_ : PoseLoss::kNotYet;
+    if (bad_loss_ == PoseLoss::kNone) {
+      out.cause = sub_.getNumPublishers() == 0 ? "no publisher on " + sub_.getTopic()
+                                               : "nothing received on " + sub_.getTopic();
+    } else if (bad_loss_ != PoseLoss::kBadPose) {  // (a bad pose's message holds its value)
+      out.cause = bad_message_;  // names the frame or type
+    }
     out.detail = bad_message_.empty() ? "nothing on " + sub_.getTopic() : bad_message_;
     return out;
   }

@@ -51,6 +51,7 @@ enum class PoseLoss {
   kNone,      // a pose was found
   kNoSource,  // pose_source none
   kNotYet,    // no pose at all has arrived yet
+  kNoTransform,  // tf: map_frame and base_frame are not connected (a frame missing)
   kWaited,    // none at or after the stamp within wait_s (the poses lag the camera by more)
   kTooOld,    // the stamp is older than the poses kept
   kGap,       // the poses around (or before) the stamp are farther apart than max_gap_s
@@ -58,13 +59,18 @@ enum class PoseLoss {
   kType,      // pose_topic carries another message type
   kBadPose    // a pose PoseProblem refuses (NaN, infinity, a coordinate beyond 1e8 m)
 };
-// The causes as the diagnostics count them ("no pose received yet").
+// The causes' short names ("no pose received yet").
 const EnumNames<PoseLoss>& PoseLossNames();
 std::string ToString(PoseLoss loss);
 
 struct PoseLookup {
   std::optional<PlacePose> pose;
   PoseLoss loss = PoseLoss::kNone;
+  // For a loss: the cause as counted (the diagnostics, a recording's losses), naming what is
+  // missing when it is known ("no transform from 'map' to 'base_link': frame 'map' does not
+  // exist", "no publisher on /odometry/map"), else ToString(loss). Holds no number, so that
+  // the descriptors lost to one cause are counted together.
+  std::string cause;
   std::string detail;  // for a loss: what was seen, for the log
 };
 
@@ -79,6 +85,10 @@ class RobotPoseSource {
   PoseSource source() const { return options_.source; }
   // Where poses come from, for messages: "tf map -> base_link", "topic /odometry/map".
   std::string Describe() const;
+  // Why the last PoseAt found no pose, with the number of lookups in a row that found none
+  // ("" when it found one, or before the first): "no pose from tf map -> base_link for the
+  // last 30 descriptors: no transform from 'map' to 'base_link': frame 'map' does not exist".
+  std::string Problem() const;
 
  private:
   struct Sample {
@@ -87,6 +97,10 @@ class RobotPoseSource {
   };
   void OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg);
   PoseLookup FromTf(const ros::Time& stamp, double wait_s);
+  // Why tf has no transform map_frame -> base_frame at any time ("" when it has one): a
+  // frame that does not exist, or two trees ("'base_link' is in the tf tree of 'odom',
+  // which nothing connects to 'map' (tree of 'map')").
+  std::string TfDisconnection() const;
   PoseLookup FromTopic(const ros::Time& stamp, double wait_s);
 
   RobotPoseOptions options_;
@@ -102,6 +116,9 @@ class RobotPoseSource {
   std::deque<Sample> samples_;  // ascending stamps, the last kHistoryS seconds (.cpp)
   std::string bad_message_;     // the last message refused (frame, type, not finite)
   PoseLoss bad_loss_ = PoseLoss::kNone;
+  mutable std::mutex problem_mutex_;  // guards what follows
+  std::string last_cause_;            // of the last lookup; "" when it found a pose
+  long losses_in_row_ = 0;
 };
 
 // Planar pose (x, y, z, yaw about z) of a position and orientation quaternion.

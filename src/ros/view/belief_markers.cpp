@@ -136,7 +136,24 @@ RouteLayout MakeRouteLayout(const PlaceLayout& map, const BeliefViewOptions& opt
   // A single place (or places at one point) has no extent: a tenth of the view.
   layout.scale_m = layout.extent_m > 0 ? std::min(layout.extent_m, options.view_size_m)
                                        : options.view_size_m / 10;
+  if (!layout.fits_view) {  // shrunk to fit the view: every place in sight
+    layout.draw_scale = options.view_size_m / layout.extent_m;
+    for (Eigen::Vector3d& p : layout.points) {
+      p.head<2>() = layout.centre.head<2>() + layout.draw_scale * (p - layout.centre).head<2>();
+    }
+    layout.spacing_m *= layout.draw_scale;
+  }
   return layout;
+}
+
+int PlaceNumberStep(int num_places) {
+  for (long decade = 1;; decade *= 10) {
+    for (long m : {1, 2, 5}) {
+      if ((num_places - 1) / (m * decade) <= kPlaceNumbers || m * decade >= num_places) {
+        return static_cast<int>(m * decade);
+      }
+    }
+  }
 }
 
 MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
@@ -152,12 +169,7 @@ MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
   return z;
 }
 
-Eigen::Vector3d ViewFocus(const RouteLayout& layout, int match) {
-  if (layout.fits_view || match < 0 || match >= static_cast<int>(layout.points.size())) {
-    return layout.centre;
-  }
-  return layout.points[static_cast<size_t>(match)];
-}
+Eigen::Vector3d ViewFocus(const RouteLayout& layout, int /*match*/) { return layout.centre; }
 
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic) {
   std::vector<std::string> lines;
@@ -278,7 +290,7 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
     }
     const double lines = static_cast<double>(std::count(text.begin(), text.end(), '\n') + 1);
     Eigen::Vector3d anchor = at(belief.match);
-    if (layout.fits_view) {
+    {
       // The text is centred on its anchor: at an end of the route half of it would lie
       // outside the view (the place number cut off). The anchor moves inwards until the
       // longest line fits (a character is about 0.6 of the text's height wide).
@@ -302,11 +314,17 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
     out.markers.push_back(*truth);
   }
 
-  const std::string legend =
+  std::string legend =
       (belief.posterior.empty()
            ? std::string("bars: rank of the place (distance method)")
            : std::string("bars: P(place)") + (options.log_scale ? ", log scale" : "")) +
       "\npin: match (green accepted, orange not)\ncyan: true place";
+  if (layout.draw_scale < 1) {
+    char shrunk[120];
+    std::snprintf(shrunk, sizeof(shrunk), "\nroute %.0f m drawn %.3g times smaller", layout.extent_m,
+                  1 / layout.draw_scale);
+    legend += shrunk;
+  }
   const Eigen::Vector3d below(0, -0.08 * layout.scale_m, 0);
   out.markers.push_back(
       Text(belief, options, "legend", 0, legend, layout.centre + 2 * below, size.legend_height_m));
@@ -314,6 +332,12 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
       Text(belief, options, "legend", 1, "0", at(0) + below / 2, size.legend_height_m));
   out.markers.push_back(Text(belief, options, "legend", 2, std::to_string(n - 1),
                              at(n - 1) + below / 2, size.legend_height_m));
+  // Numbers along the route, beside the places (0 and n - 1 are the legend's).
+  const int step = PlaceNumberStep(n);
+  for (int place = step, id = 0; place < n - 1; place += step, ++id) {
+    out.markers.push_back(Text(belief, options, "place_numbers", id, std::to_string(place),
+                               at(place) + below / 2, size.legend_height_m));
+  }
   return out;
 }
 

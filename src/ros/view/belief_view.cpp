@@ -19,12 +19,22 @@ namespace {
 
 constexpr size_t kImagesKept = 30;   // query images waiting for their belief
 constexpr size_t kTruthsKept = 300;  // ground truth waiting for its belief
+// Reference images kept decoded, reduced to a few times the panel's height (the panel is
+// smaller; a 4000 x 3000 photo is 36 MB decoded); a file replaced on disk is read again
+// after kReferenceImageAge.
+constexpr size_t kReferenceImagesKept = 8;
+const int kReferenceImageMaxRows = 4 * MatchImageOptions().panel_height_px;
+constexpr std::chrono::seconds kReferenceImageAge(30);
 
 }  // namespace
 
 BeliefView::BeliefView(ros::NodeHandle& nh, ros::NodeHandle& pnh, BeliefViewOptions options,
                        const std::string& ground_truth_topic, const DataDirectory* data_dir)
-    : options_(std::move(options)), data_dir_(data_dir), nh_(nh), it_(nh) {
+    : options_(std::move(options)),
+      data_dir_(data_dir),
+      nh_(nh),
+      it_(nh),
+      reference_images_(kReferenceImagesKept, kReferenceImageMaxRows, kReferenceImageAge) {
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>(names::kBeliefMarkersTopic, 1);
   image_transport::ImageTransport private_it(pnh);
   const image_transport::SubscriberStatusCallback changed =
@@ -120,7 +130,7 @@ sensor_msgs::ImageConstPtr BeliefView::QueryImage(const ros::Time& stamp) const 
 }
 
 cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
-                                   const PlaceLayout& map, std::string* note) const {
+                                   const PlaceLayout& map, std::string* note) {
   if (r.closest_set < 0) {
     *note = "no set the method used covers place " + std::to_string(belief.match);
     return cv::Mat();
@@ -138,19 +148,35 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
             "by service only below the data directory)";
     return cv::Mat();
   }
-  try {
-    const std::string bytes = ReadReferenceImage(set, static_cast<int>(row), data_dir_);
-    cv::Mat image = cv::imdecode(
-        cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),
-        cv::IMREAD_COLOR);
-    if (image.empty()) throw std::runtime_error("not a readable image");
-    *note = set.name + ", place " + std::to_string(belief.match);
-    return image;
-  } catch (const std::exception& e) {
-    ROS_WARN_THROTTLE(5.0, "bsf_vpr: match image: %s", e.what());
-    *note = "reference image not shown: " + std::string(e.what());
+  ReferenceImageLimits limits;
+  limits.max_bytes = static_cast<uint64_t>(options_.match_image_max_file_mb * (1 << 20));
+  limits.max_pixels = static_cast<uint64_t>(options_.match_image_max_megapixels * 1e6);
+  const auto load = [&]() {
+    // Throws naming the set, the row and the file when unreadable or too large.
+    const std::string bytes =
+        ReadReferenceImage(set, static_cast<int>(row), data_dir_, limits.max_bytes);
+    try {
+      return DecodeReferenceImage(bytes, limits);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("reference set " + QuotedForMessage(set.name) + " row " +
+                               std::to_string(row) + " (" +
+                               QuotedForMessage(set.image_files[static_cast<size_t>(row)]) +
+                               "): " + e.what());
+    }
+  };
+  const ReferenceImageCache::Entry entry = reference_images_.Get(
+      set.images + "/" + set.image_files[static_cast<size_t>(row)], load,
+      std::chrono::steady_clock::now());
+  if (!entry.error.empty()) {
+    ROS_WARN_THROTTLE(5.0,
+                      "bsf_vpr: match image shown without its reference image: %s (limits: "
+                      "parameters match_image_max_file_mb, match_image_max_megapixels)",
+                      entry.error.c_str());
+    *note = "reference image not shown: " + entry.error;
     return cv::Mat();
   }
+  *note = set.name + ", place " + std::to_string(belief.match);
+  return entry.image;
 }
 
 void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,

@@ -36,6 +36,7 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/view/belief_markers.h"
 #include "src/ros/view/match_image.h"
+#include "src/ros/view/reference_image.h"
 
 namespace bsf_vpr {
 
@@ -69,9 +70,10 @@ class BeliefView {
   // Renders and publishes pending_, then clears it. Caller holds mutex_.
   void PublishPending();
   // The image of the matched place in the set that supplied it, or empty with `note` saying
-  // why; `note` names the set and place otherwise.
+  // why; `note` names the set and place otherwise. Read within options_' limits, through
+  // reference_images_.
   cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
-                         std::string* note) const;
+                         std::string* note);
   // `probabilistic`: the belief's confidence is a log-odds (BeliefLabelLines).
   void PublishMatchImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
                          const std::vector<int>& truth, bool probabilistic);
@@ -85,6 +87,7 @@ class BeliefView {
   image_transport::Subscriber image_sub_;
   ros::Subscriber truth_sub_;
   tf2_ros::TransformBroadcaster tf_;
+  ReferenceImageCache reference_images_;  // used by Show()'s thread only
 
   // A match image waiting for its query image (the descriptor may overtake the image it
   // was computed from); published by OnImage, or without the image at the next belief.

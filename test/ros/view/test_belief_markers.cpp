@@ -75,14 +75,74 @@ TEST(RouteLayout, WithoutPosesTheRouteFillsTheView) {
   }
 }
 
-TEST(RouteLayout, ARouteLargerThanTheViewIsSizedForTheViewAndFollowedAtTheMatch) {
+// A route larger than the view is shrunk to fit it, about its centre: every place is in
+// view (the view used to follow the match at full size, showing about 12 of the 100 places
+// of the README's 1000 m robot map).
+TEST(RouteLayout, ARouteLargerThanTheViewIsShrunkToFitIt) {
   BeliefViewOptions options;
   options.marker_spacing_m = 1.0;  // 1500 places, 1499 m
   const RouteLayout layout = MakeRouteLayout(LineMap(1500, 0, false), options);
   EXPECT_NEAR(layout.extent_m, 1499.0, 1e-9);
   EXPECT_FALSE(layout.fits_view);
   EXPECT_DOUBLE_EQ(layout.scale_m, 100.0);
-  EXPECT_EQ(ViewFocus(layout, 700), Eigen::Vector3d(700, 0, 0));
+  EXPECT_NEAR(layout.draw_scale, 100.0 / 1499, 1e-12);
+  EXPECT_NEAR(layout.spacing_m, 100.0 / 1499, 1e-12);
+  EXPECT_NEAR(layout.points.front().x(), layout.centre.x() - 50, 1e-9);
+  EXPECT_NEAR(layout.points.back().x(), layout.centre.x() + 50, 1e-9);
+  EXPECT_EQ(ViewFocus(layout, 700), layout.centre);
+  EXPECT_EQ(ViewFocus(layout, 0), layout.centre);
+}
+
+TEST(BeliefMarkers, TheReadmeRobotMapShowsEveryBarTheLegendAndPlaceNumbers) {
+  BeliefViewOptions options;  // the shipped view: 100 m
+  const RouteLayout layout = MakeRouteLayout(LineMap(100, 10.0, true), options);  // 990 m
+  ASSERT_FALSE(layout.fits_view);
+  Belief belief = Peaked(100, 63, true);
+  for (float& p : belief.posterior) p = std::max(p, 0.01f);  // every bar drawn
+  const auto markers = MakeBeliefMarkers(layout, belief, {63}, true, options);
+  const Marker* bars = Find(markers, "belief");
+  ASSERT_NE(bars, nullptr);
+  ASSERT_EQ(bars->points.size(), 200u);  // one bar per place
+  const MarkerSizes size = SizesFor(layout, 1);
+  for (const auto& p : bars->points) {  // all within the view around the view frame
+    EXPECT_LE(std::abs(p.x - ViewFocus(layout, 63).x()), 50 + 1e-9);
+  }
+  // Bars as wide as most of the drawn spacing, not overlapping.
+  EXPECT_GT(size.bar_width_m, 0.5 * layout.spacing_m);
+  EXPECT_LT(size.bar_width_m, layout.spacing_m);
+  const Marker* legend = Find(markers, "legend");
+  ASSERT_NE(legend, nullptr);
+  EXPECT_NE(legend->text.find("bars: P(place)"), std::string::npos) << legend->text;
+  EXPECT_NE(legend->text.find("route 990 m drawn 9.9 times smaller"), std::string::npos)
+      << legend->text;
+  // Every 10th place numbered, beside it; 0 and 99 by the legend.
+  EXPECT_EQ(Find(markers, "legend", 1)->text, "0");
+  EXPECT_EQ(Find(markers, "legend", 2)->text, "99");
+  for (int k = 0; k < 9; ++k) {
+    const Marker* number = Find(markers, "place_numbers", k);
+    ASSERT_NE(number, nullptr) << k;
+    EXPECT_EQ(number->text, std::to_string(10 * (k + 1)));
+    EXPECT_NEAR(number->pose.position.x, layout.points[10 * (k + 1)].x(), 1e-9);
+  }
+  EXPECT_EQ(Find(markers, "place_numbers", 9), nullptr);
+  // A route that fits is drawn at its true positions.
+  const RouteLayout small = MakeRouteLayout(LineMap(10, 10.0, true), options);
+  EXPECT_DOUBLE_EQ(small.draw_scale, 1.0);
+  EXPECT_EQ(small.points[7], Eigen::Vector3d(70, 0, 0));
+  const auto few = MakeBeliefMarkers(small, Peaked(10, 3, true), {}, true, options);
+  EXPECT_EQ(Find(few, "legend")->text.find("smaller"), std::string::npos);
+}
+
+TEST(PlaceNumberStep, IsOneTwoOrFiveTimesAPowerOfTenAndNumbersAboutTenPlaces) {
+  EXPECT_EQ(PlaceNumberStep(1), 1);
+  EXPECT_EQ(PlaceNumberStep(11), 1);
+  EXPECT_EQ(PlaceNumberStep(12), 2);
+  EXPECT_EQ(PlaceNumberStep(100), 10);
+  EXPECT_EQ(PlaceNumberStep(1500), 200);
+  EXPECT_EQ(PlaceNumberStep(100000), 10000);
+  for (int n : {2, 7, 30, 101, 999, 4321, 1000000}) {
+    EXPECT_LE((n - 1) / PlaceNumberStep(n), kPlaceNumbers) << n;
+  }
 }
 
 TEST(RouteLayout, PlacePosesAreUsedWhenEveryPlaceHasOne) {

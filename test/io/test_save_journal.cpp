@@ -27,6 +27,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+ReferenceSet Generation(int g, int rows);
+std::vector<std::string> ImagesOf(int g, int rows, int bytes = 64);
+
 class SaveJournalTest : public testing::TempDirTest {
  protected:
   // Every entry below the folder (files and folders, hidden ones too), relative, sorted.
@@ -36,6 +39,13 @@ class SaveJournalTest : public testing::TempDirTest {
       out.insert(fs::relative(e.path(), dir_).string());
     }
     return out;
+  }
+  // Saves generation `g` of "today" (`rows` places) with its images, replacing what is there.
+  static void SaveToday(const DataDirectory& dir, int g, int rows, SaveOptions options = {}) {
+    const std::vector<std::string> images = ImagesOf(g, rows);
+    options.replace = true;
+    options.images = &images;
+    SaveReferenceSet(dir, Generation(g, rows), "today.yaml", options);
   }
   void Age(const std::string& relative) const {
     fs::last_write_time(Path(relative), fs::file_time_type::clock::now() - std::chrono::hours(2));
@@ -49,7 +59,7 @@ ReferenceSet Generation(int g, int rows) {
       MakeReferenceSet("today", RowMatrixXf::Constant(rows, 4, static_cast<float>(g)));
   return set;
 }
-std::vector<std::string> ImagesOf(int g, int rows, int bytes = 64) {
+std::vector<std::string> ImagesOf(int g, int rows, int bytes) {
   std::vector<std::string> images;
   for (int r = 0; r < rows; ++r) {
     std::string image = "gen " + std::to_string(g) + " row " + std::to_string(r) + " ";
@@ -116,25 +126,18 @@ TEST_F(SaveJournalTest, StartUpRemovesNoFileThatNoSaveOfOursLeftWhateverItsNameO
 
 TEST_F(SaveJournalTest, AReplacedSetsOwnFilesGoAndAConfiguredOrNamedOneStays) {
   const DataDirectory dir(dir_);
-  SaveOptions options;
-  options.replace = true;
-  const std::vector<std::string> g1 = ImagesOf(1, 4);
-  options.images = &g1;
-  SaveReferenceSet(dir, Generation(1, 4), "today.yaml", options);
+  SaveToday(dir, 1, 4);
   EXPECT_EQ(CheckWholeSet(dir, 4), 1);
   const std::set<std::string> first = FilesOfToday(dir);
   // Overwritten: the new set with its images; the old set's files are gone.
-  const std::vector<std::string> g2 = ImagesOf(2, 4);
-  options.images = &g2;
-  SaveReferenceSet(dir, Generation(2, 4), "today.yaml", options);
+  SaveToday(dir, 2, 4);
   EXPECT_EQ(CheckWholeSet(dir, 4), 2);
   EXPECT_EQ(Entries(), FilesOfToday(dir));
   // A configured set (keep) or another YAML naming the old files keeps them.
   const std::set<std::string> second = FilesOfToday(dir);
+  SaveOptions options;
   options.keep = FilesOfReferenceSets(dir, {dir.path() + "/today.yaml"});
-  const std::vector<std::string> g3 = ImagesOf(3, 4);
-  options.images = &g3;
-  SaveReferenceSet(dir, Generation(3, 4), "today.yaml", options);
+  SaveToday(dir, 3, 4, options);
   EXPECT_EQ(CheckWholeSet(dir, 4), 3);
   for (const std::string& f : second) {
     if (f == "today.yaml") continue;
@@ -168,20 +171,14 @@ TEST_F(SaveJournalTest, PlacesWithoutAnImageAreSavedWithoutOneAndTheOthersWithTh
 
 TEST_F(SaveJournalTest, AFailedSaveLeavesTheOldSetAndNothingOfItsOwn) {
   const DataDirectory dir(dir_);
-  SaveOptions options;
-  options.replace = true;
-  const std::vector<std::string> g1 = ImagesOf(1, 5);
-  options.images = &g1;
-  SaveReferenceSet(dir, Generation(1, 5), "today.yaml", options);
+  SaveToday(dir, 1, 5);
   const std::set<std::string> before = Entries();
   // The new descriptors cannot be written (a folder stands where their file goes), after
   // the images were: the save fails on the way.
   const std::string npy =
       SavedDescriptorPath("today", EncodeNpyMatrix(Generation(2, 5).descriptors));
   fs::create_directories(Path(npy + "/blocker"));
-  const std::vector<std::string> g2 = ImagesOf(2, 5);
-  options.images = &g2;
-  EXPECT_THROW(SaveReferenceSet(dir, Generation(2, 5), "today.yaml", options), std::runtime_error);
+  EXPECT_THROW(SaveToday(dir, 2, 5), std::runtime_error);
   fs::remove_all(Path(npy));
   EXPECT_EQ(Entries(), before);
   EXPECT_EQ(CheckWholeSet(dir, 5), 1);

@@ -20,6 +20,15 @@ def wait_for(condition, timeout_s, what):
         time.sleep(0.002)
 
 
+def service_is_up(name, timeout_s=0.05):
+    """Whether service `name` is registered and answers a connection."""
+    try:
+        rospy.wait_for_service(name, timeout=timeout_s)
+        return True
+    except rospy.ROSException:
+        return False
+
+
 def read_csv(path):
     """The rows of a CSV file with a header, as dicts."""
     with open(path, newline="") as f:

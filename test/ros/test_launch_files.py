@@ -18,7 +18,7 @@ import yaml
 from dynamic_reconfigure.client import Client
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for  # noqa: E402
+from rostest_util import service_is_up, wait_for  # noqa: E402
 
 from bsf_vpr.srv import ListReferenceSets  # noqa: E402
 
@@ -77,14 +77,6 @@ def launched(launch, **args):
         yield process
     finally:
         process.stop()
-
-
-def service_is_up(name):
-    try:
-        rospy.wait_for_service(name, timeout=0.05)
-        return True
-    except rospy.ROSException:
-        return False
 
 
 def advertised(topic):

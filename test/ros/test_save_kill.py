@@ -28,7 +28,7 @@ from bsf_vpr.msg import Belief, Descriptor
 from bsf_vpr.srv import ListReferenceSets, StartRecording, StopRecording, UnloadReferenceSet
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for  # noqa: E402
+from rostest_util import service_is_up, wait_for  # noqa: E402
 
 NS = "/kill/"
 ROWS = 200  # places a recording holds
@@ -100,7 +100,7 @@ class SaveKill(unittest.TestCase):
             cls.node.wait()
         cls.node = None
         # The master may still list the dead node's services for a moment.
-        wait_for(lambda: not self_service_up(NS + "list_reference_sets"), 30, "the node to go")
+        wait_for(lambda: not service_is_up(NS + "list_reference_sets", 0.2), 30, "the node to go")
 
     def record(self, generation, overwrite):
         """Starts recording 'today' with images and sends ROWS descriptors with their images;
@@ -208,14 +208,6 @@ class SaveKill(unittest.TestCase):
         print("kills during a save: %d of %d" % (killed_mid_save, len(delays)))
         # Some kills must have landed inside a save, or the loop said little.
         self.assertGreaterEqual(killed_mid_save, 1, "no kill landed inside a save")
-
-
-def self_service_up(name):
-    try:
-        rospy.wait_for_service(name, timeout=0.2)
-        return True
-    except rospy.ROSException:
-        return False
 
 
 if __name__ == "__main__":

@@ -505,6 +505,13 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     }
   }
   if (dir.Exists(yaml)) AddReplacedFiles(dir, yaml, stem, &files);
+  const std::string folder = DirName(yaml) == "." ? dir.path() : dir.path() + "/" + DirName(yaml);
+  const std::string text =
+      image_folder.empty()
+          ? SidecarText(set, BaseName(files.descriptors), folder, set.images, set.image_files)
+          : SidecarText(set, BaseName(files.descriptors), folder, dir.path() + "/" + image_folder,
+                        image_files);
+  files.yaml_digest = ContentDigest(text);
   SaveJournal journal(dir, files);              // nothing is written before it
   std::vector<std::string> made, made_folders;  // for a roll-back: only what this save made
   try {
@@ -520,12 +527,6 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     }
     dir.WriteAtomically(files.descriptors, bytes);
     made.push_back(files.descriptors);
-    const std::string folder = DirName(yaml) == "." ? dir.path() : dir.path() + "/" + DirName(yaml);
-    const std::string text =
-        image_folder.empty()
-            ? SidecarText(set, BaseName(files.descriptors), folder, set.images, set.image_files)
-            : SidecarText(set, BaseName(files.descriptors), folder, dir.path() + "/" + image_folder,
-                          image_files);
     dir.WriteAtomically(yaml, text, options.replace);
   } catch (...) {
     journal.RollBack(made, made_folders);

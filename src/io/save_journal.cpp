@@ -8,6 +8,7 @@
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/reference_set_io.h"
+#include "src/io/internal/saved_descriptors.h"
 
 namespace bsf_vpr {
 namespace {
@@ -74,6 +75,7 @@ std::string JournalText(const SaveFiles& f) {
   out << YAML::Key << "bsf_vpr_save_journal" << YAML::Value << 1;
   out << YAML::Key << "yaml" << YAML::Value << f.yaml;
   out << YAML::Key << "descriptors" << YAML::Value << f.descriptors;
+  out << YAML::Key << "yaml_digest" << YAML::Value << f.yaml_digest;
   out << YAML::Key << "created" << YAML::Value << f.created;
   out << YAML::Key << "created_folders" << YAML::Value << f.created_folders;
   out << YAML::Key << "replaced" << YAML::Value << f.replaced;
@@ -105,6 +107,7 @@ std::optional<SaveFiles> ParseJournal(const DataDirectory& dir, const std::strin
   try {
     f.yaml = dir.Relative(root["yaml"].as<std::string>());
     f.descriptors = dir.Relative(root["descriptors"].as<std::string>());
+    if (root["yaml_digest"]) f.yaml_digest = root["yaml_digest"].as<std::string>();
     f.created = paths("created");
     f.created_folders = paths("created_folders");
     f.replaced = paths("replaced");
@@ -260,7 +263,12 @@ std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
       if (!text) continue;  // a save running in another process
       const std::optional<SaveFiles> f = ParseJournal(dir, *text);
       if (f) {
-        const bool saved = DescriptorsOf(dir, f->yaml) == f->descriptors;
+        // The new YAML is in place: the very bytes the save wrote (the same descriptors
+        // saved again name the same .npy, so that alone cannot tell).
+        const bool saved =
+            f->yaml_digest.empty()
+                ? DescriptorsOf(dir, f->yaml) == f->descriptors
+                : dir.Exists(f->yaml) && ContentDigest(dir.Read(f->yaml)) == f->yaml_digest;
         const int n = saved ? RemoveUnnamed(dir, f->replaced, f->replaced_folders, named)
                             : RemoveUnnamed(dir, f->created, f->created_folders, named);
         report.push_back((saved ? "finished the interrupted save of " + QuotedForMessage(f->yaml) +

@@ -185,8 +185,10 @@ TEST_F(SaveJournalTest, AFailedSaveLeavesTheOldSetAndNothingOfItsOwn) {
 }
 
 // A save in a child process, killed `delay` after it started unless `delay` is zero (then
-// it runs to its end); returns the child's wait status.
-int KilledSave(const std::string& root, int g, int rows, std::chrono::microseconds delay) {
+// it runs to its end); returns the child's wait status. Its descriptors are generation
+// `descriptors_g` (default `g`), its images generation `g`.
+int KilledSave(const std::string& root, int g, int rows, std::chrono::microseconds delay,
+               int descriptors_g = 0) {
   const pid_t child = fork();
   if (child == 0) {
     const DataDirectory dir(root);
@@ -194,7 +196,8 @@ int KilledSave(const std::string& root, int g, int rows, std::chrono::microsecon
     options.replace = true;
     const std::vector<std::string> images = ImagesOf(g, rows, 4096);
     options.images = &images;
-    SaveReferenceSet(dir, Generation(g, rows), "today.yaml", options);
+    SaveReferenceSet(dir, Generation(descriptors_g ? descriptors_g : g, rows), "today.yaml",
+                     options);
     _exit(0);
   }
   if (delay.count() > 0) {
@@ -239,6 +242,38 @@ TEST_F(SaveJournalTest, KilledAtAnyMomentTheOldSetStaysWholeWithItsOwnImagesAndN
   }
   // The kills must have landed inside saves, or this test said nothing.
   EXPECT_GE(caught, 3) << "of " << kKills << " kills, " << caught << " interrupted a save";
+}
+
+TEST_F(SaveJournalTest, TheSameDescriptorsRecordedAgainAndKilledLeaveOneSetOfImages) {
+  // The same route's frames recorded again: the new .npy has the old one's name (named by
+  // content), so only the YAML's own bytes tell whether the save got to its end. Found
+  // driving the node live: a kill left the new, partial image folder behind.
+  const DataDirectory dir(dir_);
+  constexpr int kRows = 120;
+  ASSERT_EQ(KilledSave(dir_, 1, kRows, std::chrono::microseconds(0)), 0);
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_EQ(KilledSave(dir_, 2, kRows, std::chrono::microseconds(0), 1), 0);
+  const auto save_time = std::chrono::duration_cast<std::chrono::microseconds>(
+      std::chrono::steady_clock::now() - start);
+  int caught = 0;
+  for (int k = 0; k < 12; ++k) {
+    KilledSave(dir_, 3 + k, kRows, save_time * (k + 1) / 10, 1);
+    caught += !RecoverInterruptedSaves(dir).empty();
+    const ReferenceSet set = LoadReferenceSetFile(dir, "today.yaml", "");
+    EXPECT_TRUE((set.descriptors.array() == 1.0f).all());
+    // One generation of images, whole, and nothing else left.
+    ReferenceMap map;
+    map.Add(set);
+    const std::string first = ReadReferenceImage(map.set(0), 0, &dir);
+    const std::string g = first.substr(0, first.find(" row "));
+    for (int r = 0; r < kRows; ++r) {
+      EXPECT_EQ(
+          ReadReferenceImage(map.set(0), r, &dir).rfind(g + " row " + std::to_string(r) + " ", 0),
+          0u);
+    }
+    EXPECT_EQ(Entries(), FilesOfToday(dir)) << "kill " << k << " left files behind";
+  }
+  EXPECT_GE(caught, 3);
 }
 
 TEST_F(SaveJournalTest, ASaveRunningInAnotherProcessIsLeftAlone) {

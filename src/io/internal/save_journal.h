@@ -20,6 +20,7 @@ namespace bsf_vpr {
 struct SaveFiles {
   std::string yaml;                           // the set's YAML
   std::string descriptors;                    // the new .npy: the YAML names it once saved
+  std::string yaml_digest;  // ContentDigest of the new YAML: it is in place once saved
   std::vector<std::string> created;           // files the save makes (.npy, images)
   std::vector<std::string> created_folders;   // folders the save makes (images), new ones
   std::vector<std::string> replaced;          // the old set's own files, to go once saved

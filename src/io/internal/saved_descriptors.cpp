@@ -28,6 +28,12 @@ std::string HashDigits(const std::string& bytes) {
 
 }  // namespace
 
+std::string ContentDigest(const std::string& bytes) {
+  char hash[17];
+  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(ContentHash(bytes)));
+  return hash;
+}
+
 std::string SavedDescriptorPath(const std::string& stem, const std::string& npy_bytes) {
   return stem + "." + HashDigits(npy_bytes) + kSuffix;
 }

@@ -10,6 +10,10 @@ namespace bsf_vpr {
 // `npy_bytes` (the whole file). `stem` is the YAML's path without ".yaml".
 std::string SavedDescriptorPath(const std::string& stem, const std::string& npy_bytes);
 
+// 16 hex digits naming `bytes` by their content (FNV-1a, 64 bits): what a save's journal
+// holds of the YAML it is about to write, to tell at the next start whether it was written.
+std::string ContentDigest(const std::string& bytes);
+
 // Whether `file_name` (without folders) has the form SavedDescriptorPath gives:
 // a non-empty stem, a dot, 12 lower-case hex digits, ".npy".
 bool HasSavedDescriptorName(const std::string& file_name);

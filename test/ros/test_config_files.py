@@ -244,6 +244,9 @@ class ConfigFiles(unittest.TestCase):
             fusion = yaml.safe_load(f)
         view = rviz["Visualization Manager"]["Views"]["Current"]
         self.assertEqual(view["Target Frame"], fusion["view_frame"])
+        # So does the grid: on a route larger than the view, the map's origin is out of it.
+        grid = [d for d in displays if d["Class"] == "rviz/Grid"][0]
+        self.assertEqual(grid["Reference Frame"], fusion["view_frame"])
         self.assertEqual(fusion["map_frame"], "map")
 
     def test_a_bad_parameter_stops_the_node_with_a_reason(self):

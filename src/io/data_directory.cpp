@@ -9,12 +9,11 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
-#include <utility>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <random>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "src/io/internal/posix_file.h"
@@ -67,14 +66,6 @@ Fd OpenParent(int root, const std::vector<std::string>& parts, const std::string
     dir = Fd(next);
   }
   return dir;
-}
-
-std::string RandomSuffix() {
-  static thread_local std::mt19937_64 rng(std::random_device{}());
-  static const char kChars[] = "abcdefghijklmnopqrstuvwxyz0123456789";
-  std::string s(8, 'x');
-  for (char& c : s) c = kChars[rng() % (sizeof(kChars) - 1)];
-  return s;
 }
 
 int RemoveTemporariesBelow(int dir_fd) {
@@ -291,7 +282,7 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
   std::string tmp;
   int raw = -1;
   for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
-    tmp = "." + name.substr(0, 200) + kTempMarker + RandomSuffix();
+    tmp = "." + name.substr(0, 200) + kTempMarker + RandomChars(8);
     raw =
         openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (raw < 0 && errno != EEXIST) break;
@@ -301,16 +292,7 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
   int err = 0;
   {
     const Fd file(raw);
-    size_t written = 0;
-    while (written < bytes.size()) {
-      const ssize_t n = write(file.get(), bytes.data() + written, bytes.size() - written);
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) {
-        err = errno;
-        break;
-      }
-      written += static_cast<size_t>(n);
-    }
+    err = WriteAll(file.get(), bytes);
     if (err == 0 && fsync(file.get()) != 0) err = errno;
   }
   if (err == 0) {
@@ -386,15 +368,7 @@ DataDirectory::LockedFile DataDirectory::CreateLocked(const std::string& relativ
   const char* name = parts.back().c_str();
   Fd file(openat(dir.get(), name, O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
   if (file.get() < 0) throw std::runtime_error(SystemError("create", relative, errno));
-  int err = 0;
-  if (flock(file.get(), LOCK_EX) != 0) err = errno;
-  size_t written = 0;
-  while (err == 0 && written < bytes.size()) {
-    const ssize_t n = write(file.get(), bytes.data() + written, bytes.size() - written);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) err = errno;
-    if (n > 0) written += static_cast<size_t>(n);
-  }
+  int err = flock(file.get(), LOCK_EX) != 0 ? errno : WriteAll(file.get(), bytes);
   if (err == 0 && fsync(file.get()) != 0) err = errno;
   if (err == 0 && fsync(dir.get()) != 0) err = errno;
   if (err != 0) {
@@ -420,6 +394,7 @@ std::optional<std::string> DataDirectory::ReadIfUnlocked(const std::string& rela
   *lock = LockedFile(file.release());
   return bytes;
 }
+
 namespace {
 
 // The code point of the UTF-8 sequence at text[i] and its length in bytes, or length 0 when

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -34,6 +35,25 @@ std::string TooLargeMessage(const std::string& name, uint64_t size, uint64_t max
 }
 
 }  // namespace
+
+int WriteAll(int fd, const std::string& bytes) {
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return errno;
+    written += static_cast<size_t>(n);
+  }
+  return 0;
+}
+
+std::string RandomChars(size_t n) {
+  std::random_device device;
+  static const char kChars[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  std::string s(n, 'x');
+  for (char& c : s) c = kChars[device() % (sizeof(kChars) - 1)];
+  return s;
+}
 
 std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes) {
   struct stat st;

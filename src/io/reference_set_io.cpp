@@ -13,6 +13,7 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
+#include "src/io/internal/posix_file.h"
 #include "src/io/internal/save_journal.h"
 #include "src/io/internal/saved_descriptors.h"
 
@@ -544,15 +545,14 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
 std::set<std::string> FilesOfReferenceSets(const DataDirectory& dir,
                                            const std::vector<std::string>& paths) {
   std::set<std::string> below;
-  const std::string prefix = dir.path() == "/" ? "/" : dir.path() + "/";
   const auto add = [&](const std::string& path) {
     std::error_code ec;
     std::string absolute = std::filesystem::weakly_canonical(AbsoluteFolder(path), ec).string();
     if (ec) absolute = AbsoluteFolder(path);
-    if (absolute.compare(0, prefix.size(), prefix) != 0) return;
     try {
       below.insert(dir.Relative(absolute));
     } catch (const std::invalid_argument&) {
+      // Outside the directory: no save below it can remove it.
     }
   };
   for (const std::string& path : paths) {

@@ -3,11 +3,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <optional>
-#include <random>
 #include <stdexcept>
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/reference_set_io.h"
+#include "src/io/internal/posix_file.h"
 #include "src/io/internal/saved_descriptors.h"
 
 namespace bsf_vpr {
@@ -22,29 +22,10 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-std::string FileName(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 std::string Folder(const std::string& relative) {
   const size_t slash = relative.rfind('/');
   return slash == std::string::npos ? "" : relative.substr(0, slash + 1);
 }
-
-}  // namespace
-
-std::string RandomChars(size_t n) {
-  // Drawn afresh each time: a generator seeded once would give a process forked from this
-  // one (or this one's parent) the same names.
-  std::random_device device;
-  static const char kChars[] = "abcdefghijklmnopqrstuvwxyz0123456789";
-  std::string s(n, 'x');
-  for (char& c : s) c = kChars[device() % (sizeof(kChars) - 1)];
-  return s;
-}
-
-namespace {
 
 // The path below `dir` that `field` of the YAML at `yaml` names (relative to the YAML's
 // folder, or absolute below the directory); "" when it lies outside or is not a path.
@@ -144,7 +125,7 @@ int RemoveUnnamed(const DataDirectory& dir, const std::vector<std::string>& file
 }  // namespace
 
 bool NamedFiles::Names(const std::string& relative) const {
-  if (EndsWith(relative, ".npy") && descriptor_names.count(FileName(relative))) return true;
+  if (EndsWith(relative, ".npy") && descriptor_names.count(BaseName(relative))) return true;
   if (paths.count(relative)) return true;
   // A path under a named folder (a set whose rows are its images folder's files).
   for (std::string folder = Folder(relative); !folder.empty(); folder = Folder(folder)) {
@@ -163,7 +144,7 @@ NamedFiles ScanNamedFiles(const DataDirectory& dir, const std::set<std::string>&
       const YAML::Node root = YAML::Load(dir.Read(f));
       // Another YAML (a configuration, ground truth) names no set's files.
       if (!root.IsMap() || !root["descriptors"] || !root["descriptors"].IsScalar()) continue;
-      named.descriptor_names.insert(FileName(root["descriptors"].as<std::string>()));
+      named.descriptor_names.insert(BaseName(root["descriptors"].as<std::string>()));
       if (!root["images"] || !root["images"].IsScalar()) continue;
       const std::string folder = Resolve(dir, f, root["images"].as<std::string>());
       if (folder.empty()) continue;
@@ -194,7 +175,7 @@ SaveJournal::SaveJournal(const DataDirectory& dir, SaveFiles files)
     : dir_(dir), files_(std::move(files)) {
   const std::string text = JournalText(files_);
   for (int attempt = 0;; ++attempt) {
-    path_ = Folder(files_.yaml) + "." + FileName(files_.yaml).substr(0, 200) + kJournalMarker +
+    path_ = Folder(files_.yaml) + "." + BaseName(files_.yaml).substr(0, 200) + kJournalMarker +
             RandomChars(kRandomChars);
     try {
       lock_ = dir_.CreateLocked(path_, text);
@@ -211,7 +192,7 @@ void SaveJournal::RollBack(const std::vector<std::string>& made,
   // nothing a YAML names (the old set, when the same descriptors were saved again).
   NamedFiles named;
   try {
-    named = ScanNamedFiles(dir_, {});
+    if (!made.empty()) named = ScanNamedFiles(dir_, {});  // (folders go only when empty)
   } catch (const std::exception&) {
     return;  // the journal stays for the next start, which asks every YAML again
   }
@@ -227,7 +208,10 @@ void SaveJournal::RollBack(const std::vector<std::string>& made,
 
 void SaveJournal::Finish(const std::set<std::string>& keep) noexcept {
   try {
-    RemoveUnnamed(dir_, files_.replaced, files_.replaced_folders, ScanNamedFiles(dir_, keep));
+    // A set saved under a new name replaced nothing: no YAML need be read.
+    if (!files_.replaced.empty()) {
+      RemoveUnnamed(dir_, files_.replaced, files_.replaced_folders, ScanNamedFiles(dir_, keep));
+    }
   } catch (const std::exception&) {
     // A YAML that cannot be read might name the old files: they stay, and so does nothing
     // else of this save to do.
@@ -242,7 +226,7 @@ std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
                                                  const std::set<std::string>& keep) {
   std::vector<std::string> journals;
   for (const std::string& f : dir.ListFilesBelow()) {
-    if (IsSaveJournalName(FileName(f))) journals.push_back(f);
+    if (IsSaveJournalName(BaseName(f))) journals.push_back(f);
   }
   if (journals.empty()) return {};
   // The temporaries a killed write left in a save's new folder: else the folder is not empty

@@ -14,9 +14,9 @@
 // Thread-safe: every method is const and uses only the folder's handle.
 #pragma once
 
-#include <optional>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 

@@ -39,6 +39,14 @@ class Fd {
   int fd_;
 };
 
+// Writes all of `bytes` to `fd` (retrying on EINTR). Returns 0, or the errno that stopped it.
+int WriteAll(int fd, const std::string& bytes);
+
+// `n` random letters and digits for a file name of its own (temporaries, journals, a save's
+// image folder), drawn afresh each call: a generator seeded once would give a process forked
+// from this one, or from its parent, the same names.
+std::string RandomChars(size_t n);
+
 // The bytes of the file open as `fd` (opened non-blocking), which must be a regular file.
 // Throws std::runtime_error naming `name` if it is a folder, FIFO, socket or device, is
 // larger than `max_bytes` (checked before anything is read, and again while reading), or

@@ -65,9 +65,6 @@ class SaveJournal {
   DataDirectory::LockedFile lock_;
 };
 
-// `n` random letters and digits, drawn afresh (a forked process draws others).
-std::string RandomChars(size_t n);
-
 // Whether `name` (no folder) is a journal's file name.
 bool IsSaveJournalName(const std::string& name);
 

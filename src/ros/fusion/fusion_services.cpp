@@ -22,12 +22,13 @@ std::string ResolvedRequestPath(const LoadReferenceSet::Request& req, const Data
     return req.path;
   }
   const std::string resolved = ResolveConfiguredPath(dir->path(), req.path);
-  const std::string below = dir->path() == "/" ? "/" : dir->path() + "/";
-  if (resolved.compare(0, below.size(), below) != 0) {
+  try {
+    dir->Relative(resolved);  // the rule of every request's path
+  } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(
-        "path " + QuotedForMessage(req.path) + " is " + QuotedForMessage(resolved) +
-        ", outside the data directory '" + dir->path() +
-        "': load_reference_set reads only below it (reference_sets in the configuration may "
+        "path " + QuotedForMessage(req.path) + " is " + QuotedForMessage(resolved) + ": " +
+        e.what() +
+        "; load_reference_set reads only below it (reference_sets in the configuration may "
         "name package files; or copy the set into the data directory)");
   }
   return resolved;

@@ -327,7 +327,6 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
                         name.c_str(), why.c_str(), publisher.c_str());
       return;
     }
-    shard.node = ask.response.node;
     if (publisher != ask.response.node) {
       // Another process publishing on the shard's topic: refused, whatever it says.
       ++shard.foreign_infos;

@@ -86,7 +86,6 @@ class ShardedMap : public MapBackend {
     ros::Subscriber info_sub, distances_sub;
     ShardInfo::ConstPtr info;  // the last taken; null before the first
     uint64_t info_count = 0;
-    std::string node;                   // the shard's node name, as its service last said
     // A shard_info waiting for the shard's service to confirm it (its call failed), and its
     // publisher; asked again every second.
     ShardInfo::ConstPtr unconfirmed;

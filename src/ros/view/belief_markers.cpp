@@ -169,7 +169,7 @@ MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
   return z;
 }
 
-Eigen::Vector3d ViewFocus(const RouteLayout& layout, int /*match*/) { return layout.centre; }
+Eigen::Vector3d ViewFocus(const RouteLayout& layout) { return layout.centre; }
 
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic) {
   std::vector<std::string> lines;

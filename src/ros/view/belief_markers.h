@@ -66,9 +66,9 @@ struct MarkerSizes {
 };
 MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar);
 
-// Where the view frame goes for a belief matching `match`: the centre of the route as drawn
-// (all of it is in view).
-Eigen::Vector3d ViewFocus(const RouteLayout& layout, int match);
+// Where the view frame goes, whatever the match: the centre of the route as drawn (all of it
+// is in view).
+Eigen::Vector3d ViewFocus(const RouteLayout& layout);
 
 // The step between numbered places: 1, 2 or 5 times a power of ten, the smallest that
 // numbers at most kPlaceNumbers + 1 places of `num_places` (0, step, 2 step, ...).

@@ -158,15 +158,17 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
     try {
       return DecodeReferenceImage(bytes, limits);
     } catch (const std::exception& e) {
-      throw std::runtime_error("reference set " + QuotedForMessage(set.name) + " row " +
-                               std::to_string(row) + " (" +
-                               QuotedForMessage(set.image_files[static_cast<size_t>(row)]) +
-                               "): " + e.what());
+      throw std::runtime_error(
+          "reference set " + QuotedForMessage(set.name) + " row " + std::to_string(row) + " (" +
+          QuotedForMessage(set.image_files[static_cast<size_t>(row)]) + "): " + e.what());
     }
   };
-  const ReferenceImageCache::Entry entry = reference_images_.Get(
-      set.images + "/" + set.image_files[static_cast<size_t>(row)], load,
-      std::chrono::steady_clock::now());
+  // Keyed by file; a row recorded without an image (an empty entry) by its row, so that its
+  // refusal names that row.
+  const std::string& file = set.image_files[static_cast<size_t>(row)];
+  const std::string key = set.images + "/" + (file.empty() ? "#" + std::to_string(row) : file);
+  const ReferenceImageCache::Entry entry =
+      reference_images_.Get(key, load, std::chrono::steady_clock::now());
   if (!entry.error.empty()) {
     ROS_WARN_THROTTLE(5.0,
                       "bsf_vpr: match image shown without its reference image: %s (limits: "
@@ -225,7 +227,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r, const PlaceLay
     view.header.stamp = belief.header.stamp.isZero() ? ros::Time::now() : belief.header.stamp;
     view.header.frame_id = options_.map_frame;
     view.child_frame_id = options_.view_frame;
-    const Eigen::Vector3d focus = ViewFocus(route, belief.match);
+    const Eigen::Vector3d focus = ViewFocus(route);
     view.transform.translation.x = focus.x();
     view.transform.translation.y = focus.y();
     view.transform.translation.z = focus.z();

@@ -17,6 +17,7 @@ namespace {
 
 constexpr int kMixture = -1;
 constexpr int kProduct = -2;
+constexpr int kJoint = -3;  // the joint representation's hypothesis, and its places' means
 
 constexpr double kLikelihoodFloor = 1e-300;
 // Below this many values the likelihoods and the filters run on the calling thread alone.
@@ -304,7 +305,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
                           const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
                           const AdaptiveFusionOptions& options, std::optional<double> step_places,
                           bool update_state, PlaceBelief* out,
-                          const std::vector<DistanceStats>& raw_stats) {
+                          const std::vector<DistanceStats>& raw_stats, const SetDistances* joint) {
   if (set_ids != nullptr && set_ids->size() != raw_sets.size()) {
     throw std::invalid_argument("AdaptiveFusion: " + std::to_string(set_ids->size()) +
                                 " set ids for " + std::to_string(raw_sets.size()) + " sets");
@@ -325,25 +326,46 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
   // The distances corrected by their places' means (the raw ones where there are none yet),
   // with their statistics: everything below sees only these. The condition weights stay
   // those of the raw distances (the selection's).
-  std::vector<SetDistances> sets;
-  std::vector<DistanceStats> set_stats = raw_stats;
+  // The joint representation, if given, is one more source after the sets: entry n of
+  // `sources` (its places' means kept under the id kJoint), with its own statistics.
+  const size_t n = raw_sets.size();
+  std::vector<SetDistances> raw_sources = raw_sets;
+  std::vector<DistanceStats> source_stats = raw_stats;
+  std::vector<int> source_ids;
+  for (size_t u = 0; u < n; ++u)
+    source_ids.push_back(set_ids ? (*set_ids)[u] : static_cast<int>(u));
+  if (joint != nullptr) {
+    if (joint->count != num_places || joint->place_ids != nullptr) {
+      throw std::invalid_argument("AdaptiveFusion: the joint distances cover " +
+                                  std::to_string(joint->count) + " places of " +
+                                  std::to_string(num_places));
+    }
+    raw_sources.push_back(*joint);
+    source_stats.push_back(ComputeDistanceStats(*joint));
+    source_ids.push_back(kJoint);
+  }
+  std::vector<SetDistances> sources;
   std::vector<PlaceUpdate> place_updates;
-  CorrectByPlaceMeans(raw_sets, set_ids, num_places, options, &sets, &set_stats,
+  CorrectByPlaceMeans(raw_sources, &source_ids, num_places, options, &sources, &source_stats,
                       &place_updates);
+  const std::vector<SetDistances> sets(sources.begin(), sources.begin() + static_cast<long>(n));
+  const std::vector<DistanceStats> set_stats(source_stats.begin(),
+                                             source_stats.begin() + static_cast<long>(n));
   const internal::Groups groups = internal::GroupSets(sets, weights);
   // Every set's likelihood with its group's pooled statistics (the singles and the product
   // use them all; the mixture those of non-zero weight), as a log column (0 where the set
   // does not cover a place) and as a linear one (1 there), each of mean 1 over the places.
   internal::Groups all = groups;
   all.components = all.members;
-  const std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, all, set_stats);
+  std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, all, set_stats);
+  if (joint != nullptr) pooled.push_back(source_stats[n]);
   std::vector<Eigen::VectorXd>& log_l = log_l_;
   std::vector<Eigen::ArrayXd>& lin_l = lin_l_;
-  log_l.resize(sets.size());
-  lin_l.resize(sets.size());
+  log_l.resize(sources.size());
+  lin_l.resize(sources.size());
   const auto likelihood_of = [&](int k) {
     const size_t u = static_cast<size_t>(k);
-    const SetDistances& d = sets[u];
+    const SetDistances& d = sources[u];
     // With every place covered once in order (the usual case) the values are the columns.
     const bool in_order = internal::CoversEachPlaceInOrder(d, num_places);
     Eigen::VectorXd laid_out;
@@ -365,8 +387,8 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     }
   };
   int64_t work = 0;
-  for (const SetDistances& d : sets) work += d.count;
-  RunParallel(static_cast<int>(sets.size()), work >= kParallelWork ? DistanceThreads() : 1,
+  for (const SetDistances& d : sources) work += d.count;
+  RunParallel(static_cast<int>(sources.size()), work >= kParallelWork ? DistanceThreads() : 1,
               likelihood_of);
   internal::StartFromPrior(log_prior, num_places, out);
   const auto id_of = [&](int u) { return set_ids ? (*set_ids)[static_cast<size_t>(u)] : u; };
@@ -380,6 +402,9 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
   for (size_t g = 0; g < groups.ids.size(); ++g) {
     const std::vector<int>& members = groups.members[g];
     const std::vector<int>& components = groups.components[g];
+    // The joint hypothesis belongs to its sets' group, and needs two of them present.
+    const bool with_joint =
+        joint != nullptr && joint->group == groups.ids[g] && members.size() >= 2;
     if (members.size() == 1) {  // one set: the three hypotheses are its likelihood
       out->log_posterior += log_l[static_cast<size_t>(members[0])];
       out->set_weights[static_cast<size_t>(members[0])] = 1.0;
@@ -405,6 +430,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     for (int u : members) add(id_of(u));
     add(kMixture);
     add(kProduct);
+    if (with_joint) add(kJoint);
     std::vector<const Hypothesis*> record(next.hypotheses.size(), nullptr);
     double mean_score = 0;
     int recorded = 0;
@@ -422,7 +448,8 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     // The hypotheses' likelihoods L_h, linear, each of mean 1 over the places. The product's
     // is formed from the logs (a product of many small factors underflows) and normalised.
     const size_t m = members.size();
-    std::vector<const Eigen::ArrayXd*> l(m + 2);
+    std::vector<const Eigen::ArrayXd*> l(m + (with_joint ? 3 : 2));
+    if (with_joint) l[m + 2] = &lin_l[n];
     for (size_t j = 0; j < m; ++j) l[j] = &lin_l[static_cast<size_t>(members[j])];
     double component_weight = 0;
     for (int u : components) component_weight += weights[static_cast<size_t>(u)];
@@ -535,6 +562,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
           component_weight > 0 ? a[m] * weights[u] / component_weight : a[m] / m;
       out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
     }
+    if (with_joint) out->joint_weight = a[m + 2];
     next.last_weights = std::move(a);
     if (update_state) {
       pending.push_back(std::move(next));
@@ -552,7 +580,7 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     place_means_.clear();
     num_places_ = num_places;
   }
-  CountPlaceMeans(raw_sets, place_updates, options.place_prior_queries);
+  CountPlaceMeans(raw_sources, place_updates, options.place_prior_queries);
   for (GroupState& next : pending) {
     GroupState* state = nullptr;
     for (GroupState& s : groups_) {

@@ -38,7 +38,7 @@ namespace {
 PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>& sets,
                            const std::vector<bool>& available, int num_places,
                            const MethodOptions& options, const Eigen::VectorXd* log_prior,
-                           FusionStream stream) {
+                           FusionStream stream, const std::vector<JointDistances>* joint) {
   if (available.size() != sets.size()) {
     throw std::invalid_argument("availability given for " + std::to_string(available.size()) +
                                 " set(s), the query has " + std::to_string(sets.size()));
@@ -61,7 +61,7 @@ PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>
     m.set_index = static_cast<int>(it - index.begin());
   }
   stream.set_ids = &index;
-  PlaceBelief b = RunMethod(m, present, num_places, options, log_prior, &stream);
+  PlaceBelief b = RunMethod(m, present, num_places, options, log_prior, &stream, joint);
   const auto to_full = [&index](std::vector<int>* v) {
     for (int& u : *v) u = index.at(static_cast<size_t>(u));
   };
@@ -87,7 +87,8 @@ PlaceBelief RunOnAvailable(const Method& method, const std::vector<SetDistances>
 
 PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_places,
                                const Eigen::VectorXd* log_prior, std::optional<double> step_places,
-                               bool update_state, const std::vector<bool>* available) {
+                               bool update_state, const std::vector<bool>* available,
+                               const std::vector<JointDistances>* joint) {
   Eigen::VectorXd predicted;
   if (method_.temporal_filter && last_log_posterior_.size() == num_places) {
     predicted = PredictLogPrior(last_log_posterior_, options_.filter, step_places);
@@ -100,9 +101,9 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
   stream.state = &adaptive_;
   stream.step_places = step_places;
   stream.update_state = update_state;
-  PlaceBelief b =
-      all ? RunMethod(method_, sets, num_places, options_, log_prior, &stream)
-          : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior, stream);
+  PlaceBelief b = all ? RunMethod(method_, sets, num_places, options_, log_prior, &stream, joint)
+                      : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior,
+                                       stream, joint);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace

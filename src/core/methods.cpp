@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -26,13 +27,64 @@ std::string Method::BaseName() const {
       return "bayes_full";
     case MethodKind::kBsf:
       return "bsf";
+    case MethodKind::kMeanDescriptor:
+      return "mean_descriptor";
+    case MethodKind::kUnionNn:
+      return "union_nn";
+    case MethodKind::kSubspace:
+      return "subspace";
+    case MethodKind::kDiscriminant:
+      return "discriminant";
   }
   return "";
 }
 
 bool Method::IsBayesian() const {
-  return kind == MethodKind::kBayesSingle || kind == MethodKind::kBayesFull ||
-         kind == MethodKind::kBsf;
+  return kind != MethodKind::kNearestNeighbour && kind != MethodKind::kMed &&
+         kind != MethodKind::kMedSelective;
+}
+
+bool Method::NeedsSharedPlaces() const {
+  return kind == MethodKind::kMeanDescriptor || kind == MethodKind::kUnionNn ||
+         kind == MethodKind::kSubspace || kind == MethodKind::kDiscriminant;
+}
+
+std::optional<JointKind> Method::JointNeeded(const MethodOptions& options) const {
+  switch (kind) {
+    case MethodKind::kMeanDescriptor:
+      return JointKind::kMeanDescriptor;
+    case MethodKind::kSubspace:
+      return JointKind::kSubspace;
+    case MethodKind::kDiscriminant:
+      return JointKind::kDiscriminant;
+    case MethodKind::kBsf:
+      if (options.fusion == FusionRule::kAdaptive) return ToJointKind(options.fusion_joint);
+      return std::nullopt;
+    default:
+      return std::nullopt;
+  }
+}
+
+const EnumNames<FusionJoint>& FusionJointNames() {
+  static const EnumNames<FusionJoint> kNames{{FusionJoint::kNone, "none"},
+                                             {FusionJoint::kMeanDescriptor, "mean_descriptor"},
+                                             {FusionJoint::kSubspace, "subspace"},
+                                             {FusionJoint::kDiscriminant, "discriminant"}};
+  return kNames;
+}
+
+std::optional<JointKind> ToJointKind(FusionJoint joint) {
+  switch (joint) {
+    case FusionJoint::kMeanDescriptor:
+      return JointKind::kMeanDescriptor;
+    case FusionJoint::kSubspace:
+      return JointKind::kSubspace;
+    case FusionJoint::kDiscriminant:
+      return JointKind::kDiscriminant;
+    case FusionJoint::kNone:
+      break;
+  }
+  return std::nullopt;
 }
 
 namespace {
@@ -62,14 +114,16 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
     }
     name.resize(plus);
   }
-  if (name == "med") {
-    m.kind = MethodKind::kMed;
-  } else if (name == "med_selective") {
-    m.kind = MethodKind::kMedSelective;
-  } else if (name == "bayes_full") {
-    m.kind = MethodKind::kBayesFull;
-  } else if (name == "bsf") {
-    m.kind = MethodKind::kBsf;
+  static const EnumNames<MethodKind> kPlain{{MethodKind::kBsf, "bsf"},
+                                            {MethodKind::kBayesFull, "bayes_full"},
+                                            {MethodKind::kMed, "med"},
+                                            {MethodKind::kMedSelective, "med_selective"},
+                                            {MethodKind::kMeanDescriptor, "mean_descriptor"},
+                                            {MethodKind::kUnionNn, "union_nn"},
+                                            {MethodKind::kSubspace, "subspace"},
+                                            {MethodKind::kDiscriminant, "discriminant"}};
+  if (const std::optional<MethodKind> plain = kPlain.Find(name)) {
+    m.kind = *plain;
   } else if (name.rfind("nn:", 0) == 0 || name.rfind("bayes:", 0) == 0) {
     const size_t colon = name.find(':');
     m.kind = name[0] == 'n' ? MethodKind::kNearestNeighbour : MethodKind::kBayesSingle;
@@ -82,8 +136,7 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
     m.set_index = static_cast<int>(it - set_names.begin());
   } else {
     throw std::invalid_argument("unknown method '" + full_name +
-                                "' (expected nn:<set>, bayes:<set>, med, med_selective, "
-                                "bayes_full or bsf)");
+                                "' (expected nn:<set>, bayes:<set>, " + kPlain.Listed() + ")");
   }
   if (m.temporal_filter && !m.IsBayesian()) {
     throw std::invalid_argument("method '" + full_name +
@@ -92,10 +145,15 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
   return m;
 }
 
-std::vector<Method> AllMethods(const std::vector<std::string>& set_names) {
+std::vector<Method> AllMethods(const std::vector<std::string>& set_names, bool joint_methods) {
   std::vector<Method> out;
   for (const char* name : {"bsf", "bayes_full", "med", "med_selective"}) {
     out.push_back(ParseMethod(name, set_names));
+  }
+  if (joint_methods) {
+    for (const char* name : {"mean_descriptor", "union_nn", "subspace", "discriminant"}) {
+      out.push_back(ParseMethod(name, set_names));
+    }
   }
   for (const std::string& s : set_names) out.push_back(ParseMethod("bayes:" + s, set_names));
   for (const std::string& s : set_names) out.push_back(ParseMethod("nn:" + s, set_names));
@@ -103,8 +161,8 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names) {
 }
 
 std::vector<Method> ParseMethodList(const std::string& list,
-                                    const std::vector<std::string>& set_names) {
-  if (list.empty() || list == "all") return AllMethods(set_names);
+                                    const std::vector<std::string>& set_names, bool joint_methods) {
+  if (list.empty() || list == "all") return AllMethods(set_names, joint_methods);
   std::vector<Method> out;
   std::stringstream ss(list);
   std::string item;
@@ -112,8 +170,9 @@ std::vector<Method> ParseMethodList(const std::string& list,
     if (item.empty()) continue;
     // "all" may be combined with other names (all,bsf+filter); a repeated method is kept once,
     // where it first appears.
-    const std::vector<Method> items =
-        item == "all" ? AllMethods(set_names) : std::vector<Method>{ParseMethod(item, set_names)};
+    const std::vector<Method> items = item == "all"
+                                          ? AllMethods(set_names, joint_methods)
+                                          : std::vector<Method>{ParseMethod(item, set_names)};
     for (const Method& m : items) {
       const bool dup = std::any_of(out.begin(), out.end(),
                                    [&](const Method& o) { return o.Name() == m.Name(); });
@@ -160,6 +219,17 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "place's own mean counts half (the correction is n / (n + this) of it)",
               "queries", AtLeast(1), kLive)
           .AddChoice(
+              "fusion_joint", [](auto& o) -> auto& { return o.fusion_joint; },
+              "fusion adaptive: what the sets share, built from their descriptors, as one more "
+              "hypothesis beside the sets' (the query is best told by the joint "
+              "representation), with its own likelihood, weighted as the others by how well "
+              "it predicts the queries: discriminant, mean_descriptor, subspace or none (the "
+              "sets alone); needs sets of one descriptor that share places, else the sets "
+              "alone are fused",
+              FusionJointNames(), kLive)
+          .Include(
+              JointOptionsTable(), [](auto& o) -> auto& { return o.joint; })
+          .AddChoice(
               "likelihood", [](auto& o) -> auto& { return o.likelihood.variant; },
               "likelihood variant: one_sided (no credit for the upper tail) or two_sided "
               "(exactly the paper)",
@@ -192,6 +262,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
 void MethodOptions::Validate() const {
   MethodOptionsTable().CheckValues(*this);  // each field's bounds, the parts' fields too
   threshold.Validate();                     // the rules across fields
+  joint.Validate();
   sequence.Validate();
 }
 
@@ -200,10 +271,68 @@ bool Method::CarriesState(const MethodOptions& options) const {
          (kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive);
 }
 
+namespace {
+
+// Per place the smallest distance over every set that covers it (each place covered by some
+// set: a place no set covers gets the largest distance of the query). Throws when the sets
+// are of different groups or no place is covered by two of them.
+std::vector<float> UnionDistances(const std::vector<SetDistances>& sets, int num_places) {
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> out(static_cast<size_t>(num_places), inf);
+  std::vector<int> covered(static_cast<size_t>(num_places), 0);
+  float largest = 0;
+  for (const SetDistances& d : sets) {
+    if (d.group != sets.front().group) {
+      throw std::invalid_argument(
+          "union_nn needs sets of one descriptor (one distance scale); these are of several");
+    }
+    for (int k = 0; k < d.count; ++k) {
+      const int p = d.PlaceAt(k);
+      if (p < 0 || p >= num_places) {
+        throw std::invalid_argument("a set names place " + std::to_string(p) + " of a map of " +
+                                    std::to_string(num_places));
+      }
+      out[static_cast<size_t>(p)] = std::min(out[static_cast<size_t>(p)], d.values[k]);
+      largest = std::max(largest, d.values[k]);
+    }
+  }
+  int shared = 0;
+  for (const SetDistances& d : sets) {
+    for (int k = 0; k < d.count; ++k)
+      shared = std::max(shared, ++covered[static_cast<size_t>(d.PlaceAt(k))]);
+  }
+  if (sets.size() < 2 || shared < 2) {
+    throw std::invalid_argument("union_nn needs two or more sets that show the same places");
+  }
+  for (float& v : out) {
+    if (v == inf) v = largest;
+  }
+  return out;
+}
+
+const JointDistances* FindJoint(const std::vector<JointDistances>* joint, JointKind kind,
+                                int num_places) {
+  if (joint == nullptr) return nullptr;
+  for (const JointDistances& j : *joint) {
+    if (j.kind != kind) continue;
+    if (j.distances.count != num_places || j.distances.place_ids != nullptr) {
+      throw std::invalid_argument("the " + ToString(kind) + " distances cover " +
+                                  std::to_string(j.distances.count) + " places of " +
+                                  std::to_string(num_places));
+    }
+    return &j;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
                       const MethodOptions& options, const Eigen::VectorXd* log_prior,
-                      const FusionStream* stream) {
+                      const FusionStream* stream, const std::vector<JointDistances>* joint) {
   PlaceBelief out;
+  const std::optional<JointKind> joint_kind = method.JointNeeded(options);
+  const JointDistances* source = joint_kind ? FindJoint(joint, *joint_kind, num_places) : nullptr;
   const bool adaptive = method.kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive;
   const bool mixture =
       method.kind == MethodKind::kBsf && (options.fusion == FusionRule::kMixture || adaptive);
@@ -224,7 +353,29 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     (s.state ? s.state : &first)
         ->Fuse(sets, s.set_ids, weights, num_places, options.likelihood, log_prior,
                options.threshold, options.top_k, adaptive_options, s.step_places, s.update_state,
-               &out, out.selection.set_stats);
+               &out, out.selection.set_stats, source ? &source->distances : nullptr);
+    return out;
+  }
+  if (method.NeedsSharedPlaces()) {  // one source built from every set
+    std::vector<float> union_values;
+    std::vector<SetDistances> one(1);
+    if (method.kind == MethodKind::kUnionNn) {
+      union_values = UnionDistances(sets, num_places);
+      one[0].values = union_values.data();
+      one[0].count = num_places;
+    } else if (source == nullptr) {
+      throw std::invalid_argument("method '" + method.Name() + "' needs the " +
+                                  ToString(*joint_kind) +
+                                  " representation of the sets, which is not built (it needs "
+                                  "the sets' descriptors, of sets that share places)");
+    } else {
+      one[0] = source->distances;
+    }
+    out.used_sets.resize(sets.size());
+    std::iota(out.used_sets.begin(), out.used_sets.end(), 0);
+    out.set_weights.assign(sets.size(), 1.0);
+    FuseBayes(one, {0}, num_places, options.likelihood, log_prior, options.threshold, options.top_k,
+              &out);
     return out;
   }
   if (mixture) {
@@ -255,6 +406,8 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     case MethodKind::kBsf:
       use = out.selection.selected;
       break;
+    default:
+      throw std::logic_error("RunMethod: a method of the joint sources reached the sets' path");
   }
   out.used_sets = use;
   out.set_weights.assign(sets.size(), 0.0);

@@ -81,13 +81,37 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
     view.count = static_cast<int>(d.cols());
     view.place_ids = set.place_ids.data();
   }
+  std::vector<JointDistances> joint;
+  if (const std::optional<QueryDistances::Joint>& j = distances.joint()) {
+    const RowMatrixXf& d = j->distances;
+    if (d.rows() != 1 || d.cols() != layout.num_places() ||
+        !(d.array() >= 0.0f && d.array() <= std::numeric_limits<float>::max()).all()) {
+      throw std::invalid_argument("the " + ToString(j->kind) + " distances are " +
+                                  std::to_string(d.rows()) + " x " + std::to_string(d.cols()) +
+                                  " (expected 1 x " + std::to_string(layout.num_places()) +
+                                  ", finite and not negative)");
+    }
+    joint.push_back({j->kind, SetDistances{d.data(), nullptr, static_cast<int>(d.cols()), 0}});
+  }
   if (!unresolved_.empty()) throw std::invalid_argument(unresolved_);
+  // A new build of the joint representation: what was carried was scored with another.
+  const uint64_t build = distances.joint() ? distances.joint()->build : 0;
+  std::unique_ptr<MethodRunner> what_if;
+  if (build != joint_build_) {
+    if (update_state) {
+      runner_.reset();
+      joint_build_ = build;
+    } else {
+      what_if = std::make_unique<MethodRunner>(method_, options_);
+    }
+  }
   if (!runner_) runner_ = std::make_unique<MethodRunner>(method_, options_);
+  MethodRunner& runner = what_if ? *what_if : *runner_;
 
   Recognition out;
   const bool all = distances.num_present() == layout.num_sets();
-  out.belief = runner_->Step(views, layout.num_places(), nullptr, step_places, update_state,
-                             all ? nullptr : &available);
+  out.belief = runner.Step(views, layout.num_places(), nullptr, step_places, update_state,
+                           all ? nullptr : &available, &joint);
   out.missing_sets = distances.Absent();
 
   // The set that supplied the match: the closest image of the match among the sets the

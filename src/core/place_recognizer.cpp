@@ -15,8 +15,10 @@ const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
       OptionTable<RecognizerOptions>()
           .Add(
               "method", [](auto& o) -> auto& { return o.method; },
-              "bsf, bayes_full, med, med_selective, nn:<set> or bayes:<set>, optionally with "
-              "+filter (temporal filter prior) and/or +seq (sequence matching)",
+              "bsf, bayes_full, med, med_selective, nn:<set> or bayes:<set>, or one of the "
+              "descriptor-level methods mean_descriptor, union_nn, subspace, discriminant "
+              "(sets of one descriptor that share places), optionally with +filter "
+              "(temporal filter prior; the Bayesian ones) and/or +seq (sequence matching)",
               "", {}, /*live=*/true)
           .Include(
               MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; })
@@ -45,6 +47,7 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   map_.Add(std::move(set));
+  ++generation_;
   distances_.Invalidate();
   decider_.OnLayoutChanged(map_.layout());
 }
@@ -52,6 +55,7 @@ void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
 void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   CheckRemovable(name);
   map_.Remove(name);
+  ++generation_;
   distances_.Invalidate();
   decider_.OnLayoutChanged(map_.layout());
 }
@@ -67,7 +71,37 @@ void PlaceRecognizer::ResetPrior() { decider_.Reset(); }
 
 Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor,
                                        bool update_state, std::optional<double> step_places) {
-  return Decide(QueryDistances::AllPresent(Distances(descriptor)), update_state, step_places);
+  QueryDistances d = QueryDistances::AllPresent(Distances(descriptor));
+  if (std::optional<QueryDistances::Joint> j = JointDistances(descriptor))
+    d.SetJoint(std::move(*j));
+  return Decide(d, update_state, step_places);
+}
+
+std::optional<QueryDistances::Joint> PlaceRecognizer::JointDistances(
+    const Eigen::Ref<const Eigen::VectorXf>& descriptor) {
+  const std::optional<JointKind> kind = decider_.method().JointNeeded(options_.method_options);
+  if (!kind) return std::nullopt;
+  const JointOptions& o = options_.method_options.joint;
+  if (!joint_ || joint_->kind() != *kind || joint_->num_places() != map_.num_places() ||
+      joint_options_.discriminant_dimensions != o.discriminant_dimensions ||
+      joint_options_.discriminant_ridge != o.discriminant_ridge ||
+      joint_generation_ != generation_) {
+    joint_.reset();
+    std::vector<const StoredReferenceSet*> sets;
+    for (const StoredReferenceSet& s : map_.sets()) sets.push_back(&s);
+    try {
+      CheckJointSets(sets, map_.num_places());
+    } catch (const std::invalid_argument&) {
+      return std::nullopt;  // sets that make none: bsf fuses them alone
+    }
+    joint_ = std::make_shared<const JointRepresentation>(
+        JointRepresentation::Build(*kind, sets, map_.num_places(), o));
+    joint_options_ = o;
+    joint_generation_ = generation_;
+    ++joint_builds_;
+  }
+  map_.CheckQuery(descriptor);
+  return QueryDistances::Joint{*kind, joint_builds_, joint_->Distances(descriptor.transpose())};
 }
 
 Recognition PlaceRecognizer::Decide(const QueryDistances& distances, bool update_state,

@@ -25,7 +25,7 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
   if (precision == StoragePrecision::kFloat16) {
     std::vector<uint16_t> half(n);
     for (size_t i = 0; i < n; ++i) half[i] = FloatToHalf(x.data()[i]);  // throws beyond 65504
-    rows_ = std::move(half);
+    rows_ = std::make_shared<const Rows>(std::move(half));
   } else if (precision == StoragePrecision::kInt8) {
     const float max_abs = n ? x.cwiseAbs().maxCoeff() : 0.0f;
     scale_ = max_abs > 0 ? max_abs / 127.0f : 1.0f;
@@ -34,7 +34,7 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
       const float q = std::nearbyint(x.data()[i] / scale_);
       levels[i] = static_cast<int8_t>(std::clamp(q, -127.0f, 127.0f));
     }
-    rows_ = std::move(levels);
+    rows_ = std::make_shared<const Rows>(std::move(levels));
   }
   // The norms of the values the kernels read, after rounding, in the kernels' own order.
   squared_norms_.resize(static_cast<Eigen::Index>(x.rows()));
@@ -48,11 +48,13 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
     squared_norms_(r) = kernels::SelfDot(values, dimension_);
   }
   // Last, once nothing can throw: float32 keeps the given matrix itself (no copy).
-  if (precision == StoragePrecision::kFloat32) rows_ = std::move(set.descriptors);
+  if (precision == StoragePrecision::kFloat32) {
+    rows_ = std::make_shared<const Rows>(std::move(set.descriptors));
+  }
 }
 
 const void* StoredReferenceSet::data() const {
-  return std::visit([](const auto& rows) -> const void* { return rows.data(); }, rows_);
+  return std::visit([](const auto& rows) -> const void* { return rows.data(); }, *rows_);
 }
 
 size_t StoredReferenceSet::data_bytes() const {
@@ -62,12 +64,12 @@ size_t StoredReferenceSet::data_bytes() const {
 
 void StoredReferenceSet::DecodeRow(int r, float* out) const {
   const size_t base = static_cast<size_t>(r) * static_cast<size_t>(dimension_);
-  if (const auto* half = std::get_if<std::vector<uint16_t>>(&rows_)) {
+  if (const auto* half = std::get_if<std::vector<uint16_t>>(rows_.get())) {
     for (int k = 0; k < dimension_; ++k) out[k] = HalfToFloat((*half)[base + k]);
-  } else if (const auto* levels = std::get_if<std::vector<int8_t>>(&rows_)) {
+  } else if (const auto* levels = std::get_if<std::vector<int8_t>>(rows_.get())) {
     for (int k = 0; k < dimension_; ++k) out[k] = scale_ * static_cast<float>((*levels)[base + k]);
   } else {
-    const float* row = std::get<RowMatrixXf>(rows_).data() + base;
+    const float* row = std::get<RowMatrixXf>(*rows_).data() + base;
     std::copy(row, row + dimension_, out);
   }
 }
@@ -80,7 +82,7 @@ size_t StoredReferenceSet::MemoryBytes() const {
 }
 
 ReferenceSet StoredReferenceSet::ToReferenceSet() const {
-  const RowMatrixXf* descriptors = std::get_if<RowMatrixXf>(&rows_);
+  const RowMatrixXf* descriptors = std::get_if<RowMatrixXf>(rows_.get());
   if (!descriptors) {
     throw std::invalid_argument("reference set '" + name_ + "' is held at " + ToString(precision_) +
                                 " precision only; save it from its float32 source");

@@ -32,10 +32,16 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     results[k].method = methods[k];
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
-  std::vector<RowMatrixXf> block(m);
+  std::vector<RowMatrixXf> block(m), joint_block(input.joint_kinds.size());
   for (int begin = 0; begin < input.num_queries; begin += block_size) {
     const int end = std::min(input.num_queries, begin + block_size);
     input.distances(begin, end, &block);
+    if (!input.joint_kinds.empty()) input.joint_distances(begin, end, &joint_block);
+    for (const RowMatrixXf& j : joint_block) {
+      if (j.rows() != end - begin || j.cols() != input.num_places) {
+        throw std::logic_error("joint distance block has the wrong shape");
+      }
+    }
     for (size_t u = 0; u < m; ++u) {
       if (block[u].rows() != end - begin) {
         throw std::logic_error("distance block has the wrong number of rows");
@@ -44,7 +50,14 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     for (size_t k = 0; k < methods.size(); ++k) {
       const auto run = [&](MethodRunner& runner, int q) {
         const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids, input.groups);
-        const PlaceBelief b = runner.Step(views, input.num_places, nullptr, std::nullopt, true);
+        std::vector<JointDistances> joint(joint_block.size());
+        for (size_t j = 0; j < joint.size(); ++j) {
+          joint[j].kind = input.joint_kinds[j];
+          joint[j].distances.values = joint_block[j].row(q - begin).data();
+          joint[j].distances.count = input.num_places;
+        }
+        const PlaceBelief b =
+            runner.Step(views, input.num_places, nullptr, std::nullopt, true, nullptr, &joint);
         QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
         o.match = b.match;
         o.confidence = b.confidence;

@@ -236,6 +236,55 @@ TEST(AdaptiveFusion, LearnsToTrustTheSetThatTracksTheRouteAndToMultiplyIndepende
   EXPECT_GT(both[3], 0.5);
 }
 
+TEST(AdaptiveFusion, TheJointHypothesisIsTrustedWhereItPredictsTheQueries) {
+  // Stream entry 2 stands for the joint representation's distances.
+  const auto run = [](const Stream& s, double* joint_weight, int* right) {
+    AdaptiveFusion f;
+    MethodOptions mo;
+    AdaptiveFusionOptions options;
+    *right = 0;
+    for (int t = 0; t < static_cast<int>(s.d.size()); ++t) {
+      std::vector<SetDistances> views = s.Views(t);
+      const SetDistances joint = views.back();
+      views.pop_back();
+      std::vector<DistanceStats> stats;
+      for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
+      PlaceBelief b;
+      f.Fuse(views, nullptr, ConditionWeights(views, stats, mo.selection), s.n, mo.likelihood,
+             nullptr, mo.threshold, 5, options, std::nullopt, true, &b, stats, &joint);
+      *joint_weight = b.joint_weight;
+      *right += t >= 20 && b.match == t % s.n ? 1 : 0;
+    }
+    return f.LastWeights(0);  // s0, s1, mixture, product, joint
+  };
+  double a = 0;
+  int right = 0;
+  // The sets tell nothing, what they share tracks the route: the joint hypothesis wins.
+  std::vector<double> w = run(Stream(80, 60, {0.0, 0.0, 3.0}, 0.0, 21), &a, &right);
+  ASSERT_EQ(w.size(), 5u);
+  EXPECT_GT(w[4], 0.5);
+  EXPECT_DOUBLE_EQ(a, w[4]);
+  EXPECT_GE(right, 30);
+  // The sets track it and the joint tells nothing: the joint is not trusted.
+  w = run(Stream(80, 60, {3.0, 3.0, 0.0}, 0.0, 22), &a, &right);
+  EXPECT_LT(w[4], 0.05);
+  EXPECT_GE(right, 30);
+  // A joint distance vector that does not cover every place is refused.
+  AdaptiveFusion f;
+  const Stream s(10, 1, {1.0, 1.0, 1.0}, 0.0, 23);
+  std::vector<SetDistances> views = s.Views(0);
+  SetDistances short_joint = views.back();
+  short_joint.count = 9;
+  views.pop_back();
+  std::vector<DistanceStats> stats;
+  for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
+  PlaceBelief b;
+  MethodOptions mo;
+  EXPECT_THROW(f.Fuse(views, nullptr, {1.0, 1.0}, 10, mo.likelihood, nullptr, mo.threshold, 5, {},
+                      std::nullopt, true, &b, stats, &short_joint),
+               std::invalid_argument);
+}
+
 TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
   // Two identical sets: the product of the two is one set's likelihood (exponents 1/2), and
   // so are the singles and the mixture: the belief is bayes: of that set.

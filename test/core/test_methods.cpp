@@ -327,3 +327,75 @@ TEST(Methods, ConditionWeightsAreTheSoftFormOfTheSelectionRule) {
 
 }  // namespace
 }  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+TEST(Methods, UnionNnIsBayesOnEachPlacesSmallestDistance) {
+  Data data(60, 7);
+  const PlaceBelief b = RunMethod(ParseMethod("union_nn", kNames), data.views, 60, {});
+  std::vector<float> smallest(60);
+  for (int i = 0; i < 60; ++i) smallest[i] = std::min({data.d[0][i], data.d[1][i], data.d[2][i]});
+  std::vector<SetDistances> one = {{smallest.data(), nullptr, 60}};
+  PlaceBelief expected;
+  FuseBayes(one, {0}, 60, {}, nullptr, {}, 10, &expected);
+  EXPECT_EQ(b.match, expected.match);
+  EXPECT_DOUBLE_EQ(b.confidence, expected.confidence);
+  EXPECT_EQ(b.used_sets, (std::vector<int>{0, 1, 2}));
+  // Sets that share no place, or of several descriptors, are refused.
+  std::vector<int> first = {0, 1, 2}, second = {3, 4, 5};
+  std::vector<SetDistances> apart = {{data.d[0].data(), first.data(), 3},
+                                     {data.d[1].data(), second.data(), 3}};
+  EXPECT_THROW(RunMethod(ParseMethod("union_nn", kNames), apart, 6, {}), std::invalid_argument);
+  std::vector<SetDistances> groups = data.views;
+  groups[1].group = 1;
+  EXPECT_THROW(RunMethod(ParseMethod("union_nn", kNames), groups, 60, {}), std::invalid_argument);
+}
+
+TEST(Methods, TheJointMethodsAreBayesOnTheirRepresentation) {
+  Data data(50, 8);
+  const std::vector<float> joint_values = testing::RandomDistances(50, 99);
+  for (const char* name : {"mean_descriptor", "subspace", "discriminant"}) {
+    const Method m = ParseMethod(name, kNames);
+    EXPECT_TRUE(m.IsBayesian());
+    EXPECT_EQ(m.Name(), name);
+    const JointKind kind = *m.JointNeeded({});
+    EXPECT_EQ(ToString(kind), name);
+    // Without the representation: refused, naming what is missing.
+    try {
+      RunMethod(m, data.views, 50, {});
+      FAIL() << name;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("not built"), std::string::npos) << e.what();
+    }
+    std::vector<JointDistances> joint = {{kind, {joint_values.data(), nullptr, 50}}};
+    const PlaceBelief b = RunMethod(m, data.views, 50, {}, nullptr, nullptr, &joint);
+    std::vector<SetDistances> one = {joint[0].distances};
+    PlaceBelief expected;
+    FuseBayes(one, {0}, 50, {}, nullptr, {}, 10, &expected);
+    EXPECT_EQ(b.match, expected.match);
+    EXPECT_DOUBLE_EQ(b.confidence, expected.confidence);
+    EXPECT_EQ(b.accepted, expected.confidence > MethodOptions().threshold.LogOdds());
+    // +filter carries its posterior; the threshold gates it as it gates bayes:.
+    MethodOptions strict;
+    strict.threshold.value = 0.999999;
+    EXPECT_FALSE(RunMethod(m, data.views, 50, strict, nullptr, nullptr, &joint).accepted);
+    EXPECT_NO_THROW(ParseMethod(std::string(name) + "+filter+seq", kNames));
+  }
+  // bsf asks for the joint representation of fusion_joint (adaptive only), and fuses the
+  // sets alone without it.
+  MethodOptions o;
+  EXPECT_EQ(ParseMethod("bsf", kNames).JointNeeded(o), JointKind::kDiscriminant);
+  o.fusion_joint = FusionJoint::kNone;
+  EXPECT_FALSE(ParseMethod("bsf", kNames).JointNeeded(o));
+  o.fusion_joint = FusionJoint::kMeanDescriptor;
+  o.fusion = FusionRule::kProduct;
+  EXPECT_FALSE(ParseMethod("bsf", kNames).JointNeeded(o));
+  EXPECT_NO_THROW(RunMethod(ParseMethod("bsf", kNames), data.views, 50, {}));
+  // "all" holds them only where asked (sets of one descriptor that share places).
+  EXPECT_EQ(ParseMethodList("all", kNames).size(), 10u);
+  EXPECT_EQ(ParseMethodList("all", kNames, true).size(), 14u);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

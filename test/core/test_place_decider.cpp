@@ -39,7 +39,8 @@ TEST(PlaceDecider, DecidesBitwiseAsTheRecognizerHoldingTheDescriptors) {
     decider.OnLayoutChanged(layout);
     for (int q = 0; q < 25; ++q) {
       const Eigen::VectorXf query = data.queries.row(q).transpose();
-      const QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
+      QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
+      if (auto j = whole.JointDistances(query)) d.SetJoint(std::move(*j));
       const Recognition a = whole.Recognize(query, true);
       const Recognition b = decider.Decide(layout, d, true);
       ASSERT_EQ(a.belief.match, b.belief.match) << method << " query " << q;
@@ -134,6 +135,54 @@ TEST(PlaceLayout, RefusesWhatCannotShareThePlaceIndexAndStaysAsItWas) {
   EXPECT_EQ(layout.num_places(), 6);
   EXPECT_FALSE(layout.PoseOf(0));
   EXPECT_FALSE(layout.Remove("a"));
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+TEST(PlaceDecider, TakesTheJointDistancesAndStartsAgainWithANewBuild) {
+  const SyntheticData data = Data();
+  RecognizerOptions options;
+  PlaceRecognizer whole;
+  for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
+  const PlaceLayout layout = LayoutAlone(whole.map());
+  const auto distances = [&](int q, uint64_t build) {
+    const Eigen::VectorXf query = data.queries.row(q).transpose();
+    QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
+    std::optional<QueryDistances::Joint> j = whole.JointDistances(query);
+    EXPECT_TRUE(j.has_value());
+    j->build = build;
+    d.SetJoint(std::move(*j));
+    return d;
+  };
+  // discriminant needs the joint distances; a wrong shape is refused, the state untouched.
+  PlaceDecider only("discriminant", options.method_options);
+  only.OnLayoutChanged(layout);
+  QueryDistances bare = distances(0, 1);
+  QueryDistances no_joint =
+      QueryDistances::AllPresent(whole.Distances(data.queries.row(0).transpose()));
+  EXPECT_THROW(only.Decide(layout, no_joint, true), std::invalid_argument);
+  QueryDistances::Joint wrong = *bare.joint();
+  wrong.distances = wrong.distances.leftCols(10);
+  no_joint.SetJoint(wrong);
+  EXPECT_THROW(only.Decide(layout, no_joint, true), std::invalid_argument);
+  EXPECT_GE(only.Decide(layout, bare, true).belief.match, 0);
+  // bsf with its joint hypothesis: a new build starts the carried state again, so the
+  // decisions after it are those of a decider that starts there.
+  PlaceDecider running("bsf+filter", options.method_options);
+  running.OnLayoutChanged(layout);
+  for (int q = 0; q < 15; ++q) running.Decide(layout, distances(q, 1), true);
+  PlaceDecider fresh("bsf+filter", options.method_options);
+  fresh.OnLayoutChanged(layout);
+  for (int q = 15; q < 25; ++q) {
+    const Recognition a = running.Decide(layout, distances(q, 2), true);
+    const Recognition b = fresh.Decide(layout, distances(q, 2), true);
+    ASSERT_EQ(a.belief.confidence, b.belief.confidence) << "query " << q;
+    EXPECT_GT(a.belief.joint_weight, 0.0);
+  }
 }
 
 }  // namespace

@@ -36,11 +36,21 @@ TEST(PlaceRecognizer, MatchesTheOfflineMethodForEveryQuery) {
       ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
   // Offline as the evaluator runs it: one runner, the queries in order (the default fusion
   // carries its hypotheses' scores from query to query).
+  // The default bsf takes the discriminant of the sets as one more hypothesis.
   MethodRunner runner(ParseMethod("bsf", data.map.SetNames()), {});
+  std::vector<const StoredReferenceSet*> sets;
+  for (const StoredReferenceSet& s : data.map.sets()) sets.push_back(&s);
+  const JointRepresentation joint =
+      JointRepresentation::Build(JointKind::kDiscriminant, sets, data.map.num_places());
   for (int q = 0; q < 30; ++q) {
     const Recognition online = r.Recognize(data.queries.row(q).transpose(), true);
-    const PlaceBelief offline = runner.Step(QueryRowViews(all, q, {nullptr, nullptr}),
-                                            data.map.num_places(), nullptr, std::nullopt, true);
+    const RowMatrixXf jd = joint.Distances(data.queries.row(q));
+    const std::vector<JointDistances> j = {
+        {JointKind::kDiscriminant, {jd.data(), nullptr, data.map.num_places()}}};
+    const PlaceBelief offline =
+        runner.Step(QueryRowViews(all, q, {nullptr, nullptr}), data.map.num_places(), nullptr,
+                    std::nullopt, true, nullptr, &j);
+    EXPECT_GT(offline.joint_weight, 0.0);
     EXPECT_EQ(online.belief.match, offline.match);
     EXPECT_EQ(online.belief.confidence, offline.confidence);  // bitwise: the same distances
     ASSERT_GE(online.closest_set, 0);
@@ -264,6 +274,8 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
           RecognizerOptions o;
           o.method = method;
           o.metric = metric;
+          // The sets' distances alone (the joint representation's own: PlaceDecider tests).
+          o.method_options.fusion_joint = FusionJoint::kNone;
           PlaceRecognizer single;
           std::vector<PlaceRecognizer> holders(shards.size());
           single.SetStoragePrecision(precision);
@@ -352,6 +364,7 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
                                    "med_selective", "nn:c0", "nn:c2+seq", "bayes:c2+filter"}) {
     RecognizerOptions o;
     o.method = method;
+    o.method_options.fusion_joint = FusionJoint::kNone;  // the sets' distances alone
     PlaceRecognizer without_c1;
     for (const StoredReferenceSet& s : data.map.sets()) {
       if (s.name() != "c1") without_c1.AddReferenceSet(s.ToReferenceSet());

@@ -77,12 +77,20 @@ class AdaptiveFusion {
   // mean score). `step_places` is the progress since the previous query (odometry: it moves
   // every hypothesis's belief, as +filter's), else the filter's mean step. Without
   // update_state, or if it throws, the state is left as it was. `weights` and `set_stats` as
-  // for FuseMixture.
+  // for FuseMixture. `joint` (null: none), the query's distances to a joint representation
+  // of the sets of its group (to every place in order), adds the hypothesis
+  //
+  //   joint      the query is best told by what the sets share:                 L_J(i)
+  //
+  // L_J the training-free likelihood of those distances with their own statistics (their
+  // places' means corrected as a set's); PlaceBelief::joint_weight is its a_J. A group with
+  // fewer than two sets present leaves it out.
   void Fuse(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
             const std::vector<double>& weights, int num_places, const LikelihoodOptions& likelihood,
             const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
             const AdaptiveFusionOptions& options, std::optional<double> step_places,
-            bool update_state, PlaceBelief* out, const std::vector<DistanceStats>& set_stats);
+            bool update_state, PlaceBelief* out, const std::vector<DistanceStats>& set_stats,
+            const SetDistances* joint = nullptr);
 
   // Forgets every hypothesis's belief and score, and the places' means.
   void Reset();
@@ -96,7 +104,7 @@ class AdaptiveFusion {
   static constexpr int kPlaceMeansLag = 10;
 
   // The last fused query's hypothesis weights a_h of group `group` (empty if none):
-  // the singles in the order of set_ids, then the mixture and the product.
+  // the singles in the order of set_ids, then the mixture, the product and the joint.
   std::vector<double> LastWeights(int group) const;
 
  private:

@@ -84,6 +84,8 @@ struct PlaceBelief {
   // mixture's ConditionWeights for bsf with fusion mixture; else 1 for a used set, 0 for
   // the others.
   std::vector<double> set_weights;
+  // bsf with fusion_joint: the weight of the joint representation's hypothesis (0 without).
+  double joint_weight = 0;
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against

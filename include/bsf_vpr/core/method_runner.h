@@ -30,10 +30,12 @@ class MethodRunner {
   // as if it were not loaded, its history (over places) carried as usual. The belief still
   // indexes the sets of `sets`: a missing set has weight 0, is neither selected nor used,
   // and its statistics are NaN. Throws std::invalid_argument (history untouched) when no
-  // set is available, or the method is nn:/bayes: of a missing set.
+  // set is available, or the method is nn:/bayes: of a missing set. `joint`: the query's
+  // distances to the joint representations the method needs (RunMethod).
   PlaceBelief Step(const std::vector<SetDistances>& sets, int num_places,
                    const Eigen::VectorXd* log_prior, std::optional<double> step_places,
-                   bool update_state, const std::vector<bool>* available = nullptr);
+                   bool update_state, const std::vector<bool>* available = nullptr,
+                   const std::vector<JointDistances>* joint = nullptr);
 
   // Forgets the history (call when the map or the traversal changes).
   void Reset();

@@ -5,7 +5,17 @@
 //   med            Baseline Fusion: minimum ensemble distance over all sets (Eq. MED)
 //   med_selective  Baseline Selective Fusion: MED over the selected sets S
 //   bayes_full     Bayesian Full Fusion: Bayes over all sets
-//   bsf            Bayesian Selective Fusion: Bayes over the selected sets S
+//   bsf            Bayesian Selective Fusion: Bayes over the selected sets S (by default
+//                  with what the sets share as one more source: fusion_joint)
+//
+// and the multi-reference methods of the field that fuse the sets at the descriptor level,
+// each Bayes (the training-free likelihood) on one source built from all the sets (sets of
+// one descriptor that share places; docs/method.md, "What the references share"):
+//   mean_descriptor  the distance to each place's mean descriptor
+//   union_nn         each place's smallest distance over the sets (nearest neighbour over
+//                    the union of the references)
+//   subspace         the residual of the query's projection on each place's subspace
+//   discriminant     the distance in the discriminant projection of the references
 //
 // Suffixes extend a method over time (queries must then arrive in traversal order):
 //   +filter        the prior of each query is the temporal filter's prediction from the
@@ -21,6 +31,7 @@
 
 #include "bsf_vpr/core/adaptive_fusion.h"
 #include "bsf_vpr/core/fusion.h"
+#include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/sequence_matcher.h"
 #include "bsf_vpr/core/temporal_filter.h"
@@ -29,7 +40,30 @@ namespace bsf_vpr {
 
 struct MethodOptions;
 
-enum class MethodKind { kNearestNeighbour, kBayesSingle, kMed, kMedSelective, kBayesFull, kBsf };
+enum class MethodKind {
+  kNearestNeighbour,
+  kBayesSingle,
+  kMed,
+  kMedSelective,
+  kBayesFull,
+  kBsf,
+  kMeanDescriptor,
+  kUnionNn,
+  kSubspace,
+  kDiscriminant
+};
+
+// What bsf (fusion adaptive) adds to the sets' hypotheses: a joint representation of them
+// as one more, or nothing (the fusion of 2026-12-03).
+enum class FusionJoint { kNone, kMeanDescriptor, kSubspace, kDiscriminant };
+const EnumNames<FusionJoint>& FusionJointNames();
+std::optional<JointKind> ToJointKind(FusionJoint joint);
+
+// One query's distances to a joint representation of the sets (JointRepresentation).
+struct JointDistances {
+  JointKind kind = JointKind::kDiscriminant;
+  SetDistances distances;  // to every place, in order (count = the places)
+};
 
 struct Method {
   MethodKind kind = MethodKind::kBsf;
@@ -40,6 +74,11 @@ struct Method {
 
   std::string Name() const;  // e.g. "bsf", "nn:winter", "bsf+filter+seq"
   bool IsBayesian() const;
+  // The joint representation the method needs with `options` (mean_descriptor, subspace,
+  // discriminant; bsf with fusion adaptive and fusion_joint), if any.
+  std::optional<JointKind> JointNeeded(const MethodOptions& options) const;
+  // Whether the method fuses the sets at the descriptor level (the sets must share places).
+  bool NeedsSharedPlaces() const;
   // Whether a query's result depends on the queries before it (+filter, +seq, or bsf with
   // fusion adaptive): such a method sees the queries in traversal order, one at a time.
   bool CarriesState(const MethodOptions& options) const;
@@ -53,8 +92,12 @@ Method ParseMethod(const std::string& name, const std::vector<std::string>& set_
 // bayes: for every set ("all,bsf+filter"). A repeated method is kept once, where it first
 // appears.
 std::vector<Method> ParseMethodList(const std::string& list,
-                                    const std::vector<std::string>& set_names);
-std::vector<Method> AllMethods(const std::vector<std::string>& set_names);
+                                    const std::vector<std::string>& set_names,
+                                    bool joint_methods = false);
+// Every method of the paper, then the descriptor-level ones (with `joint_methods`: sets of
+// one descriptor that share places), then bayes: and nn: of every set.
+std::vector<Method> AllMethods(const std::vector<std::string>& set_names,
+                               bool joint_methods = false);
 
 struct MethodOptions {
   SelectionOptions selection;
@@ -67,6 +110,9 @@ struct MethodOptions {
   // fusion_place_prior_queries queries (adaptive_fusion.h)
   bool fusion_place_means = true;
   double fusion_place_prior_queries = 20;
+  // fusion adaptive: the joint representation added as one more hypothesis (adaptive_fusion.h)
+  FusionJoint fusion_joint = FusionJoint::kDiscriminant;
+  JointOptions joint;  // how the joint representations are built
   // What makes a match accepted (PlaceBelief::accepted), per kind of method:
   Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
   // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of
@@ -92,6 +138,10 @@ const OptionTable<MethodOptions>& MethodOptionsTable();
 //
 // bsf with fusion adaptive scores its hypotheses over the stream: `stream` carries that
 // state (MethodRunner holds it); null runs the query as the first of a stream.
+// `joint` holds the query's distances to the joint representations the method needs
+// (Method::JointNeeded); a method that needs one not given throws std::invalid_argument,
+// except bsf, which then fuses the sets alone. union_nn throws when the sets are of
+// different groups or no place is covered by two of them.
 struct FusionStream {
   AdaptiveFusion* state = nullptr;
   std::optional<double> step_places;          // odometry, for the hypotheses' filters
@@ -100,6 +150,7 @@ struct FusionStream {
 };
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
                       const MethodOptions& options, const Eigen::VectorXd* log_prior = nullptr,
-                      const FusionStream* stream = nullptr);
+                      const FusionStream* stream = nullptr,
+                      const std::vector<JointDistances>* joint = nullptr);
 
 }  // namespace bsf_vpr

@@ -67,7 +67,9 @@ class PlaceDecider {
   // Recognition::missing_sets names it. Throws std::invalid_argument, the state untouched,
   // when the layout is empty, the distances do not fit it (number of sets, 1 x N_u each), a
   // value is negative, NaN or infinite, every set is absent, the method is nn:/bayes: of an
-  // absent set, or it names a set the layout lacks.
+  // absent set, or it names a set the layout lacks. The distances' joint representation
+  // (QueryDistances::joint), if any, goes to the method (bsf's joint hypothesis, the
+  // descriptor-level methods); when its build changes, the carried state starts again.
   Recognition Decide(const PlaceLayout& layout, const QueryDistances& distances, bool update_state,
                      std::optional<double> step_places = std::nullopt);
 
@@ -77,6 +79,7 @@ class PlaceDecider {
   Method method_;                                   // method_name_ resolved against the last layout
   std::string unresolved_ = "no layout given yet";  // why method_ is not resolved ("" if it is)
   std::unique_ptr<MethodRunner> runner_;            // null: built at the next Decide
+  uint64_t joint_build_ = 0;  // the joint representation's build runner_ has seen (0: none)
 };
 
 }  // namespace bsf_vpr

@@ -87,6 +87,12 @@ class PlaceRecognizer {
   // Recognize does for the descriptor.
   std::vector<RowMatrixXf> Distances(const Eigen::Ref<const Eigen::VectorXf>& descriptor);
 
+  // The query's distances to the joint representation of the sets the method needs
+  // (Method::JointNeeded), built here when first needed after a change of sets (nullopt
+  // when the method needs none or the sets make none). Throws as Distances.
+  std::optional<QueryDistances::Joint> JointDistances(
+      const Eigen::Ref<const Eigen::VectorXf>& descriptor);
+
   // Forgets everything carried between queries.
   void ResetPrior();
 
@@ -101,6 +107,12 @@ class PlaceRecognizer {
   ReferenceMap map_;
   DistanceStage distances_;
   PlaceDecider decider_;
+  uint64_t generation_ = 0;  // changes of sets
+  // The joint representation, built for generation joint_generation_ with joint_options_.
+  std::shared_ptr<const JointRepresentation> joint_;
+  JointOptions joint_options_;
+  uint64_t joint_generation_ = 0;
+  uint64_t joint_builds_ = 0;
 };
 
 }  // namespace bsf_vpr

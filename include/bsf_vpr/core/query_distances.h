@@ -4,9 +4,11 @@
 // not answer). The decision (PlaceDecider) runs on the present sets.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
+#include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -29,8 +31,20 @@ class QueryDistances {
   std::vector<int> Absent() const;
   int num_present() const;
 
+  // The query's distances (1 x N, every place in order) to a joint representation of the
+  // sets (joint_representation.h), if the map has one for this layout; `build` names the
+  // build it came from (a new build: the decision's state starts again).
+  struct Joint {
+    JointKind kind = JointKind::kDiscriminant;
+    uint64_t build = 0;
+    RowMatrixXf distances;
+  };
+  void SetJoint(Joint joint) { joint_ = std::move(joint); }
+  const std::optional<Joint>& joint() const { return joint_; }
+
  private:
   std::vector<std::optional<RowMatrixXf>> sets_;
+  std::optional<Joint> joint_;
 };
 
 }  // namespace bsf_vpr

@@ -1,11 +1,14 @@
 // A reference set as a ReferenceMap holds it: immutable, its descriptors encoded at the
 // map's storage precision behind accessors (as faiss keeps an index's codes behind
 // IndexFlatCodes), with the squared norm of every row that the distances need. Nothing
-// changes it once made: any number of threads may read it at once.
+// changes it once made: any number of threads may read it at once. A copy shares the
+// encoded rows (they are immutable): a snapshot of a map's sets for a background build
+// costs their place ids and norms, not their descriptors.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -70,8 +73,10 @@ class StoredReferenceSet {
   std::vector<std::string> image_files_;
   int dimension_ = 0;
   StoragePrecision precision_ = StoragePrecision::kFloat32;
-  // The one encoding of precision_: float32 as given, binary16 or int8 (row-major).
-  std::variant<RowMatrixXf, std::vector<uint16_t>, std::vector<int8_t>> rows_;
+  // The one encoding of precision_: float32 as given, binary16 or int8 (row-major), shared
+  // by the copies of this set.
+  using Rows = std::variant<RowMatrixXf, std::vector<uint16_t>, std::vector<int8_t>>;
+  std::shared_ptr<const Rows> rows_;
   float scale_ = 1.0f;
   Eigen::VectorXf squared_norms_;
 };

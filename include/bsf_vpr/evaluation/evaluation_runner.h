@@ -38,6 +38,11 @@ struct EvaluationInput {
   std::vector<std::vector<int>> place_ids;  // per set; an empty vector means row k is place k
   std::vector<int> groups;  // per set its descriptor group (SetDistances::group); empty: all 0
   DistanceBlockFn distances;
+  // The joint representations of the sets (JointRepresentation) the methods need, by kind:
+  // joint_distances fills (*block)[j] with the (end - begin) x num_places distances of queries
+  // [begin, end) to the representation of kind joint_kinds[j].
+  std::vector<JointKind> joint_kinds;
+  DistanceBlockFn joint_distances;
 };
 
 // Evaluates every method on every query, in order (+filter and +seq carry state from one

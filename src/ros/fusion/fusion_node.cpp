@@ -69,6 +69,8 @@ void FusionNode::Start() {
   // Checks the method against the sets.
   decider_.SetMethod(params_.recognizer.method, params_.recognizer.method_options, *layout_);
   const Method& method = decider_.method();
+  map_->SetJoint(method.JointNeeded(params_.recognizer.method_options),
+                 params_.recognizer.method_options.joint);
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
     ROS_WARN(
@@ -398,6 +400,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
       }
     }
     decider_.SetMethod(o.method, o.method_options, *layout_);
+    map_->SetJoint(decider_.method().JointNeeded(o.method_options), o.method_options.joint);
     last_reconfigure_refusal_.clear();
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
              o.method.c_str(), o.method_options.selection.gamma_fraction,

@@ -128,7 +128,15 @@ const OptionTable<ShardParams>& ShardParamsTable() {
           .Include(MapParamsTable(), AsBase<MapParams>())
           .Include(
               FirstStageOptionsTable(), [](auto& p) -> auto& { return p.first_stage; })
-          .Include(QueueParamsTable(), AsBase<QueueParams>());
+          .Include(QueueParamsTable(), AsBase<QueueParams>())
+          .AddChoice(
+              "fusion_joint", [](auto& p) -> auto& { return p.fusion_joint; },
+              "the joint representation of this shard's sets (two or more that share places) "
+              "it builds in the background and serves with its distances, for the combiner's "
+              "bsf: discriminant, mean_descriptor, subspace or none",
+              FusionJointNames())
+          .Include(
+              JointOptionsTable(), [](auto& p) -> auto& { return p.joint; });
   return kTable;
 }
 

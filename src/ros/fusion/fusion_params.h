@@ -103,6 +103,10 @@ struct FusionParams : MapParams,
 // decision (the combiner's).
 struct ShardParams : MapParams, QueueParams {
   FirstStageOptions first_stage;
+  // The joint representation of the shard's sets it builds and serves (the combiner's
+  // bsf takes it as its joint hypothesis), and how.
+  FusionJoint fusion_joint = FusionJoint::kDiscriminant;
+  JointOptions joint;
 };
 
 const OptionTable<MapParams>& MapParamsTable();

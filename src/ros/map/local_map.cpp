@@ -4,6 +4,7 @@
 #include <ros/wall_timer.h>
 
 #include <chrono>
+#include <cstdio>
 
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/io/reference_set_io.h"
@@ -99,6 +100,9 @@ MapBackend::Query LocalMap::Ask(const Descriptor& descriptor) {
   const RowMatrixXf row = QueryRow(descriptor);
   query.layout = layout_;
   query.distances = QueryDistances::AllPresent(stage_.Distances(metric_, row, map_));
+  if (joint_ && joint_->num_places() == map_.num_places()) {
+    query.distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
+  }
   query.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return query;
 }
@@ -157,6 +161,7 @@ std::string LocalMap::Unload(const std::string& name) {
 
 void LocalMap::Changed() {
   layout_ = std::make_shared<MapLayout>(map_.layout(), ++generations_);
+  RequestJoint();
   stage_.Invalidate();
   if (stage_.kind() == FirstStageKind::kExact || map_.num_sets() == 0) return;
   const ros::WallTime start = ros::WallTime::now();
@@ -187,6 +192,68 @@ void LocalMap::Changed() {
   }
 }
 
+void LocalMap::SetJoint(std::optional<JointKind> kind, const JointOptions& options) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const bool same = kind == joint_kind_ &&
+                    options.discriminant_dimensions == joint_options_.discriminant_dimensions &&
+                    options.discriminant_ridge == joint_options_.discriminant_ridge;
+  if (same) return;
+  joint_kind_ = kind;
+  joint_options_ = options;
+  joint_.reset();  // another kind or other options: the old one answers for nothing asked
+  RequestJoint();
+}
+
+void LocalMap::RequestJoint() {
+  if (joint_ && joint_->num_places() != map_.num_places()) joint_.reset();
+  if (!joint_kind_) {
+    joint_.reset();
+    joint_status_ = "none asked for";
+    return;
+  }
+  std::vector<const StoredReferenceSet*> sets;
+  for (const StoredReferenceSet& s : map_.sets()) sets.push_back(&s);
+  try {
+    CheckJointSets(sets, map_.num_places());
+  } catch (const std::invalid_argument& e) {
+    joint_.reset();
+    joint_status_ = std::string("none: ") + e.what();
+    return;
+  }
+  joint_status_ = "building " + ToString(*joint_kind_) + " of " + std::to_string(map_.num_sets()) +
+                  " sets" + (joint_ ? " (the previous one answers meanwhile)" : "");
+  joint_builder_.Request(*joint_kind_, map_.sets(), map_.num_places(), joint_options_,
+                         layout_->generation);
+}
+
+void LocalMap::JointBuilt(JointBuilder::Result result) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (result.generation != layout_->generation || !joint_kind_ || result.kind != *joint_kind_) {
+    return;  // the sets or the kind changed since: a newer request is on its way
+  }
+  char took[32];
+  std::snprintf(took, sizeof took, "%.2f s", result.seconds);
+  if (!result.joint) {
+    joint_.reset();
+    joint_status_ = "failed: " + result.error;
+    ROS_ERROR(
+        "bsf_vpr: the %s representation of the sets could not be built (%s): the method "
+        "goes on with the sets alone",
+        ToString(result.kind).c_str(), result.error.c_str());
+    return;
+  }
+  joint_ = std::move(result.joint);
+  joint_build_ = ++joint_builds_;
+  std::string sets;
+  for (const std::string& n : joint_->set_names()) sets += (sets.empty() ? "" : ", ") + n;
+  joint_status_ = ToString(joint_->kind()) + " of " + sets +
+                  (joint_->kind() == JointKind::kDiscriminant
+                       ? " (" + std::to_string(joint_->discriminant_dimensions()) + " dimensions)"
+                       : std::string()) +
+                  ", built in " + took;
+  ROS_INFO("bsf_vpr: joint representation %s", joint_status_.c_str());
+}
+
 void LocalMap::List(ListReferenceSets::Response* response) const {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const StoredReferenceSet& s : map_.sets()) response->sets.push_back(ToInfoMsg(s));
@@ -207,6 +274,7 @@ std::string LocalMap::Problem() const {
 
 void LocalMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   std::lock_guard<std::mutex> lock(mutex_);
+  status.add("joint representation", joint_status_);
   status.add("first stage", first_stage_error_.empty()
                                 ? stage_.Summary()
                                 : "exact: pca failed: " + first_stage_error_);
@@ -230,11 +298,21 @@ void LocalMap::ShardAnswer(const Descriptor& descriptor, ShardDistances* out) {
         out->counts.push_back(static_cast<int32_t>(m.size()));
         out->distances.insert(out->distances.end(), m.data(), m.data() + m.size());
       }
+      if (joint_ && joint_->num_places() == map_.num_places()) {
+        const RowMatrixXf j = joint_->Distances(row);
+        out->joint_kind = ToString(joint_->kind());
+        out->joint_build = joint_build_;
+        out->joint_sets = joint_->set_names();
+        out->joint_distances.assign(j.data(), j.data() + j.size());
+      }
     } catch (const std::exception& e) {
       out->set_names.clear();
       out->fingerprints.clear();
       out->counts.clear();
       out->distances.clear();
+      out->joint_kind.clear();
+      out->joint_sets.clear();
+      out->joint_distances.clear();
       out->error = e.what();
     }
   }

@@ -12,11 +12,13 @@
 #include <bsf_vpr/ShardSet.h>
 
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "bsf_vpr/core/first_stage.h"
+#include "bsf_vpr/core/joint_builder.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/fusion/fusion_params.h"
@@ -60,6 +62,9 @@ class LocalMap : public MapBackend {
   void List(ListReferenceSets::Response* response) const override;
   // Why descriptors of `type` should not meet the sets (TypeMismatch).
   std::string DescriptorTypeMismatch(const std::string& type) const;
+  void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
+  // Blocks until no joint representation is being built (tests).
+  void WaitForJoint() const { joint_builder_.Wait(); }
   std::string Problem() const override;
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const override;
 
@@ -79,7 +84,13 @@ class LocalMap : public MapBackend {
   RowMatrixXf QueryRow(const Descriptor& descriptor) const;
   // After every change of sets, with mutex_ held: a new layout, and the first stage's index
   // for the new sets (first_stage pca), logged; a failed build falls back to exact search.
+  // The joint representation is asked of the builder (RequestJoint).
   void Changed();
+  // With mutex_ held: asks for the joint representation of the sets now (if one is wanted
+  // and they can make one), and drops the current one if it no longer fits the places.
+  void RequestJoint();
+  // The builder's result (its thread): taken if it is for the sets now.
+  void JointBuilt(JointBuilder::Result result);
 
   const LocalMapOptions options_;
   const DataDirectory* const data_dir_;
@@ -92,6 +103,16 @@ class LocalMap : public MapBackend {
   Layout layout_;
   uint64_t generations_ = 0;       // layouts made
   std::string first_stage_error_;  // why the pca first stage fell back to exact, if it did
+  // The joint representation: the kind wanted, the one answering (null: none), the build
+  // it came from (numbered), and what the last build said.
+  std::optional<JointKind> joint_kind_;
+  JointOptions joint_options_;
+  std::shared_ptr<const JointRepresentation> joint_;
+  uint64_t joint_build_ = 0;
+  uint64_t joint_builds_ = 0;
+  std::string joint_status_ = "none asked for";
+  // Last: destroyed first, so that no build calls back into a map being destroyed.
+  JointBuilder joint_builder_{[this](JointBuilder::Result r) { JointBuilt(std::move(r)); }};
 };
 
 }  // namespace bsf_vpr

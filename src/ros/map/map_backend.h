@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/query_distances.h"
 #include "bsf_vpr/core/reference_set.h"
@@ -92,6 +93,13 @@ class MapBackend {
   // Why this map cannot take a set the node records ("" if it can).
   virtual std::string CannotRecord() const = 0;
   virtual void List(ListReferenceSets::Response* response) const = 0;
+
+  // The joint representation of the sets the method needs (Method::JointNeeded; nullopt:
+  // none), built with `options` in the background after every change of sets, the previous
+  // one answering meanwhile where it still fits the places; each query then carries its
+  // distances to it (QueryDistances::joint). A map that cannot build one (a sharded map)
+  // says so in Problem() when one is asked for, and the method goes on without it.
+  virtual void SetJoint(std::optional<JointKind> kind, const JointOptions& options) = 0;
 
   // Why the map works short of what it was asked ("" if it does not): shards missing, a
   // first stage that fell back to exact search. A warning in the node's diagnostics.

@@ -598,6 +598,7 @@ MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header, double qu
   // A descriptor every shard with distances refused is refused (its dimension, a NaN: the
   // same reason on each); one shard's refusal alone makes that shard missing.
   if (!any && !refusals.empty()) throw std::invalid_argument(refusals);
+  AttachJoint(answers, &query);
   return query;
 }
 
@@ -796,6 +797,44 @@ std::string ShardedMap::MissingSummaryLocked() const {
   return out;
 }
 
+void ShardedMap::AttachJoint(const std::vector<const ShardDistances*>& answers, Query* query) {
+  joint_used_.clear();
+  if (!joint_kind_) return;
+  const std::string kind = ToString(*joint_kind_);
+  const int places = layout_->num_places();
+  // Of the shards' joint representations of the kind asked for, over every place of the
+  // layout, finite and not negative, the one built from the most sets of the layout.
+  const ShardDistances* best = nullptr;
+  size_t best_k = 0;
+  for (size_t k = 0; k < answers.size(); ++k) {
+    const ShardDistances* a = answers[k];
+    if (!a || !a->error.empty() || a->joint_kind != kind || a->joint_sets.size() < 2 ||
+        a->joint_distances.size() != static_cast<size_t>(places)) {
+      continue;
+    }
+    bool fits = true;
+    for (const std::string& name : a->joint_sets) fits = fits && layout_->IndexOf(name) >= 0;
+    for (float v : a->joint_distances) fits = fits && v >= 0 && v <= 3.0f;  // within [0, 2]
+    if (fits && (!best || a->joint_sets.size() > best->joint_sets.size())) {
+      best = a;
+      best_k = k;
+    }
+  }
+  if (!best) return;
+  // The build names the shard too: another shard's, or its next, starts the state again.
+  QueryDistances::Joint joint;
+  joint.kind = *joint_kind_;
+  joint.build = (static_cast<uint64_t>(best_k + 1) << 48) ^ best->joint_build;
+  joint.distances = Eigen::Map<const RowMatrixXf>(best->joint_distances.data(), 1, places);
+  query->distances.SetJoint(std::move(joint));
+  joint_used_ = shards_[best_k].name + " (" + std::to_string(best->joint_sets.size()) + " sets)";
+}
+
+void ShardedMap::SetJoint(std::optional<JointKind> kind, const JointOptions& /*options*/) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  joint_kind_ = kind;
+}
+
 std::string ShardedMap::Problem() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string missing = MissingSummaryLocked();
@@ -806,6 +845,12 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
   std::lock_guard<std::mutex> lock(mutex_);
   // The shards' own: this map computes no distances.
   status.add("first stage", ToString(FirstStageKind::kExact));
+  status.add("joint representation",
+             !joint_kind_ ? std::string("none asked for")
+             : joint_used_.empty()
+                 ? "none: no shard serves the " + ToString(*joint_kind_) +
+                       " of two or more sets over every place (shard parameter fusion_joint)"
+                 : ToString(*joint_kind_) + " from shard " + joint_used_);
   status.add("shards", static_cast<int>(shards_.size()));
   status.add("map layouts taken", layouts_);
   status.add("queries decided", decided_);

@@ -77,6 +77,10 @@ class ShardedMap : public MapBackend {
   std::string Add(ReferenceSet set, const std::string& where) override;
   std::string CannotRecord() const override;
   void List(ListReferenceSets::Response* response) const override;
+  // The shards build the joint representation of their own sets (their parameter
+  // fusion_joint) and serve its distances; each query takes, of the kind asked for, the one
+  // over every place of the layout built from the most sets (the diagnostics say whose).
+  void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
   std::string Problem() const override;
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const override;
 
@@ -134,6 +138,9 @@ class ShardedMap : public MapBackend {
   // Caller holds mutex_.
   Query Assemble(const std_msgs::Header& header, double query_norm,
                  const std::vector<const ShardDistances*>& answers);
+  // Gives `query` the joint distances of the shard whose joint representation fits best
+  // (SetJoint). Caller holds mutex_.
+  void AttachJoint(const std::vector<const ShardDistances*>& answers, Query* query);
   // Queues the join's decisions for the callbacks. Caller holds mutex_.
   void Queue(std::vector<Join::Decision> decisions);
   // Hands the queued queries to the callbacks, in order. Called without mutex_.
@@ -154,6 +161,8 @@ class ShardedMap : public MapBackend {
   const ShardedMapOptions options_;
   Callbacks callbacks_;  // set once by Start, before any subscription
   mutable std::mutex mutex_;
+  std::optional<JointKind> joint_kind_;    // guarded by mutex_: the one the method asked for
+  std::string joint_used_;                 // guarded by mutex_: whose the last query took
   std::condition_variable infos_changed_;  // a shard_info taken or refused
   std::vector<Shard> shards_;
   Join join_;

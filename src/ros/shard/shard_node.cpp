@@ -25,6 +25,7 @@ void ShardNode::Start() {
   LocalMapOptions options = LocalMapOptions::From(params_, params_.first_stage);
   options.fingerprints = true;  // the combiner tells its sets' versions apart by them
   map_ = std::make_unique<LocalMap>(options, data_dir_.get(), pnh_.getNamespace());
+  map_->SetJoint(ToJointKind(params_.fusion_joint), params_.joint);  // built in the background
   map_->LoadConfigured(params_.reference_sets,
                        params_.data_directory.empty() ? "." : params_.data_directory);
 

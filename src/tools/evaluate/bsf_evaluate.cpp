@@ -150,9 +150,13 @@ int Run(int argc, char** argv) {
   PhaseTimes times;
   const auto data = tools::LoadEvaluationData(args);
   times.End("load");
-  const std::vector<Method> methods = ParseMethodList(args.methods, data->input.set_names);
+  const std::vector<Method> methods =
+      ParseMethodList(args.methods, data->input.set_names, data->joint_problem.empty());
+  const std::string joint = tools::PrepareJointRepresentations(methods, args.options, data.get());
+  times.End("joint representations");
   std::cout << "bsf_evaluate: " << data->description
             << "\nbsf_evaluate: ground truth: " << data->truth_description << std::endl;
+  if (!joint.empty()) std::cout << "bsf_evaluate: " << joint << std::endl;
 
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <numeric>
@@ -137,6 +139,13 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
     const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
     *block = data->stage.Distances(metric, q, data->map);
   };
+  try {  // the joint representations need sets that share places
+    std::vector<const StoredReferenceSet*> sets;
+    for (const StoredReferenceSet& s : data->map.sets()) sets.push_back(&s);
+    CheckJointSets(sets, data->map.num_places());
+  } catch (const std::invalid_argument& e) {
+    data->joint_problem = e.what();
+  }
   data->description = std::to_string(data->map.num_sets()) + " reference set(s), " +
                       std::to_string(data->map.num_places()) + " places, " +
                       std::to_string(data->input.num_queries) + " queries, dimension " +
@@ -193,6 +202,9 @@ void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
       (*block)[u] = data->matrices[u].middleRows(begin, end - begin);
     }
   };
+  data->joint_problem =
+      "the joint representations of the sets need their descriptors (--reference), not "
+      "distance or similarity matrices";
   data->description = std::to_string(data->matrices.size()) + " source matri" +
                       (data->matrices.size() == 1 ? "x" : "ces") + ", " +
                       std::to_string(data->input.num_places) + " places, " +
@@ -243,6 +255,51 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
   }
   data->truth_description += "; " + CountTrueMatches(data->truth);
   return data;
+}
+
+}  // namespace tools
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace tools {
+
+std::string PrepareJointRepresentations(const std::vector<Method>& methods,
+                                        const MethodOptions& options, EvaluationData* data) {
+  std::vector<JointKind> kinds;
+  for (const Method& m : methods) {
+    if (m.NeedsSharedPlaces() && !data->joint_problem.empty()) {
+      throw std::invalid_argument("method '" + m.Name() + "': " + data->joint_problem);
+    }
+    const std::optional<JointKind> k = m.JointNeeded(options);
+    if (!k || !data->joint_problem.empty()) continue;  // bsf: the sets alone
+    if (std::find(kinds.begin(), kinds.end(), *k) == kinds.end()) kinds.push_back(*k);
+  }
+  if (kinds.empty()) return "";
+  std::vector<const StoredReferenceSet*> sets;
+  for (const StoredReferenceSet& s : data->map.sets()) sets.push_back(&s);
+  std::string line;
+  for (JointKind k : kinds) {
+    const auto start = std::chrono::steady_clock::now();
+    data->joints.push_back(
+        JointRepresentation::Build(k, sets, data->map.num_places(), options.joint));
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char took[32];
+    std::snprintf(took, sizeof took, "%.2f s", seconds);
+    line +=
+        (line.empty() ? "" : ", ") + ToString(k) +
+        (k == JointKind::kDiscriminant
+             ? " (" + std::to_string(data->joints.back().discriminant_dimensions()) + " dimensions)"
+             : std::string()) +
+        " in " + took;
+  }
+  data->input.joint_kinds = kinds;
+  data->input.joint_distances = [data](int begin, int end, std::vector<RowMatrixXf>* block) {
+    const RowMatrixXf q = data->queries.middleRows(begin, end - begin);
+    block->resize(data->joints.size());
+    for (size_t j = 0; j < data->joints.size(); ++j) (*block)[j] = data->joints[j].Distances(q);
+  };
+  return "joint representations of the sets built: " + line;
 }
 
 }  // namespace tools

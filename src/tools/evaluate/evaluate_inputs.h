@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/first_stage.h"
+#include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/evaluation/evaluation_runner.h"
 #include "src/tools/evaluate/evaluate_args.h"
@@ -28,6 +29,10 @@ struct EvaluationData {
   std::vector<PlacePose> query_poses;
   std::vector<RowMatrixXf> matrices;  // matrix mode, one Q x N distance matrix per source
   EvaluationInput input;              // refers to the members above
+  // The joint representations the methods need (PrepareJointRepresentations), and why
+  // none can be built ("" if they can: descriptor mode, two or more sets sharing places).
+  std::vector<JointRepresentation> joints;
+  std::string joint_problem;
   GroundTruth truth;
   std::string description;        // one line: what was loaded
   std::string truth_description;  // one line: which ground truth, how many have a true match
@@ -35,6 +40,14 @@ struct EvaluationData {
 
 // Throws std::exception with a message naming the file and the problem.
 std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args);
+
+// Builds the joint representations `methods` need with `options` (Method::JointNeeded) and
+// sets input.joint_kinds and input.joint_distances; returns a line saying what was built and
+// how long it took ("" if nothing). Throws std::invalid_argument (joint_problem) when a method
+// of the joint sources (mean_descriptor, union_nn, subspace, discriminant) is asked for and
+// they cannot be built; bsf then fuses the sets alone.
+std::string PrepareJointRepresentations(const std::vector<Method>& methods,
+                                        const MethodOptions& options, EvaluationData* data);
 
 }  // namespace tools
 }  // namespace bsf_vpr

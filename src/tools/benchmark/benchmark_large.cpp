@@ -25,23 +25,6 @@ double Ms(Clock::time_point t0) {
 
 double ResidentMb() { return ResidentBytes() / 1e6; }
 
-// Uniform values in [-1, 1) from xorshift64*: a 4 GB map is made in seconds (a normal
-// generator would take minutes). Random rows have no low-dimensional structure, so the
-// first stage's error here is far worse than on real descriptors: this section measures
-// time only; the recall on real data is in docs/performance.md and the tests.
-RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
-  RowMatrixXf m(rows, cols);
-  uint64_t x = seed * 0x9E3779B97F4A7C15ull + 1;
-  for (Eigen::Index i = 0; i < m.size(); ++i) {
-    x ^= x >> 12;
-    x ^= x << 25;
-    x ^= x >> 27;
-    const uint64_t r = x * 0x2545F4914F6CDD1Dull;
-    m.data()[i] = static_cast<float>(static_cast<int64_t>(r >> 40) - (1 << 23)) / (1 << 23);
-  }
-  return m;
-}
-
 }  // namespace
 
 void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage) {

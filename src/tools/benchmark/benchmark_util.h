@@ -10,8 +10,28 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/types.h"
+
 namespace bsf_vpr {
 namespace tools {
+
+// Uniform values in [-1, 1) from xorshift64*: a 4 GB map is made in seconds (a normal
+// generator would take minutes). Random rows have no low-dimensional structure, so the
+// first stage's error (or a joint representation's) is far worse than on real descriptors:
+// the sections that use them measure time only; accuracy on real data is in
+// docs/performance.md, docs/results.md and the tests.
+inline RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
+  RowMatrixXf m(rows, cols);
+  uint64_t x = seed * 0x9E3779B97F4A7C15ull + 1;
+  for (Eigen::Index i = 0; i < m.size(); ++i) {
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    const uint64_t r = x * 0x2545F4914F6CDD1Dull;
+    m.data()[i] = static_cast<float>(static_cast<int64_t>(r >> 40) - (1 << 23)) / (1 << 23);
+  }
+  return m;
+}
 
 // The median of `v` (the upper one of an even count).
 inline double Median(std::vector<double> v) {

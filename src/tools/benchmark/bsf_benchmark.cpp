@@ -21,6 +21,7 @@
 #include "bsf_vpr/evaluation/evaluation_runner.h"
 #include "src/tools/benchmark/benchmark_describe.h"
 #include "src/tools/benchmark/benchmark_evaluate.h"
+#include "src/tools/benchmark/benchmark_joint.h"
 #include "src/tools/benchmark/benchmark_large.h"
 #include "src/tools/benchmark/benchmark_util.h"
 #include "src/tools/benchmark/cpu_baseline.h"
@@ -77,6 +78,10 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            skipped), with the references stored at --storage float32|float16|int8 (default
            float32); exact, and for D above the first stage's d' also the pca first stage
            (time per query, its index's build time and memory; random data: time only)
+  joint    the joint representation of the sets: a query of the default bsf (with the
+           discriminant) vs without it (fusion_joint none), M=3, N=3000, D=4096, timed in
+           turn; the discriminant, mean and subspace built at that size; the discriminant
+           built at M=10, N=100,000, D=4096 int8 (minutes; skipped without the memory)
 The large and scaling sections take the pca first stage's options as bsf_evaluate and the
 fusion node do (defaults: d' = 256, 1000 re-ranked per set, basis from 2048 rows):
   --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
@@ -436,7 +441,7 @@ void Scaling(int repeats, int scale, StoragePrecision storage, const FirstStageO
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling";
+  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling,joint";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
@@ -489,9 +494,12 @@ int Run(int argc, char** argv) {
                                std::string(BSF_SOURCE_DIR) + "/test/data/models");
     else if (s == "scaling")
       Scaling(repeats, scale, storage, first_stage);
+    else if (s == "joint")
+      tools::BenchmarkJoint(repeats, scale);
     else
-      throw std::invalid_argument("unknown section '" + s +
-                                  "' (fusion, query, batch, evaluate, large, describe, scaling)");
+      throw std::invalid_argument(
+          "unknown section '" + s +
+          "' (fusion, query, batch, evaluate, large, describe, scaling, joint)");
   }
   return 0;
 }

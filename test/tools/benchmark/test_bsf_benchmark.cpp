@@ -46,7 +46,12 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
                                "pca ms/query   speed-up",
                                "every distance first",
                                "time split of a pca query",
-                               "decision (selection, likelihoods over"}) {
+                               "decision (selection, likelihoods over",
+                               "a query of the default (with the discriminant)",
+                               "discriminant built in",
+                               "mean_descriptor built in",
+                               "subspace built in",
+                               "joint   M=10 N=10000 D=4096 int8: discriminant (64 dimensions"}) {
     EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
   }
   EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;

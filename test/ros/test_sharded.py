@@ -119,6 +119,8 @@ class Sharded(unittest.TestCase):
         return pid
 
     def test_sharded_map(self):
+        if rospy.get_param("~fusion_joint", "none") != "none":
+            return self.check_joint_from_a_shard()
         # 1. Every query: bitwise the single node's belief (and every set took part).
         stamps = self.publish(range(100))
         self.assert_bitwise(stamps)
@@ -317,6 +319,29 @@ class Sharded(unittest.TestCase):
         return sum(self.fusion_diagnostic(key) for key in (
             "queries no shard answered", "dropped: queue overflow since start",
             "dropped: the map's sets changed under the query since start"))
+
+    def check_joint_from_a_shard(self):
+        """shard_0 holds summer and fall and serves their discriminant with its distances;
+        the combiner takes it as bsf's joint hypothesis (the single node holds all three
+        sets, so its joint is another: the beliefs are compared by their matches)."""
+        stamps = self.publish(range(100))
+        wait_for(lambda: all(s in self.sharded and s in self.single for s in stamps), 60,
+                 "both beliefs of the 100 queries")
+        weights = [self.sharded[s].joint_weight for s in stamps]
+        self.assertGreater(max(weights), 0.0, "the combiner's beliefs give the joint no weight")
+        self.assertTrue(all(not list(self.sharded[s].missing_sets) for s in stamps))
+        def joint_states():
+            return [v.value for array in self.diagnostics for st in array.status
+                    for v in st.values if v.key == "joint representation"]
+        wait_for(lambda: any(v.startswith("discriminant from shard") and "shard_0" in v and
+                             v.endswith("(2 sets)") for v in joint_states()),
+                 20, "the combiner's diagnostics naming shard_0's discriminant (seen: %s)"
+                 % sorted(set(joint_states())))
+        right = sum(1 for k, s in enumerate(stamps) if abs(self.sharded[s].match - k) <= 2)
+        right_single = sum(1 for k, s in enumerate(stamps) if abs(self.single[s].match - k) <= 2)
+        rospy.loginfo("sharded joint: %d of 100 right (the single node: %d); joint weight up to "
+                      "%.2f", right, right_single, max(weights))
+        self.assertGreater(right, 60)
 
     def check_stalled_combiner(self):
         """The combiner stopped 3 s (SIGSTOP) during a 10 Hz stream of 30 queries, then

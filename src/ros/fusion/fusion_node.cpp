@@ -71,6 +71,10 @@ void FusionNode::Start() {
   const Method& method = decider_.method();
   map_->SetJoint(method.JointNeeded(params_.recognizer.method_options),
                  params_.recognizer.method_options.joint);
+  // The configured sets' joint representation before the first descriptor, so that a replay
+  // decides its first queries as the offline evaluation does (later changes of sets rebuild
+  // it in the background).
+  map_->WaitForJoint();
   if (!method.IsBayesian() && !method.sequence &&
       params_.recognizer.method_options.max_match_distance == 0) {
     ROS_WARN(

@@ -63,8 +63,7 @@ class LocalMap : public MapBackend {
   // Why descriptors of `type` should not meet the sets (TypeMismatch).
   std::string DescriptorTypeMismatch(const std::string& type) const;
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
-  // Blocks until no joint representation is being built (tests).
-  void WaitForJoint() const { joint_builder_.Wait(); }
+  void WaitForJoint() const override { joint_builder_.Wait(); }
   std::string Problem() const override;
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const override;
 

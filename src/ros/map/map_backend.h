@@ -100,6 +100,9 @@ class MapBackend {
   // distances to it (QueryDistances::joint). A map that cannot build one (a sharded map)
   // says so in Problem() when one is asked for, and the method goes on without it.
   virtual void SetJoint(std::optional<JointKind> kind, const JointOptions& options) = 0;
+  // Blocks until no joint representation is being built (start-up; a sharded map's shards
+  // build theirs on their own: it returns at once).
+  virtual void WaitForJoint() const = 0;
 
   // Why the map works short of what it was asked ("" if it does not): shards missing, a
   // first stage that fell back to exact search. A warning in the node's diagnostics.

@@ -81,6 +81,7 @@ class ShardedMap : public MapBackend {
   // fusion_joint) and serve its distances; each query takes, of the kind asked for, the one
   // over every place of the layout built from the most sets (the diagnostics say whose).
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
+  void WaitForJoint() const override {}
   std::string Problem() const override;
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const override;
 

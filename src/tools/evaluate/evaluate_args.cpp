@@ -60,8 +60,11 @@ Ground truth (one of):
 
 Methods:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
-                          nn:<set>, bayes:<set>, and 'all' (every one of these, with nn:
-                          and bayes: for every set; the default). Suffixes over time
+                          nn:<set>, bayes:<set>, the descriptor-level mean_descriptor,
+                          union_nn, subspace and discriminant (reference sets of one
+                          descriptor that share places), and 'all' (every one of these
+                          that applies, with nn: and bayes: for every set; the default).
+                          Suffixes over time
                           (queries in traversal order): +filter (temporal filter prior,
                           Bayesian methods) and +seq (sequence matching), e.g. bsf+seq,
                           nn:winter+seq, all,bsf+filter. A repeated method runs once.

@@ -191,11 +191,20 @@ void SubspaceBasis(const NormalisedRows& x, int num_places, RowMatrixXf* basis,
 }
 
 // An orthonormal basis (D x k, columns) of the leading principal directions of the centred
-// rows `c` (R x D): all of them (their rank) when R <= k or D <= k, else the top k of the
-// covariance by subspace iteration (seeded: the same bits every time).
-MatrixXd PrincipalDirections(const RowMatrixXf& c, int k) {
+// rows `all` (R x D), from at most kJointBasisRows of them spread evenly: all of the
+// directions (their rank) when there are few rows (from their Gram matrix), else the top k
+// of their covariance (all of them when D <= k; else by seeded subspace iteration).
+MatrixXd PrincipalDirections(const RowMatrixXf& all, int k) {
+  RowMatrixXf sampled;
+  if (all.rows() > kJointBasisRows) {
+    sampled.resize(kJointBasisRows, all.cols());
+    for (Eigen::Index j = 0; j < kJointBasisRows; ++j) {
+      sampled.row(j) = all.row(j * all.rows() / kJointBasisRows);
+    }
+  }
+  const RowMatrixXf& c = all.rows() > kJointBasisRows ? sampled : all;
   const Eigen::Index r = c.rows(), dim = c.cols();
-  if (r <= dim && r <= 2048) {  // the span of the rows, from their Gram matrix
+  if (r <= dim && r <= 1024) {  // the span of the rows, from their Gram matrix
     const MatrixXd cd = c.cast<double>();
     const MatrixXd gram = cd * cd.transpose();
     Eigen::SelfAdjointEigenSolver<MatrixXd> eig(gram);
@@ -212,32 +221,41 @@ MatrixXd PrincipalDirections(const RowMatrixXf& c, int k) {
     }
     return p;
   }
-  // The covariance (float GEMM, summed in double afterwards), then its leading eigenvectors.
-  const Eigen::MatrixXf cov_f = c.transpose() * c;
-  const MatrixXd cov = cov_f.cast<double>();
+  // The covariance (a float GEMM), then its leading eigenvectors: all of them where D <= k,
+  // else the top k by subspace iteration on k + 16 columns (float products, each
+  // orthonormalised by Cholesky QR: its Gram matrix is small and in double).
+  const Eigen::MatrixXf cov = c.transpose() * c;
   if (dim <= k) {
-    Eigen::SelfAdjointEigenSolver<MatrixXd> eig(cov);
+    Eigen::SelfAdjointEigenSolver<MatrixXd> eig(cov.cast<double>());
     return eig.eigenvectors().rowwise().reverse();
   }
   const Eigen::Index width = std::min<Eigen::Index>(dim, k + 16);
-  MatrixXd y(dim, width);
+  Eigen::MatrixXf y(dim, width);
   uint64_t state = 0x9E3779B97F4A7C15ull;  // splitmix64: a fixed start
   for (Eigen::Index j = 0; j < y.size(); ++j) {
     state += 0x9E3779B97F4A7C15ull;
     uint64_t z = state;
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    y.data()[j] = static_cast<double>(z >> 11) / 9007199254740992.0 - 0.5;
+    y.data()[j] = static_cast<float>(static_cast<double>(z >> 11) / 9007199254740992.0 - 0.5);
   }
-  MatrixXd q;
-  for (int it = 0; it < 4; ++it) {
-    Eigen::HouseholderQR<MatrixXd> qr(y);
-    q = qr.householderQ() * MatrixXd::Identity(dim, width);
-    y = cov * q;
+  // y's columns orthonormalised: y R^-1 with R^T R = y^T y (twice: Cholesky QR2).
+  const auto orthonormalise = [](Eigen::MatrixXf* m) {
+    for (int pass = 0; pass < 2; ++pass) {
+      const MatrixXd gram = (m->transpose() * *m).cast<double>();
+      const Eigen::LLT<MatrixXd> llt(gram);
+      const MatrixXd r_inverse = llt.matrixU().solve(MatrixXd::Identity(gram.rows(), gram.cols()));
+      *m = *m * r_inverse.cast<float>();
+    }
+  };
+  for (int it = 0; it < 3; ++it) {
+    orthonormalise(&y);
+    y = cov * y;
   }
-  Eigen::HouseholderQR<MatrixXd> qr(y);
-  q = qr.householderQ() * MatrixXd::Identity(dim, width);
-  Eigen::SelfAdjointEigenSolver<MatrixXd> small(q.transpose() * cov * q);
+  orthonormalise(&y);
+  const MatrixXd q = y.cast<double>();
+  const MatrixXd projected = (y.transpose() * cov * y).cast<double>();
+  Eigen::SelfAdjointEigenSolver<MatrixXd> small(projected);
   return q * small.eigenvectors().rowwise().reverse().leftCols(k);
 }
 
@@ -276,7 +294,10 @@ JointRepresentation JointRepresentation::Build(JointKind kind,
   const MatrixXd p = PrincipalDirections(c, kJointPrincipalDirections);  // D x k
   const Eigen::Index k = p.cols();
   // The sampled rows in those directions, and the scatters there.
-  const MatrixXd y = c.cast<double>() * p;  // R x k
+  // R x k: in double where the rows are few (the bits of the studies' cases), a float GEMM
+  // where they are many.
+  const MatrixXd y = c.rows() <= 2048 ? MatrixXd(c.cast<double>() * p)
+                                      : MatrixXd((c * p.cast<float>()).cast<double>());
   MatrixXd place_sum = MatrixXd::Zero(num_places, k);
   std::vector<int> n(static_cast<size_t>(num_places), 0);
   for (size_t j = 0; j < sample.size(); ++j) {

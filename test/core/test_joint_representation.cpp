@@ -219,7 +219,7 @@ TEST(JointRepresentation, DiscriminantWorksInTheReferencesSpan) {
 
 TEST(JointRepresentation, LargeDimensionsGoThroughThePrincipalDirections) {
   // D above kJointPrincipalDirections and more rows than D: the subspace iteration.
-  const ReferenceMap map = Route(2, 300, 600, 6);
+  const ReferenceMap map = Route(2, 400, 600, 6);
   const JointRepresentation j =
       JointRepresentation::Build(JointKind::kDiscriminant, Sets(map), map.num_places());
   EXPECT_EQ(j.discriminant_dimensions(), 64);

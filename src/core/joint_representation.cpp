@@ -365,36 +365,40 @@ RowMatrixXf JointRepresentation::Distances(const Eigen::Ref<const RowMatrixXf>& 
                                 " for a joint representation of dimension " +
                                 std::to_string(dimension_));
   }
-  RowMatrixXf q = queries;
-  NormaliseRows(&q);
-  RowMatrixXf out(q.rows(), num_places_);
-  switch (kind_) {
-    case JointKind::kMeanDescriptor:
-      out.noalias() = q * place_vectors_.transpose();
-      out.array() = 1.0f - out.array();
-      break;
-    case JointKind::kDiscriminant: {
-      RowMatrixXf z = (q.rowwise() - mean_.transpose()) * projection_.transpose();  // Q x d
-      NormaliseRows(&z);
-      out.noalias() = z * place_vectors_.transpose();
-      out.array() = 1.0f - out.array();
-      break;
-    }
-    case JointKind::kSubspace: {
-      const RowMatrixXf dots = q * place_vectors_.transpose();  // Q x K
-      out.setZero();
-      for (Eigen::Index i = 0; i < q.rows(); ++i) {
-        float* row = out.row(i).data();
-        for (size_t k = 0; k < basis_places_.size(); ++k) {
-          const float v = dots(i, static_cast<Eigen::Index>(k));
-          row[basis_places_[k]] += v * v;
-        }
-        const bool zero = q.row(i).squaredNorm() == 0;
-        for (int p = 0; p < num_places_; ++p) {
-          row[p] = zero ? 1.0f : std::sqrt(std::max(0.0f, 1.0f - row[p]));
-        }
+  // Query by query, each by matrix-vector products: a query's distances have the same bits
+  // whether it comes alone (the node) or in a block (bsf_evaluate).
+  RowMatrixXf out(queries.rows(), num_places_);
+  Eigen::VectorXf q(dimension_), z, dots;
+  for (Eigen::Index i = 0; i < queries.rows(); ++i) {
+    q = queries.row(i).transpose();
+    const float norm = q.norm();
+    if (norm > 0) q /= norm;
+    Eigen::Map<Eigen::VectorXf> row(out.row(i).data(), num_places_);
+    switch (kind_) {
+      case JointKind::kMeanDescriptor:
+        row.noalias() = place_vectors_ * q;
+        row.array() = 1.0f - row.array();
+        break;
+      case JointKind::kDiscriminant: {
+        z.noalias() = projection_ * (q - mean_);  // d
+        const float zn = z.norm();
+        if (zn > 0) z /= zn;
+        row.noalias() = place_vectors_ * z;
+        row.array() = 1.0f - row.array();
+        break;
       }
-      break;
+      case JointKind::kSubspace: {
+        dots.noalias() = place_vectors_ * q;  // K
+        row.setZero();
+        for (size_t k = 0; k < basis_places_.size(); ++k) {
+          const float v = dots(static_cast<Eigen::Index>(k));
+          row(basis_places_[k]) += v * v;
+        }
+        for (int p = 0; p < num_places_; ++p) {
+          row(p) = norm == 0 ? 1.0f : std::sqrt(std::max(0.0f, 1.0f - row(p)));
+        }
+        break;
+      }
     }
   }
   out = out.cwiseMax(0.0f);

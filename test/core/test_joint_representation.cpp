@@ -325,3 +325,25 @@ TEST(JointBuilder, IsDestroyedWhileBuilding) {
 
 }  // namespace
 }  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+TEST(JointRepresentation, AQueryHasTheSameBitsAloneAndInABlock) {
+  // The node decides a query alone, bsf_evaluate in blocks: a replay must match the offline
+  // run bit for bit.
+  const ReferenceMap map = Route(3, 40, 24, 31);
+  const RowMatrixXf queries = Route(1, 17, 24, 32).set(0).ToReferenceSet().descriptors;
+  for (const JointKind kind :
+       {JointKind::kMeanDescriptor, JointKind::kSubspace, JointKind::kDiscriminant}) {
+    const JointRepresentation j = JointRepresentation::Build(kind, Sets(map), 40);
+    const RowMatrixXf block = j.Distances(queries);
+    for (Eigen::Index i = 0; i < queries.rows(); ++i) {
+      const RowMatrixXf alone = j.Distances(queries.row(i));
+      EXPECT_TRUE(alone.row(0) == block.row(i)) << ToString(kind) << " query " << i;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace bsf_vpr

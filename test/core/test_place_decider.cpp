@@ -166,7 +166,7 @@ TEST(PlaceDecider, TakesTheJointDistancesAndStartsAgainWithANewBuild) {
       QueryDistances::AllPresent(whole.Distances(data.queries.row(0).transpose()));
   EXPECT_THROW(only.Decide(layout, no_joint, true), std::invalid_argument);
   QueryDistances::Joint wrong = *bare.joint();
-  wrong.distances = wrong.distances.leftCols(10);
+  wrong.distances = RowMatrixXf(wrong.distances.leftCols(10));  // a copy: no aliasing
   no_joint.SetJoint(wrong);
   EXPECT_THROW(only.Decide(layout, no_joint, true), std::invalid_argument);
   EXPECT_GE(only.Decide(layout, bare, true).belief.match, 0);

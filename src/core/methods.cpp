@@ -13,30 +13,27 @@ std::string Method::Name() const {
   return BaseName() + (temporal_filter ? "+filter" : "") + (sequence ? "+seq" : "");
 }
 
+namespace {
+
+// The names of the methods that name no set, written once: BaseName and ParseMethod.
+const EnumNames<MethodKind>& PlainMethodNames() {
+  static const EnumNames<MethodKind> kNames{{MethodKind::kBsf, "bsf"},
+                                            {MethodKind::kBayesFull, "bayes_full"},
+                                            {MethodKind::kMed, "med"},
+                                            {MethodKind::kMedSelective, "med_selective"},
+                                            {MethodKind::kMeanDescriptor, "mean_descriptor"},
+                                            {MethodKind::kUnionNn, "union_nn"},
+                                            {MethodKind::kSubspace, "subspace"},
+                                            {MethodKind::kDiscriminant, "discriminant"}};
+  return kNames;
+}
+
+}  // namespace
+
 std::string Method::BaseName() const {
-  switch (kind) {
-    case MethodKind::kNearestNeighbour:
-      return "nn:" + set_name;
-    case MethodKind::kBayesSingle:
-      return "bayes:" + set_name;
-    case MethodKind::kMed:
-      return "med";
-    case MethodKind::kMedSelective:
-      return "med_selective";
-    case MethodKind::kBayesFull:
-      return "bayes_full";
-    case MethodKind::kBsf:
-      return "bsf";
-    case MethodKind::kMeanDescriptor:
-      return "mean_descriptor";
-    case MethodKind::kUnionNn:
-      return "union_nn";
-    case MethodKind::kSubspace:
-      return "subspace";
-    case MethodKind::kDiscriminant:
-      return "discriminant";
-  }
-  return "";
+  if (kind == MethodKind::kNearestNeighbour) return "nn:" + set_name;
+  if (kind == MethodKind::kBayesSingle) return "bayes:" + set_name;
+  return PlainMethodNames().Name(kind);
 }
 
 bool Method::IsBayesian() const {
@@ -114,15 +111,8 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
     }
     name.resize(plus);
   }
-  static const EnumNames<MethodKind> kPlain{{MethodKind::kBsf, "bsf"},
-                                            {MethodKind::kBayesFull, "bayes_full"},
-                                            {MethodKind::kMed, "med"},
-                                            {MethodKind::kMedSelective, "med_selective"},
-                                            {MethodKind::kMeanDescriptor, "mean_descriptor"},
-                                            {MethodKind::kUnionNn, "union_nn"},
-                                            {MethodKind::kSubspace, "subspace"},
-                                            {MethodKind::kDiscriminant, "discriminant"}};
-  if (const std::optional<MethodKind> plain = kPlain.Find(name)) {
+  const EnumNames<MethodKind>& plain_names = PlainMethodNames();
+  if (const std::optional<MethodKind> plain = plain_names.Find(name)) {
     m.kind = *plain;
   } else if (name.rfind("nn:", 0) == 0 || name.rfind("bayes:", 0) == 0) {
     const size_t colon = name.find(':');
@@ -136,7 +126,7 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
     m.set_index = static_cast<int>(it - set_names.begin());
   } else {
     throw std::invalid_argument("unknown method '" + full_name +
-                                "' (expected nn:<set>, bayes:<set>, " + kPlain.Listed() + ")");
+                                "' (expected nn:<set>, bayes:<set>, " + plain_names.Listed() + ")");
   }
   if (m.temporal_filter && !m.IsBayesian()) {
     throw std::invalid_argument("method '" + full_name +

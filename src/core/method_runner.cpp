@@ -23,6 +23,7 @@ void MethodRunner::SetOptions(const MethodOptions& options) {
                              a.use_partial_sequences == b.use_partial_sequences;
   if (!same_sequence) sequence_ = SequenceMatcher(options.sequence);
   if (options.fusion != options_.fusion) adaptive_.Reset();
+  if (options.off_map.enabled != options_.off_map.enabled) off_map_.Reset();
   options_ = options;
 }
 
@@ -30,6 +31,7 @@ void MethodRunner::Reset() {
   sequence_.Reset();
   last_log_posterior_.resize(0);
   adaptive_.Reset();
+  off_map_.Reset();
 }
 
 namespace {
@@ -105,6 +107,24 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
                       : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior,
                                        stream, joint);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
+  // log(P(off) / P(on)), or -inf without the hypothesis.
+  double log_off_odds = -std::numeric_limits<double>::infinity();
+  if (options_.off_map.enabled && method_.IsBayesian() && b.log_posterior.size() == num_places) {
+    Eigen::VectorXd log_likelihood = b.log_posterior;  // the query's, without the prior's
+    if (log_prior != nullptr && log_prior->size() == num_places) {
+      for (int i = 0; i < num_places; ++i) {
+        const double p = (*log_prior)(i);
+        log_likelihood(i) = p > -std::numeric_limits<double>::infinity()
+                                ? log_likelihood(i) - p
+                                : -std::numeric_limits<double>::infinity();
+      }
+    }
+    log_off_odds = off_map_.Update(log_likelihood, options_.off_map, options_.filter, step_places,
+                                   update_state);
+    b.off_map_probability = 1 / (1 + std::exp(-log_off_odds));
+    b.confidence = ConfidenceWithOffMap(b.confidence, log_off_odds);
+    b.accepted = b.confidence > options_.threshold.LogOdds();
+  }
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace
     SequenceMatcher& matcher = update_state ? sequence_ : what_if;
@@ -116,7 +136,8 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
     b.confidence = -std::numeric_limits<double>::infinity();
     if (!b.top_places.empty()) {
       b.match = b.top_places.front();
-      b.confidence = SequenceMatchLogOdds(b.cost, b.match, matcher.velocities());
+      b.confidence = ConfidenceWithOffMap(
+          SequenceMatchLogOdds(b.cost, b.match, matcher.velocities()), log_off_odds);
       b.accepted = b.confidence > options_.threshold.LogOdds();
     }
   }

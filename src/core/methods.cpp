@@ -245,7 +245,9 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
           .Include(
               SequenceOptionsTable(), [](auto& o) -> auto& { return o.sequence; })
           .Include(
-              TemporalFilterOptionsTable(), [](auto& o) -> auto& { return o.filter; });
+              TemporalFilterOptionsTable(), [](auto& o) -> auto& { return o.filter; })
+          .Include(
+              OffMapOptionsTable(), [](auto& o) -> auto& { return o.off_map; });
   return kTable;
 }
 
@@ -258,7 +260,8 @@ void MethodOptions::Validate() const {
 
 bool Method::CarriesState(const MethodOptions& options) const {
   return temporal_filter || sequence ||
-         (kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive);
+         (kind == MethodKind::kBsf && options.fusion == FusionRule::kAdaptive) ||
+         (IsBayesian() && options.off_map.enabled);
 }
 
 namespace {

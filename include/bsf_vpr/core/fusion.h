@@ -86,6 +86,10 @@ struct PlaceBelief {
   std::vector<double> set_weights;
   // bsf with fusion_joint: the weight of the joint representation's hypothesis (0 without).
   double joint_weight = 0;
+  // Bayesian methods with off_map (MethodRunner): the probability that the query shows no
+  // place of the map. log_posterior is then the belief given that it shows one, and
+  // confidence the log-odds of the match against every other place and "none".
+  double off_map_probability = 0;
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against

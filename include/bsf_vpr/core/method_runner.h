@@ -24,6 +24,8 @@ class MethodRunner {
   // query is appended to the history; without, the runner is left as it was.
   // With +seq, match, top_places and cost describe the best sequence ending at each place;
   // confidence is SequenceMatchLogOdds of the match and accepted compares it with h.
+  // Bayesian methods with off_map: off_map_probability is the tracker's (off_map.h), and the
+  // confidence (of the place, or of the sequence) is against "no place" too.
   //
   // `available` (null: every set) marks the sets whose distances this query has: a set of a
   // sharded map whose shard did not answer is left out, and the method runs on the others
@@ -50,6 +52,7 @@ class MethodRunner {
   SequenceMatcher sequence_;
   Eigen::VectorXd last_log_posterior_;  // for +filter; empty before the first query
   AdaptiveFusion adaptive_;             // for bsf with fusion adaptive
+  OffMapTracker off_map_;               // for Bayesian methods with off_map
 };
 
 }  // namespace bsf_vpr

@@ -32,6 +32,7 @@
 #include "bsf_vpr/core/adaptive_fusion.h"
 #include "bsf_vpr/core/fusion.h"
 #include "bsf_vpr/core/joint_representation.h"
+#include "bsf_vpr/core/off_map.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/sequence_matcher.h"
 #include "bsf_vpr/core/temporal_filter.h"
@@ -79,8 +80,9 @@ struct Method {
   std::optional<JointKind> JointNeeded(const MethodOptions& options) const;
   // Whether the method fuses the sets at the descriptor level (the sets must share places).
   bool NeedsSharedPlaces() const;
-  // Whether a query's result depends on the queries before it (+filter, +seq, or bsf with
-  // fusion adaptive): such a method sees the queries in traversal order, one at a time.
+  // Whether a query's result depends on the queries before it (+filter, +seq, bsf with
+  // fusion adaptive, or a Bayesian method with off_map): such a method sees the queries in
+  // traversal order, one at a time.
   bool CarriesState(const MethodOptions& options) const;
   std::string BaseName() const;  // without suffixes
 };
@@ -122,6 +124,8 @@ struct MethodOptions {
   int top_k = 10;                // how many ranked places to return (recall@K needs K)
   SequenceOptions sequence;      // for +seq methods
   TemporalFilterOptions filter;  // for +filter methods
+  // Bayesian methods: the hypothesis that the query shows no place of the map (off_map.h)
+  OffMapOptions off_map;
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };

@@ -141,6 +141,7 @@ Metrics ComputeMetrics(const std::vector<int>& matches, const std::vector<double
   m.recall_at_5 = RecallAtK(ranked_places, truth, 5);
   m.recall_at_10 = RecallAtK(ranked_places, truth, 10);
   m.num_queries = static_cast<int>(q);
+  m.off_map_queries = m.num_queries - truth.NumWithTrueMatch();
   m.curve = curve;
   return m;
 }

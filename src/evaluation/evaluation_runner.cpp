@@ -62,6 +62,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         o.match = b.match;
         o.confidence = b.confidence;
         o.accepted = b.accepted;
+        o.off_map_probability = b.off_map_probability;
         o.top_places = b.top_places;
       };
       if (methods[k].CarriesState(options)) {
@@ -92,7 +93,11 @@ Metrics ScoreOutcomes(const std::vector<QueryOutcome>& outcomes, const GroundTru
     confidence.push_back(o.confidence);
     ranked.push_back(o.top_places);
   }
-  return ComputeMetrics(matches, confidence, ranked, truth);
+  Metrics m = ComputeMetrics(matches, confidence, ranked, truth);
+  for (size_t q = 0; q < outcomes.size(); ++q) {
+    if (outcomes[q].accepted && !truth.HasTrueMatch(static_cast<int>(q))) ++m.off_map_accepted;
+  }
+  return m;
 }
 
 }  // namespace bsf_vpr

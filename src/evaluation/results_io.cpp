@@ -37,18 +37,20 @@ void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResu
   MakeDirectories(dir + "/matches");
   MakeDirectories(dir + "/pr");
   std::ostringstream summary;
-  summary << "method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries\n";
+  summary << "method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries,off_map_queries,"
+             "off_map_accepted\n";
   for (const MethodResults& r : results) {
     const Metrics& m = r.metrics;
     summary << r.method.Name() << ',' << FormatNumber(m.auc) << ','
             << FormatNumber(m.recall_at_full_precision) << ',' << FormatNumber(m.recall_at_1) << ','
             << FormatNumber(m.recall_at_5) << ',' << FormatNumber(m.recall_at_10) << ','
-            << m.num_queries << '\n';
+            << m.num_queries << ',' << m.off_map_queries << ',' << m.off_map_accepted << '\n';
     std::ostringstream matches;
-    matches << "query,match,confidence\n";
+    matches << "query,match,confidence,accepted,off_map_probability\n";
     for (size_t q = 0; q < r.outcomes.size(); ++q) {
-      matches << q << ',' << r.outcomes[q].match << ',' << FormatNumber(r.outcomes[q].confidence)
-              << '\n';
+      const QueryOutcome& o = r.outcomes[q];
+      matches << q << ',' << o.match << ',' << FormatNumber(o.confidence) << ','
+              << (o.accepted ? 1 : 0) << ',' << FormatNumber(o.off_map_probability) << '\n';
     }
     WriteFileAtomically(dir + "/matches/" + MethodFileStem(r.method.Name()) + ".csv",
                         matches.str());
@@ -70,13 +72,24 @@ std::string FormatSummaryTable(const std::vector<MethodResults>& results) {
   auto pad = [](const std::string& s, size_t w) {
     return s + std::string(w - std::min(w, s.size()), ' ');
   };
-  out << pad("method", width) << "    AUC  R@100P    R@1    R@5   R@10  queries\n";
+  // Where some queries show no place of the map: how many of them had a match accepted.
+  const bool off_map = !results.empty() && results.front().metrics.off_map_queries > 0;
+  out << pad("method", width) << "    AUC  R@100P    R@1    R@5   R@10  queries"
+      << (off_map ? "  off-map accepted" : "") << '\n';
   for (const MethodResults& r : results) {
     const Metrics& m = r.metrics;
     out << pad(r.method.Name(), width) << "  " << Fixed(m.auc, 3) << "   "
         << Fixed(m.recall_at_full_precision, 3) << "  " << Fixed(m.recall_at_1, 3) << "  "
-        << Fixed(m.recall_at_5, 3) << "  " << Fixed(m.recall_at_10, 3) << "  " << m.num_queries
-        << '\n';
+        << Fixed(m.recall_at_5, 3) << "  " << Fixed(m.recall_at_10, 3) << "  " << m.num_queries;
+    if (off_map) {
+      out << "  "
+          << std::string(std::to_string(m.num_queries).size() < 7
+                             ? 7 - std::to_string(m.num_queries).size()
+                             : 0,
+                         ' ')
+          << m.off_map_accepted << " of " << m.off_map_queries;
+    }
+    out << '\n';
   }
   return out.str();
 }

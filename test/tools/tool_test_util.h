@@ -57,8 +57,9 @@ inline std::vector<std::string> Lines(const std::string& path) {
 inline std::map<std::string, std::map<std::string, double>> Summary(const std::string& dir) {
   const std::vector<std::string> lines = Lines(dir + "/summary.csv");
   std::map<std::string, std::map<std::string, double>> out;
-  const std::vector<std::string> cols = {"auc",    "r_at_100p", "r_at_1",
-                                         "r_at_5", "r_at_10",   "n_queries"};
+  const std::vector<std::string> cols = {
+      "auc",     "r_at_100p", "r_at_1",          "r_at_5",
+      "r_at_10", "n_queries", "off_map_queries", "off_map_accepted"};
   for (size_t i = 1; i < lines.size(); ++i) {
     std::stringstream ss(lines[i]);
     std::string method, v;

@@ -65,6 +65,10 @@ struct Metrics {
   double recall_at_full_precision = 0;
   double recall_at_1 = 0, recall_at_5 = 0, recall_at_10 = 0;
   int num_queries = 0;
+  // Queries without a true match in the map (off it), and how many of them had a match
+  // accepted (ScoreOutcomes; ComputeMetrics, which is not told what was accepted, leaves 0).
+  int off_map_queries = 0;
+  int off_map_accepted = 0;
   std::vector<PrPoint> curve;  // the precision-recall curve the AUC was computed from
 };
 

@@ -16,6 +16,7 @@ struct QueryOutcome {
   int match = -1;
   double confidence = 0;
   bool accepted = false;
+  double off_map_probability = 0;  // PlaceBelief's
   std::vector<int> top_places;
 };
 

@@ -1,6 +1,7 @@
 // Output files of an evaluation:
 //   DIR/summary.csv            method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries
-//   DIR/matches/<method>.csv   query,match,confidence   (':' in a method name becomes '_')
+//   DIR/matches/<method>.csv   query,match,confidence,accepted,off_map_probability
+//                              (':' in a method name becomes '_')
 //   DIR/pr/<method>.csv        threshold,precision,recall (the curve behind the AUC; plot_pr)
 // All files are written atomically; folders are created as needed.
 #pragma once

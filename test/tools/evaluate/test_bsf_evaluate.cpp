@@ -51,7 +51,9 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   EXPECT_NE(r.output.find("bayes:day"), std::string::npos) << r.output;
   const std::vector<std::string> summary = Lines(dir_ + "/out/summary.csv");
   ASSERT_EQ(summary.size(), 7u);  // header + 6 methods (M = 1)
-  EXPECT_EQ(summary[0], "method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries");
+  EXPECT_EQ(summary[0],
+            "method,auc,r_at_100p,r_at_1,r_at_5,r_at_10,n_queries,off_map_queries,"
+            "off_map_accepted");
   const auto s = Summary(dir_ + "/out");
   // With one reference set, fusion reduces to the single-reference methods.
   EXPECT_DOUBLE_EQ(s.at("bsf").at("auc"), s.at("bayes:day").at("auc"));
@@ -62,7 +64,7 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   EXPECT_EQ(s.at("bsf").at("n_queries"), 200);
   const std::vector<std::string> matches = Lines(dir_ + "/out/matches/nn_day.csv");
   ASSERT_EQ(matches.size(), 201u);
-  EXPECT_EQ(matches[0], "query,match,confidence");
+  EXPECT_EQ(matches[0], "query,match,confidence,accepted,off_map_probability");
   EXPECT_TRUE(fs::exists(dir_ + "/out/pr/bayes_day.csv"));
 
   const Result plot =

@@ -3,12 +3,18 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
+
+#include "bsf_vpr/core/place_index.h"
 
 namespace bsf_vpr {
 namespace {
 
 double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+// (x, y, yaw) of `p` less `mean`, yaw wrapped.
+Eigen::Vector3d Offset(const PlacePose& p, const PlacePose& mean) {
+  return Eigen::Vector3d(p.x_m - mean.x_m, p.y_m - mean.y_m, WrapAngle(p.yaw_rad - mean.yaw_rad));
+}
 
 }  // namespace
 
@@ -18,75 +24,85 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
                                          const PoseEstimateOptions& options) {
   const int n = static_cast<int>(place_poses.size());
   if (belief.match < 0 || belief.match >= n) return std::nullopt;
-  // The places holding the posterior's mass, most probable first, with their weights.
-  std::vector<std::pair<int, double>> weighted;
+  const std::optional<PlacePose>& match_pose = place_poses[static_cast<size_t>(belief.match)];
+  if (!match_pose || !IsFinite(*match_pose)) return std::nullopt;
+  const auto posed = [&](int i) {
+    return place_poses[static_cast<size_t>(i)] && IsFinite(*place_poses[static_cast<size_t>(i)]);
+  };
+  const auto near = [&](int i) {
+    return i == belief.match || PlanarDistance(*place_poses[static_cast<size_t>(i)], *match_pose) <=
+                                    options.neighbourhood_m;
+  };
+  // The posterior given "on the map" (a NaN one counts as none).
   const Eigen::VectorXd& log_p = belief.log_posterior;
-  if (log_p.size() == n && n > 0) {
-    std::vector<int> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    const int keep = std::min(n, std::max(1, options.max_places));
-    // NaN counts as no probability (a strict order for the sort).
-    const auto key = [&](int i) {
-      return std::isnan(log_p[i]) ? -std::numeric_limits<double>::infinity() : log_p[i];
-    };
-    std::partial_sort(order.begin(), order.begin() + keep, order.end(),
-                      [&](int a, int b) { return key(a) > key(b) || (key(a) == key(b) && a < b); });
-    const double top = key(order[0]);
-    if (std::isfinite(top)) {
-      double total = 0;
-      for (int k = 0; k < keep; ++k) {
-        const int i = order[k];
-        const double w = std::exp(log_p[i] - top);  // relative to the best: no underflow of all
-        if (!(w > 0) || !place_poses[i] || !IsFinite(*place_poses[i])) continue;
-        weighted.emplace_back(i, w);
-        total += std::exp(log_p[i]);
-        if (total >= options.mass) break;
-      }
-    }
+  const bool has_posterior =
+      log_p.size() == n && n > 0 && !log_p.hasNaN() && std::isfinite(log_p.maxCoeff());
+  const auto weight = [&](int i) { return has_posterior ? std::exp(log_p(i)) : 0.0; };
+  double m_near = 0;
+  int places = 0;
+  double x = 0, y = 0, z = 0, c = 0, s = 0;
+  for (int i = 0; i < n; ++i) {
+    if (!posed(i) || !near(i)) continue;
+    const double w = weight(i);
+    if (!(w > 0) && i != belief.match) continue;
+    const PlacePose& p = *place_poses[static_cast<size_t>(i)];
+    m_near += w;
+    ++places;
+    x += w * p.x_m;
+    y += w * p.y_m;
+    z += w * p.z_m;
+    c += w * std::cos(p.yaw_rad);
+    s += w * std::sin(p.yaw_rad);
   }
-  const std::optional<PlacePose>& match_pose = place_poses[belief.match];
-  if (centred_on_match && (!match_pose || !IsFinite(*match_pose))) return std::nullopt;
-  if (weighted.empty()) {
-    if (!match_pose || !IsFinite(*match_pose)) return std::nullopt;
-    weighted.emplace_back(belief.match, 1.0);
-  }
-  double w_sum = 0;
-  for (const auto& [i, w] : weighted) w_sum += w;
-
   PoseEstimate e;
-  e.places = static_cast<int>(weighted.size());
-  if (centred_on_match) {
+  e.places = places;
+  if (centred_on_match || !(m_near > 0)) {
     e.mean = *match_pose;
   } else {
-    double x = 0, y = 0, z = 0, c = 0, s = 0;
-    for (const auto& [i, w] : weighted) {
-      const PlacePose& p = *place_poses[i];
-      x += w * p.x_m;
-      y += w * p.y_m;
-      z += w * p.z_m;
-      c += w * std::cos(p.yaw_rad);
-      s += w * std::sin(p.yaw_rad);
+    e.mean.x_m = x / m_near;
+    e.mean.y_m = y / m_near;
+    e.mean.z_m = z / m_near;
+    e.mean.yaw_rad = (c == 0 && s == 0) ? match_pose->yaw_rad : std::atan2(s, c);
+  }
+  const double p_off = std::clamp(belief.off_map_probability, 0.0, 1.0);
+  const double p_on = 1 - p_off;
+  Eigen::Matrix3d floor = Eigen::Matrix3d::Zero();
+  floor(0, 0) = floor(1, 1) = options.min_std_m * options.min_std_m;
+  floor(2, 2) = options.min_std_yaw_rad * options.min_std_yaw_rad;
+  // Second moments about the mean: in the neighbourhood (its posterior, normalised), at the
+  // far places (their posterior mass), and over every posed place (off the map).
+  Eigen::Matrix3d in_near = Eigen::Matrix3d::Zero(), far = Eigen::Matrix3d::Zero(),
+                  anywhere = Eigen::Matrix3d::Zero();
+  double m_far = 0;
+  int posed_places = 0;
+  for (int i = 0; i < n; ++i) {
+    if (!posed(i)) continue;
+    const Eigen::Vector3d d = Offset(*place_poses[static_cast<size_t>(i)], e.mean);
+    const Eigen::Matrix3d dd = d * d.transpose();
+    ++posed_places;
+    if (p_off > 0) anywhere += dd;
+    const double w = weight(i);
+    if (!(w > 0)) continue;
+    if (near(i)) {
+      in_near += (w / m_near) * dd;
+    } else {
+      far += w * dd;
+      m_far += w;
     }
-    e.mean.x_m = x / w_sum;
-    e.mean.y_m = y / w_sum;
-    e.mean.z_m = z / w_sum;
-    e.mean.yaw_rad =
-        (c == 0 && s == 0) ? place_poses[weighted[0].first]->yaw_rad : std::atan2(s, c);
   }
-  // Second moments about the mean (the published pose), so that the covariance covers the
-  // belief's spread around it.
-  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-  for (const auto& [i, w] : weighted) {
-    const PlacePose& p = *place_poses[i];
-    const Eigen::Vector3d d(p.x_m - e.mean.x_m, p.y_m - e.mean.y_m,
-                            WrapAngle(p.yaw_rad - e.mean.yaw_rad));
-    m += (w / w_sum) * d * d.transpose();
+  if (posed_places > 0) anywhere /= posed_places;
+  if (!has_posterior) {
+    m_near = 1;  // a distance method: the match alone, as sure as the floor says
+    m_far = 0;
   }
-  m(0, 0) += options.min_std_m * options.min_std_m;
-  m(1, 1) += options.min_std_m * options.min_std_m;
-  m(2, 2) += options.min_std_yaw_rad * options.min_std_yaw_rad;
-  e.covariance = m;
-  if (!IsFinite(e.mean) || !m.allFinite()) return std::nullopt;
+  // Places without a pose hold the rest of the posterior: they count as far, where the
+  // neighbourhood is wrong, spread as the far places are (as the map's, if none is posed).
+  const double m_unposed = has_posterior ? std::max(0.0, 1 - m_near - m_far) : 0.0;
+  if (m_unposed > 0) far += m_unposed * (m_far > 0 ? Eigen::Matrix3d(far / m_far) : anywhere);
+  // The place's own extent (the floor) holds wherever the robot is.
+  e.covariance = p_on * m_near * in_near + p_on * far + p_off * anywhere + floor;
+  e.wrong_probability = 1 - p_on * m_near;
+  if (!IsFinite(e.mean) || !e.covariance.allFinite()) return std::nullopt;
   return e;
 }
 

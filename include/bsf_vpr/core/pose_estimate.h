@@ -1,10 +1,16 @@
 // The robot's pose from a belief over places, for a localiser to fuse (robot_localization's
-// pose0, amcl's /initialpose): the mean and covariance of the place poses, weighted by the
-// posterior over the places that hold its mass.
+// pose0, amcl's /initialpose): where the accepted match says the robot is, with a covariance
+// that says how far it may be off (docs/ros.md, "A pose for the robot's localiser").
 //
-// The covariance is honest about the belief: a belief spread over distant places gives a
-// wide covariance, one on a single place the floor (the place's own extent along the route).
-// Planar: x, y and yaw; the caller states the rest as unknown.
+// The mean is the posterior's mean over the match's neighbourhood (the places within
+// neighbourhood_m of it), not over the whole map: the tails of a belief with several modes
+// would pull it where the robot is not. The covariance is the second moment, about that mean,
+// of where the robot is under the whole belief: in the neighbourhood (its spread) with
+// probability (1 - P(off)) m_near, at another place of the map with (1 - P(off))
+// (1 - m_near) (the posterior's far places), off the map with P(off) (anywhere the map's
+// places lie, uniformly), plus the place's own extent (the floor) wherever it is. A localiser that
+// weighs it by its Mahalanobis distance (a consistency test, NEES) then sees errors of the size it
+// claims. Planar: x, y and yaw; the caller states the rest as unknown.
 #pragma once
 
 #include <Eigen/Core>
@@ -17,11 +23,11 @@
 namespace bsf_vpr {
 
 struct PoseEstimateOptions {
-  // The places kept are the most probable ones whose posterior adds up to this share.
-  double mass = 0.999;
-  int max_places = 1000;  // at most this many places enter the estimate
-  // Floor of the standard deviation of x and y (metres) and of yaw (radians): a place
-  // stands for a stretch of route about one place spacing long.
+  // The match's neighbourhood: places within this planar distance (metres) of the match's
+  // pose; 0: the match alone.
+  double neighbourhood_m = 0;
+  // Floor of the standard deviation of x and y (metres) and of yaw (radians): a place stands
+  // for a stretch of route about one place spacing long.
   double min_std_m = 1.0;
   double min_std_yaw_rad = 0.1;
 };
@@ -30,15 +36,16 @@ struct PoseEstimate {
   PlacePose mean;
   // Covariance of (x, y, yaw), row-major as in geometry_msgs (x, y, yaw).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  int places = 0;  // places that entered the estimate
+  int places = 0;                // places of the neighbourhood that entered the mean
+  double wrong_probability = 0;  // that the robot is not in the neighbourhood
 };
 
 // The pose the belief `belief` puts the robot at, from the place poses `place_poses` (one per
-// place, nullopt where a place has none). Bayesian methods without +seq: the posterior's
-// weighted mean and covariance over the places that hold `mass` of it. +seq and distance
-// methods (`centred_on_match`): the match's pose, with the posterior's spread about it when
-// there is a posterior. nullopt when the match has no pose, no weighted place has one, or the
-// result is not finite (nothing non-finite is ever returned).
+// place, nullopt where a place has none). Bayesian methods without +seq: the neighbourhood's
+// posterior mean, as above. +seq and distance methods (`centred_on_match`): the match's pose,
+// with the same covariance about it where there is a posterior (distance methods: the floor).
+// belief.off_map_probability is P(off). nullopt when the match has no pose, or the result is
+// not finite (nothing non-finite is ever returned).
 std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
                                          const std::vector<std::optional<PlacePose>>& place_poses,
                                          bool centred_on_match,

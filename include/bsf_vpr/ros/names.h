@@ -19,6 +19,7 @@ constexpr char kBeliefTopic[] = "belief";                 // bsf_vpr/Belief out
 constexpr char kMatchTopic[] = "match";                   // bsf_vpr/Match out
 // geometry_msgs/PoseWithCovarianceStamped out: the robot's pose from an accepted match.
 constexpr char kPoseTopic[] = "pose";
+constexpr char kLocalizationTopic[] = "localization";     // bsf_vpr/Localization out, latched
 constexpr char kBeliefMarkersTopic[] = "belief_markers";  // visualization_msgs/MarkerArray
 constexpr char kMatchImageTopic[] = "match_image";  // sensor_msgs/Image, private namespace
 // The fusion node also subscribes to kImageTopic (the query images) for the match image.

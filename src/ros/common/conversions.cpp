@@ -49,6 +49,7 @@ void ToBeliefMsg(const Recognition& r, const PlaceLayout& map, const PlaceDecide
   for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name);
   out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
   out->joint_weight = static_cast<float>(b.joint_weight);
+  out->off_map_probability = b.off_map_probability;
   out->missing_sets.clear();
   for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name);
   out->match = b.match;

@@ -479,6 +479,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped: queue overflow since start", lost_total_);
   status.add("dropped: the map's sets changed under the query since start", superseded_);
   status.add("beliefs published", publisher_->beliefs_published());
+  publisher_->Diagnose(status);
   status.add("method", decider_.method_name());
   if (!last_reconfigure_refusal_.empty()) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);

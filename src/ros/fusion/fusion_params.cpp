@@ -160,12 +160,18 @@ const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
               "publish_pose", [](auto& p) -> auto& { return p.publish_pose; },
               "publish the robot's pose on pose (geometry_msgs/PoseWithCovarianceStamped in "
               "map_frame, stamped as the query) for accepted matches whose places have poses: "
-              "the posterior-weighted mean and covariance of the place poses, for "
+              "the posterior's mean over the match's neighbourhood, with the covariance of "
+              "where the robot is under the whole belief (off the map too), for "
               "robot_localization (pose0) or amcl (initialpose)")
+          .Add(
+              "pose_neighbourhood_m", [](auto& p) -> auto& { return p.pose_neighbourhood_m; },
+              "the match's neighbourhood that pose is the mean of: the places within this "
+              "distance of the match; 0: twice the median place spacing",
+              "m", AtLeast(0))
           .Add(
               "pose_min_std_m", [](auto& p) -> auto& { return p.pose_min_std_m; },
               "floor of that pose's standard deviation in x and y (a place stands for a "
-              "stretch of route); 0: half the median place spacing",
+              "stretch of route one spacing long); 0: the median place spacing / sqrt(12)",
               "m", AtLeast(0))
           .Add(
               "publish_queue_size", [](auto& p) -> auto& { return p.publish_queue_size; },

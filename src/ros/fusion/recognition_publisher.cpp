@@ -1,9 +1,11 @@
 #include "src/ros/fusion/recognition_publisher.h"
 
+#include <bsf_vpr/Localization.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/console.h>
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "bsf_vpr/core/place_layout.h"
@@ -25,6 +27,39 @@ RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle&
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(names::kPoseTopic, queue);
   }
   if (options_.publish_tf) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  localization_pub_ = nh.advertise<Localization>(names::kLocalizationTopic, queue, true);
+}
+
+void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
+                                               const PlaceBelief& b) {
+  const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
+  if (!localized_ || *localized_ != b.accepted || stamp < localized_since_) {
+    localized_ = b.accepted;
+    localized_since_ = stamp;
+  }
+  last_stamp_ = stamp;
+  localized_place_ = b.accepted ? b.match : -1;
+  off_map_probability_ = b.off_map_probability;
+  auto msg = boost::make_shared<Localization>();
+  msg->header = header;
+  msg->localized = b.accepted;
+  msg->place = localized_place_;
+  msg->off_map_probability = b.off_map_probability;
+  msg->since_s = (stamp - localized_since_).toSec();
+  localization_pub_.publish(msg);
+}
+
+void RecognitionPublisher::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
+  if (!localized_) {
+    status.add("localized", "no belief yet");
+    return;
+  }
+  const double since = (last_stamp_ - localized_since_).toSec();
+  if (*localized_) {
+    status.addf("localized", "yes, at place %d, for %.1f s", localized_place_, since);
+  } else {
+    status.addf("localized", "no, for %.1f s (P(off the map) %.3f)", since, off_map_probability_);
+  }
 }
 
 void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recognition& r,
@@ -36,6 +71,7 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
   ToBeliefMsg(r, layout, decider, options_.belief_top_k, belief.get());
   belief->processing_time = seconds;
   belief_pub_.publish(belief);
+  PublishLocalization(header, r.belief);
   if (r.belief.accepted) {
     auto match = boost::make_shared<Match>();
     match->header = header;
@@ -62,8 +98,11 @@ void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Rec
                                        const PlaceLayout& layout, const PlaceDecider& decider) {
   PoseEstimateOptions o;
   const double spacing = layout.MedianPlaceSpacing().value_or(0.0);
-  o.min_std_m = options_.pose_min_std_m > 0 ? options_.pose_min_std_m : 0.5 * spacing;
+  // A place stands for one spacing of route: the robot lies uniformly within it.
+  o.min_std_m = options_.pose_min_std_m > 0 ? options_.pose_min_std_m : spacing / std::sqrt(12.0);
   if (!(o.min_std_m > 0)) o.min_std_m = 1.0;
+  o.neighbourhood_m =
+      options_.pose_neighbourhood_m > 0 ? options_.pose_neighbourhood_m : 2 * spacing;
   const Method& method = decider.method();
   // A +seq match is the sequence's end, and a distance method has no posterior: the pose is
   // the match's, with the posterior's spread about it.

@@ -1,11 +1,11 @@
-// What the fusion node publishes for each recognised descriptor: the belief (always); the
-// match when accepted, with the tf frame map_frame -> place_frame at the matched place when
-// the place has a pose, and the robot's pose with its covariance (pose_estimate.h) for a
-// localiser to fuse; and what rviz shows of it (belief_view.h: markers, view frame, match
-// image) while someone listens. Topics are names.h's, advertised in the namespace of the node
-// handle given (the match image in the private one). Nothing non-finite is published: a
-// matched place whose pose ToMatchPose refuses gets its match without a pose, no tf and no
-// robot's pose, and a throttled error.
+// What the fusion node publishes for each recognised descriptor: the belief and whether the
+// robot is localised (always; the latter latched); the match when accepted, with the tf frame
+// map_frame -> place_frame at the matched place when the place has a pose, and the robot's pose
+// with its covariance (pose_estimate.h) for a localiser to fuse; and what rviz shows of it
+// (belief_view.h: markers, view frame, match image) while someone listens. Topics are names.h's,
+// advertised in the namespace of the node handle given (the match image in the private one).
+// Nothing non-finite is published: a matched place whose pose ToMatchPose refuses gets its match
+// without a pose, no tf and no robot's pose, and a throttled error.
 //
 // Each of the belief, match and pose topics numbers its messages itself: header.seq is 0, 1,
 // 2, ... per topic (the stamp and frame are the query's), so a subscriber tells a message
@@ -17,12 +17,14 @@
 // Not thread-safe: the fusion node holds its lock.
 #pragma once
 
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <ros/node_handle.h>
 #include <ros/publisher.h>
 #include <std_msgs/Header.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "bsf_vpr/core/place_decider.h"
@@ -42,7 +44,9 @@ struct RecognitionPublisherOptions {
   BeliefViewOptions view;                                // its map_frame is map_frame
   std::string ground_truth_topic = "/vpr/ground_truth";  // "": none
   bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
-  // Floor of the pose's standard deviation in x and y; 0: half the place spacing.
+  // The match's neighbourhood the pose is the mean of; 0: twice the median place spacing.
+  double pose_neighbourhood_m = 0;
+  // Floor of the pose's standard deviation in x and y; 0: the place spacing / sqrt(12).
   double pose_min_std_m = 0;
   // Messages each of the belief, match and pose publishers holds per subscriber before
   // roscpp drops the oldest.
@@ -65,12 +69,23 @@ class RecognitionPublisher {
   uint64_t beliefs_published() const { return beliefs_; }
   uint64_t matches_published() const { return matches_; }
 
+  // Whether the robot is localised, since when and at which place ("localized" in the
+  // fusion node's diagnostics).
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;
+
  private:
   void PublishPose(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
                    const PlaceDecider& decider);
+  void PublishLocalization(const std_msgs::Header& header, const PlaceBelief& belief);
 
   RecognitionPublisherOptions options_;
-  ros::Publisher belief_pub_, match_pub_, pose_pub_;
+  ros::Publisher belief_pub_, match_pub_, pose_pub_, localization_pub_;
+  // The localisation state of the last belief: whether localised, since which query stamp,
+  // and the last belief's place and P(off).
+  std::optional<bool> localized_;
+  ros::Time localized_since_, last_stamp_;
+  int localized_place_ = -1;
+  double off_map_probability_ = 0;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
   uint64_t beliefs_ = 0, matches_ = 0, poses_ = 0;      // published, each its own seq
   BeliefView view_;

@@ -174,9 +174,17 @@ Eigen::Vector3d ViewFocus(const RouteLayout& layout) { return layout.centre; }
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic) {
   std::vector<std::string> lines;
   char buf[160];
+  // Off the map more likely than not: the place is only the best guess of a robot lost.
+  const bool off_map = !belief.accepted && belief.off_map_probability > 0.5;
   std::snprintf(buf, sizeof(buf), "place %d of %d: %s", belief.match, belief.num_places,
-                belief.accepted ? "ACCEPTED" : "not accepted");
+                belief.accepted ? "ACCEPTED"
+                : off_map       ? "not accepted, OFF THE MAP"
+                                : "not accepted");
   lines.emplace_back(buf);
+  if (probabilistic && belief.off_map_probability > 0) {
+    std::snprintf(buf, sizeof(buf), "no place of the map: p %.3f", belief.off_map_probability);
+    lines.emplace_back(buf);
+  }
   if (probabilistic) {
     const double p = 1.0 / (1.0 + std::exp(-belief.confidence));
     std::snprintf(buf, sizeof(buf), "%s: p %.3f (log-odds %.2f)", belief.method.c_str(), p,

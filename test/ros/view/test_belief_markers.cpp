@@ -224,7 +224,15 @@ TEST(BeliefMarkers, DrawTheBeliefTheMatchTheTruthAndTheLabel) {
   const auto rejected = MakeBeliefMarkers(layout, Peaked(1500, 700, false), {}, true, options);
   EXPECT_GT(Find(rejected, "match")->color.r, 0.9f);  // orange: not accepted
   EXPECT_NE(Find(rejected, "label")->text.find("not accepted"), std::string::npos);
+  EXPECT_EQ(Find(rejected, "label")->text.find("OFF THE MAP"), std::string::npos);
+  EXPECT_EQ(Find(rejected, "label")->text.find("no place of the map"), std::string::npos);
   EXPECT_EQ(Find(rejected, "true_places"), nullptr);
+  // A belief that the robot is off the map says so.
+  Belief lost = Peaked(1500, 700, false);
+  lost.off_map_probability = 0.97;
+  const std::string text = Find(MakeBeliefMarkers(layout, lost, {}, true, options), "label")->text;
+  EXPECT_NE(text.find("not accepted, OFF THE MAP"), std::string::npos) << text;
+  EXPECT_NE(text.find("no place of the map: p 0.970"), std::string::npos) << text;
 }
 
 TEST(BeliefMarkers, TheLabelStaysInsideTheViewAtTheEndsOfTheRoute) {

@@ -31,7 +31,8 @@ const std::string kData = std::string(BSF_SOURCE_DIR) + "/data/";
 constexpr double kTolerance = 0.002;
 // The paper's selection and product fusion with the one-sided likelihood, spelled out.
 const std::string kPaperMode =
-    " --selection relative --gamma-fraction 0.04 --likelihood one_sided --fusion product";
+    " --selection relative --gamma-fraction 0.04 --likelihood one_sided --fusion product"
+    " --off-map false";
 
 // bsf_evaluate's inputs for Nordland-100: QUERY's frames against the other two seasons.
 std::string NordlandHundredArgs(const std::string& query, const std::string& descriptor) {

@@ -124,9 +124,10 @@ void BenchmarkEvaluate(int repeats, int scale, const std::string& data_dir) {
   }
   inputs += " --query " + data_dir + "/queries.npy --tolerance 2";
   // numpy_bsf is the mixture: bsf_evaluate runs the same method.
-  const std::string ours = bin + "/bsf_evaluate" + inputs +
-                           " --methods bsf --fusion mixture --no-progress --timings --out " +
-                           data_dir + "/out_bsf";
+  const std::string ours =
+      bin + "/bsf_evaluate" + inputs +
+      " --methods bsf --fusion mixture --off-map false --no-progress --timings --out " + data_dir +
+      "/out_bsf";
   // The script is run by its interpreter: the devel space's relay and the source file alike.
   // Two peers: blocks of 256 queries a matrix product, and every distance first (one product
   // per set), then the fusion of all queries at once.

@@ -462,6 +462,7 @@ void AppendBeliefs(const std::string& bag_path, const std::string& method,
     b.match = outcomes[k].match;
     b.confidence = outcomes[k].confidence;
     b.accepted = outcomes[k].accepted;
+    b.off_map_probability = outcomes[k].off_map_probability;
     out.write("/bsf_vpr/belief", headers[k].stamp + ros::Duration(0.01), b);
   }
 }

@@ -23,6 +23,7 @@
 #include "src/tools/benchmark/benchmark_evaluate.h"
 #include "src/tools/benchmark/benchmark_joint.h"
 #include "src/tools/benchmark/benchmark_large.h"
+#include "src/tools/benchmark/benchmark_off_map.h"
 #include "src/tools/benchmark/benchmark_util.h"
 #include "src/tools/benchmark/cpu_baseline.h"
 #include "src/tools/benchmark/naive_bsf.h"
@@ -82,6 +83,8 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            discriminant) vs without it (fusion_joint none), M=3, N=3000, D=4096, timed in
            turn; the discriminant, mean and subspace built at that size; the discriminant
            built at M=10, N=100,000, D=4096 int8 (minutes; skipped without the memory)
+  offmap   the hypothesis "no place of the map": a query of bsf and of bsf+filter with
+           off_map (the default) vs without, M=3, N=3000, D=4096, timed in turn
 The large and scaling sections take the pca first stage's options as bsf_evaluate and the
 fusion node do (defaults: d' = 256, 1000 re-ranked per set, basis from 2048 rows):
   --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
@@ -441,7 +444,7 @@ void Scaling(int repeats, int scale, StoragePrecision storage, const FirstStageO
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling,joint";
+  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling,joint,offmap";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
@@ -496,10 +499,12 @@ int Run(int argc, char** argv) {
       Scaling(repeats, scale, storage, first_stage);
     else if (s == "joint")
       tools::BenchmarkJoint(repeats, scale);
+    else if (s == "offmap")
+      tools::BenchmarkOffMap(repeats, scale);
     else
       throw std::invalid_argument(
           "unknown section '" + s +
-          "' (fusion, query, batch, evaluate, large, describe, scaling, joint)");
+          "' (fusion, query, batch, evaluate, large, describe, scaling, joint, offmap)");
   }
   return 0;
 }

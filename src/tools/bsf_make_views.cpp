@@ -1,11 +1,13 @@
 // bsf_make_views: a traversal's images as a camera turned sideways would see them (a crop of
-// each frame moved left or right), to test fusion across viewpoints from real frames (see
-// --help).
+// each frame moved left or right), to test fusion across viewpoints from real frames, or
+// through a covered lens, to test that nothing is then accepted (see --help).
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -15,6 +17,7 @@
 namespace {
 
 const char kUsage[] = R"(usage: bsf_make_views --images DIR --out DIR [--crop F] [--shift S]
+                      [--cover true]
 
 Writes each image of DIR (.png, .jpg, .jpeg, .ppm, .bmp; sorted by name) to the folder
 --out as <name>.png, cropped to the fraction F of its width and height (centred
@@ -25,6 +28,11 @@ traversal from different viewpoints (docs/results.md, Study 7).
   --crop F    fraction of the width and height kept, in (0, 1] (default 0.7)
   --shift S   the crop's offset from the centre, in frame widths; |S| <= (1 - F) / 2
               (default 0)
+  --cover true  the view through a covered lens (a hand, a lens cap that lets some light
+              through, mud): blurred (Gaussian, sigma a quarter of the view's width: only
+              the light's slow gradient is left), darkened to 5% and given a sensor's noise
+              (Gaussian, sigma 2 grey levels; the same seed every run). No place shows in
+              it (docs/results.md, Study 8)
   -h, --help  this help
 Exit status 2 with one line naming the problem on bad arguments or an unreadable image.
 )";
@@ -34,6 +42,7 @@ int Run(int argc, char** argv) {
   using namespace bsf_vpr;
   std::string images, out;
   double crop = 0.7, shift = 0;
+  bool cover = false;
   tools::FlagReader flags(argc, argv);
   for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--images")
@@ -44,6 +53,10 @@ int Run(int argc, char** argv) {
       crop = tools::ParseNumber(f, v);
     else if (f == "--shift")
       shift = tools::ParseNumber(f, v);
+    else if (f == "--cover" && (v == "true" || v == "false"))
+      cover = v == "true";
+    else if (f == "--cover")
+      throw std::invalid_argument("--cover takes true or false, got '" + v + "'");
     else
       throw std::invalid_argument("unknown option '" + f + "' (see --help)");
   }
@@ -71,6 +84,7 @@ int Run(int argc, char** argv) {
   std::sort(files.begin(), files.end());
   if (files.empty()) throw std::invalid_argument("no images in '" + images + "'");
   fs::create_directories(out);
+  cv::RNG noise(12345);
   for (const fs::path& file : files) {
     const cv::Mat frame = cv::imread(file.string(), cv::IMREAD_COLOR);
     if (frame.empty()) throw std::invalid_argument("cannot read image '" + file.string() + "'");
@@ -81,8 +95,18 @@ int Run(int argc, char** argv) {
     const int bottom = std::min(frame.rows, static_cast<int>(std::lround(y0 + h)));
     const cv::Rect roi(std::max(0, left), std::max(0, top), right - std::max(0, left),
                        bottom - std::max(0, top));
+    cv::Mat view = frame(roi);
+    if (cover) {
+      cv::Mat blurred, dark, sensor(view.size(), CV_32FC3);
+      cv::GaussianBlur(view, blurred, cv::Size(0, 0), std::max(1.0, view.cols / 4.0));
+      blurred.convertTo(dark, CV_32FC3, 0.05);
+      noise.fill(sensor, cv::RNG::NORMAL, 0.0, 2.0);
+      cv::Mat covered;
+      cv::Mat(dark + sensor).convertTo(covered, CV_8UC3);  // rounded, saturated to 0..255
+      view = covered;
+    }
     const std::string to = (fs::path(out) / file.stem()).string() + ".png";
-    if (!cv::imwrite(to, frame(roi))) throw std::runtime_error("cannot write '" + to + "'");
+    if (!cv::imwrite(to, view)) throw std::runtime_error("cannot write '" + to + "'");
   }
   std::cout << "bsf_make_views: wrote " << files.size() << " views to " << out << "\n";
   return 0;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/reference_set_io.h"
@@ -305,6 +307,27 @@ TEST_F(MakeTools, MakeViewsCropsEveryFrameSidewaysOrRefusesACropOutOfTheFrame) {
   ExpectOneLineRefusal(RunCommand(tool + " --images " + dir_ + "/nothing --out " + dir_ + "/x"),
                        "no folder", "a missing folder");
   EXPECT_FALSE(fs::exists(dir_ + "/x"));  // nothing written on a refusal
+}
+
+// A covered lens: dark, blurred, noisy views, whose scene is gone.
+TEST_F(MakeTools, MakeViewsCoversTheLens) {
+  const std::string tool = BSF_MAKE_VIEWS_PATH;
+  const std::string frames = kSource + "/data/nordland_subset100/256x144/fall";
+  const Result r = RunCommand(tool + " --images " + frames + " --out " + dir_ +
+                              "/covered --crop 1 --cover true");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const cv::Mat frame = cv::imread(frames + "/010.jpg", cv::IMREAD_GRAYSCALE);
+  const cv::Mat covered = cv::imread(dir_ + "/covered/010.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(covered.size(), frame.size());
+  cv::Scalar frame_mean, frame_sd, mean, sd;
+  cv::meanStdDev(frame, frame_mean, frame_sd);
+  cv::meanStdDev(covered, mean, sd);
+  EXPECT_NEAR(mean[0], 0.05 * frame_mean[0], 2.0);  // darkened to 5%
+  EXPECT_LT(sd[0], 3.0);                            // the sensor's noise and a slow gradient
+  EXPECT_GT(sd[0], 1.0);                            // not a flat image
+  ExpectOneLineRefusal(
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/x --cover yes"),
+      "--cover takes true or false", "--cover yes");
 }
 
 }  // namespace

@@ -79,11 +79,11 @@ def frames_case(out, name, design, refs, query_folder, places, tolerance, extra=
         c.refs += ["--reference", "%s=%s" % (
             set_name, link_images([files[i] for i in places], os.path.join(d, set_name)))]
     qf = images(query_folder)
-    on = [q for q in range(len(qf)) if q in set(places)]
+    c.truth = aligned_truth(range(len(qf)), places, tolerance)
+    on = [q for q in range(len(qf)) if c.truth[q]]  # the queries the map holds a place of
     c.query = link_images(qf, os.path.join(d, "query"))
     c.query_on = link_images([qf[q] for q in on], os.path.join(d, "query_on"))
-    c.truth, c.truth_on = aligned_truth(range(len(qf)), places, tolerance), \
-        aligned_truth(on, places, tolerance)
+    c.truth_on = [c.truth[q] for q in on]
     c.on_index = on
     c.extra = list(extra)
     return c
@@ -98,12 +98,12 @@ def npy_case(out, name, design, refs, query_npy, places, tolerance, extra=()):
         np.save(os.path.join(d, set_name + ".npy"), np.load(path)[places])
         c.refs += ["--reference", "%s=%s" % (set_name, os.path.join(d, set_name + ".npy"))]
     q = np.load(query_npy)
-    on = [i for i in range(len(q)) if i in set(places)]
+    c.truth = aligned_truth(range(len(q)), places, tolerance)
+    on = [i for i in range(len(q)) if c.truth[i]]  # the queries the map holds a place of
     c.query, c.query_on = os.path.join(d, "query.npy"), os.path.join(d, "query_on.npy")
     np.save(c.query, q)
     np.save(c.query_on, q[on])
-    c.truth, c.truth_on = aligned_truth(range(len(q)), places, tolerance), \
-        aligned_truth(on, places, tolerance)
+    c.truth_on = [c.truth[i] for i in on]
     c.on_index = on
     c.extra = list(extra)
     return c
@@ -202,6 +202,7 @@ def covered_case(out, name, frames, refs):
         c.refs += ["--reference", "%s=%s" % (set_name, folder)]
     c.query = os.path.join(d, "query")
     c.truth = [[] for _ in images(c.query)]
+    c.extra = ["--distance", "cosine"]
     return c
 
 

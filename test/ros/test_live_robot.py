@@ -45,7 +45,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Image
 
-from bsf_vpr.msg import Belief
+from bsf_vpr.msg import Belief, Localization
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rostest_util import attach_fusion_services, run_tool, wait_for  # noqa: E402
@@ -227,6 +227,9 @@ class LiveRobot(unittest.TestCase):
         rospy.Subscriber("/bsf_vpr/pose", PoseWithCovarianceStamped,
                          lambda m: cls.poses.__setitem__(m.header.stamp, m), queue_size=1000)
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append, queue_size=100)
+        cls.localization = {}
+        rospy.Subscriber("/bsf_vpr/localization", Localization,
+                         lambda m: cls.localization.__setitem__(m.header.stamp, m), queue_size=1000)
 
     @classmethod
     def tearDownClass(cls):
@@ -244,7 +247,7 @@ class LiveRobot(unittest.TestCase):
     def assert_pose_follows(self, sent, what, min_poses):
         """/bsf_vpr/pose of the images `sent` (at least `min_poses` accepted): median error
         <= 25 m, and the covariance covering the error (3 sigma) for 90% of them."""
-        errors, covered = [], 0
+        errors, covered, nees = [], 0, []
         for stamp, x in sent:
             p = self.poses.get(stamp)
             if p is None:
@@ -255,12 +258,40 @@ class LiveRobot(unittest.TestCase):
             error = math.hypot(p.pose.pose.position.x - x, p.pose.pose.position.y)
             errors.append(error)
             covered += error <= 3.0 * math.sqrt(c[0] + c[7])  # 3 sigma in the plane
+            e = np.array([p.pose.pose.position.x - x, p.pose.pose.position.y])
+            nees.append(float(e @ np.linalg.solve(np.array([[c[0], c[1]], [c[6], c[7]]]), e)))
         self.assertGreaterEqual(len(errors), min_poses, "%s: too few poses" % what)
         median = float(np.median(errors))
         self.assertLessEqual(median, 25.0, what)
         self.assertGreaterEqual(covered, 0.9 * len(errors), "%s: covariance too small" % what)
-        print("%s: %d poses of %d images, median error %.1f m, %d within 3 sigma" % (
-            what, len(errors), len(sent), median, covered))
+        print("%s: %d poses of %d images, median error %.1f m, %d within 3 sigma; NEES (x, y) "
+              "mean %.2f, median %.2f" % (what, len(errors), len(sent), median, covered,
+                                          np.mean(nees), np.median(nees)))
+
+    def assert_localization_follows(self, sent):
+        """/bsf_vpr/localization for every image: localised exactly when its belief was
+        accepted, at its place, with the time since the state last changed; and the
+        diagnostics' "localized"."""
+        wait_for(lambda: all(s in self.localization for s, _ in sent[-5:]), 30,
+                 "the last localization")
+        since, state, localized = None, None, 0
+        for stamp, _ in sent:
+            loc, belief = self.localization.get(stamp), self.beliefs[stamp]
+            self.assertIsNotNone(loc, "a localization per image")
+            self.assertEqual(loc.localized, belief.accepted)
+            self.assertEqual(loc.place, belief.match if belief.accepted else -1)
+            self.assertAlmostEqual(loc.off_map_probability, belief.off_map_probability)
+            if state is not None and loc.localized == state:
+                self.assertAlmostEqual(loc.since_s, since + (stamp - last).to_sec(), places=6)
+            since, state, last = loc.since_s, loc.localized, stamp
+            localized += loc.localized
+        self.assertGreater(localized, 0)
+        keys = [v.value for s in self.fusion_status(time.time() - 3) for v in s.values
+                if v.key == "localized"]
+        self.assertTrue(keys, "diagnostics say whether the robot is localised")
+        self.assertRegex(keys[-1], r"^(yes, at place \d+|no), for \d+\.\d s")
+        print("localization: %d of %d images localised; diagnostics: %s" % (
+            localized, len(sent), keys[-1]))
 
     def test_1_the_readme_robot_command_gives_a_belief_per_camera_image(self):
         block = readme_block(os.path.join(self.repo, "README.md"), "## Running it on a robot")
@@ -280,6 +311,7 @@ class LiveRobot(unittest.TestCase):
             # measured: 174 poses of 253 images, median error 2.2 m, all within 3 sigma
             self.assert_pose_follows(sent, "README robot command, fall against summer",
                                      len(sent) // 2)
+            self.assert_localization_follows(sent)
             errors = [s for s in self.fusion_status(time.time() - 3) if s.level >= 2]
             self.assertEqual(errors, [])
             self.assertTrue(os.path.isdir(os.path.join(home, ".ros", "bsf_vpr")))

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "bsf_vpr/evaluation/evaluation.h"
+#include "bsf_vpr/evaluation/evaluation_runner.h"
 
 namespace bsf_vpr {
 namespace {
@@ -76,6 +77,28 @@ TEST(Evaluation, ComputeMetricsRefusesMismatchedSizes) {
   EXPECT_NEAR(m.recall_at_5, 1.0, 1e-12);
   EXPECT_NEAR(m.recall_at_full_precision, 2.0 / 3.0, 1e-12);
   EXPECT_EQ(m.num_queries, 3);
+}
+
+// Queries without a true match (off the map): how many there are, and how many of them had
+// their match accepted; an accepted match of an on-map query does not count, wrong or not.
+TEST(Evaluation, OffMapAcceptancesAreCounted) {
+  const GroundTruth t({{0}, {}, {2}, {}, {}});
+  std::vector<QueryOutcome> o(5);
+  const bool accepted[] = {true, true, true, false, true};
+  const int match[] = {0, 1, 5, 3, 4};
+  for (size_t q = 0; q < o.size(); ++q) {
+    o[q].match = match[q];
+    o[q].accepted = accepted[q];
+    o[q].confidence = 1.0 + static_cast<double>(q);
+    o[q].top_places = {match[q]};
+  }
+  const Metrics m = ScoreOutcomes(o, t);
+  EXPECT_EQ(m.off_map_queries, 3);
+  EXPECT_EQ(m.off_map_accepted, 2);  // queries 1 and 4
+  // Without what was accepted (ComputeMetrics) the queries are counted, the acceptances not.
+  const Metrics n = ComputeMetrics({0, 1, 5, 3, 4}, {1, 2, 3, 4, 5}, {{0}, {1}, {5}, {3}, {4}}, t);
+  EXPECT_EQ(n.off_map_queries, 3);
+  EXPECT_EQ(n.off_map_accepted, 0);
 }
 
 }  // namespace

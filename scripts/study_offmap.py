@@ -20,6 +20,9 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from study_regret import auc_of as auc  # noqa: E402  bsf_evaluate's AUC
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(REPO, "data")
 N100 = os.path.join(DATA, "nordland_subset100")
@@ -155,21 +158,6 @@ def outcomes(d, method, truth):
     ok = np.array([int(r["match"]) in truth[q] for q, r in enumerate(rows)])
     accepted = np.array([r["accepted"] == "1" for r in rows])
     return conf, ok, accepted
-
-
-def auc(conf, ok, n_true):
-    """bsf_evaluate's area under precision-recall (ties accepted together)."""
-    order = np.argsort(-conf, kind="stable")
-    c, k = conf[order], ok[order]
-    area, precision, recall, accepted, hits, i = 0.0, 1.0, 0.0, 0, 0, 0
-    while i < len(c):
-        v = c[i]
-        while i < len(c) and c[i] == v:
-            accepted, hits, i = accepted + 1, hits + int(k[i]), i + 1
-        p, r = hits / accepted, hits / n_true
-        area += (r - recall) * 0.5 * (p + precision)
-        precision, recall = p, r
-    return area
 
 
 def given_up(alone, new, on_index, has_truth, block=10, draws=1000, seed=0):

@@ -17,9 +17,9 @@ def load_matches(path):
             np.array([float(r["confidence"]) for r in rows]))
 
 
-def auc(query, match, confidence, tolerance=2):
-    """Area under precision-recall as bsf_evaluate computes it (ties accepted together)."""
-    correct = np.abs(match - query) <= tolerance
+def auc_of(confidence, correct, n_true):
+    """Area under precision-recall as bsf_evaluate computes it (ties accepted together), with
+    recall over `n_true` queries."""
     order = np.argsort(-confidence, kind="stable")
     c, ok = confidence[order], correct[order]
     area, precision, recall, accepted, hits, i = 0.0, 1.0, 0.0, 0, 0, 0
@@ -29,10 +29,15 @@ def auc(query, match, confidence, tolerance=2):
             accepted += 1
             hits += int(ok[i])
             i += 1
-        p, r = hits / accepted, hits / len(c)
+        p, r = hits / accepted, hits / n_true
         area += (r - recall) * 0.5 * (p + precision)
         precision, recall = p, r
     return area
+
+
+def auc(query, match, confidence, tolerance=2):
+    """The same where every query has a true match: query q shows place q, +-tolerance."""
+    return auc_of(confidence, np.abs(match - query) <= tolerance, len(confidence))
 
 
 def block_regret(default, best, tolerance, block=10, draws=1000, seed=0):

@@ -61,29 +61,6 @@ Eigen::ArrayXd DistancesAtPlaces(const SetDistances& d, int num_places) {
   return out;
 }
 
-// Pearson's correlation of x and y over the entries where both are numbers; 0 where it is
-// undefined (fewer than two such entries, or no spread).
-double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
-  double n = 0, sx = 0, sy = 0;
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    if (std::isnan(x(i)) || std::isnan(y(i))) continue;
-    n += 1;
-    sx += x(i);
-    sy += y(i);
-  }
-  if (n < 2) return 0;
-  const double mx = sx / n, my = sy / n;
-  double sxx = 0, syy = 0, sxy = 0;
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    if (std::isnan(x(i)) || std::isnan(y(i))) continue;
-    const double dx = x(i) - mx, dy = y(i) - my;
-    sxx += dx * dx;
-    syy += dy * dy;
-    sxy += dx * dy;
-  }
-  return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
-}
-
 // Pearson's correlation of two profiles of n distances over at most kProfileSample places
 // spread evenly over them (enough to tell the same scene from another); 1 where both have no
 // spread (no sign that the scene changed), 0 where one has.
@@ -142,7 +119,7 @@ std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
       at[j] = DistancesAtPlaces(sets[static_cast<size_t>(members[j])], num_places);
     }
     for (size_t j = 0; j < m; ++j) {
-      for (size_t k = j + 1; k < m; ++k) add(j, k, Correlation(at[j], at[k]));
+      for (size_t k = j + 1; k < m; ++k) add(j, k, internal::Correlation(at[j], at[k]));
     }
     for (double& e : effect) e = 1.0 / e;
     return effect;

@@ -14,6 +14,27 @@
 namespace bsf_vpr {
 namespace internal {
 
+double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
+  double n = 0, sx = 0, sy = 0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x(i)) || !std::isfinite(y(i))) continue;
+    n += 1;
+    sx += x(i);
+    sy += y(i);
+  }
+  if (n < 2) return 0;
+  const double mx = sx / n, my = sy / n;
+  double sxx = 0, syy = 0, sxy = 0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x(i)) || !std::isfinite(y(i))) continue;
+    const double dx = x(i) - mx, dy = y(i) - my;
+    sxx += dx * dx;
+    syy += dy * dy;
+    sxy += dx * dy;
+  }
+  return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
+}
+
 int CheckedPlace(const SetDistances& d, int k, int num_places) {
   const int place = d.PlaceAt(k);
   if (place < 0 || place >= num_places) {

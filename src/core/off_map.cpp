@@ -5,6 +5,7 @@
 #include <limits>
 #include <vector>
 
+#include "src/core/internal/fusion_parts.h"
 #include "src/core/internal/vector_math.h"
 
 namespace bsf_vpr {
@@ -86,31 +87,6 @@ double ConfidenceWithOffMap(double on_odds, double log_off_odds) {
   return -(hi + std::log1p(std::exp(std::min(a, b) - hi)));
 }
 
-namespace {
-
-// Pearson correlation of two vectors over the entries finite in both (0 with fewer than 3).
-double Correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  double n = 0, sa = 0, sb = 0;
-  for (Eigen::Index i = 0; i < a.size(); ++i) {
-    if (!std::isfinite(a(i)) || !std::isfinite(b(i))) continue;
-    n += 1;
-    sa += a(i);
-    sb += b(i);
-  }
-  if (n < 3) return 0;
-  const double ma = sa / n, mb = sb / n;
-  double ab = 0, aa = 0, bb = 0;
-  for (Eigen::Index i = 0; i < a.size(); ++i) {
-    if (!std::isfinite(a(i)) || !std::isfinite(b(i))) continue;
-    ab += (a(i) - ma) * (b(i) - mb);
-    aa += (a(i) - ma) * (a(i) - ma);
-    bb += (b(i) - mb) * (b(i) - mb);
-  }
-  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0;
-}
-
-}  // namespace
-
 void OffMapTracker::Reset() {
   last_.resize(0);
   on_.resize(0);
@@ -123,7 +99,8 @@ double OffMapTracker::Update(const Eigen::VectorXd& log_likelihood, const OffMap
   const Eigen::Index n = log_likelihood.size();
   const double kept_odds = std::log(off_) - std::log(std::max(1 - off_, 1e-300));
   if (n == 0) return kept_odds;
-  if (on_.size() == n && last_.size() == n && Correlation(log_likelihood, last_) >= kSameScene) {
+  if (on_.size() == n && last_.size() == n &&
+      internal::Correlation(log_likelihood.array(), last_.array()) >= kSameScene) {
     return kept_odds;  // the same scene again: nothing new
   }
   Eigen::VectorXd on;

@@ -11,6 +11,10 @@
 namespace bsf_vpr {
 namespace internal {
 
+// Pearson's correlation of x and y over the entries where both are finite; 0 where it is
+// undefined (fewer than two such entries, or no spread).
+double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y);
+
 // The place of d.values[k], checked against the map's place index: throws
 // std::invalid_argument naming an id outside 0..num_places - 1.
 int CheckedPlace(const SetDistances& d, int k, int num_places);

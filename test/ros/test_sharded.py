@@ -144,7 +144,8 @@ class Sharded(unittest.TestCase):
                                                        ["winter256"]))
 
         # 3. It respawned with the same set: taken back without a rebuild (the layout count
-        # is unchanged), bitwise again (this run's bsf, fusion mixture, carries no state).
+        # is unchanged), bitwise again (this run's bsf, fusion mixture without off_map, carries
+        # no state).
         self.assert_bitwise(self.publish(range(30, 50)))
         self.assertEqual(self.fusion_diagnostic("map layouts taken"), layouts)
 

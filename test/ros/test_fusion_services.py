@@ -396,7 +396,8 @@ class FusionServices(unittest.TestCase):
             self.assertLess(abs(p.pose.pose.position.x - belief.match), 10.0)
             c = p.pose.covariance
             self.assertTrue(all(np.isfinite(c)))
-            self.assertGreaterEqual(c[0], 0.25)  # the floor: half the place spacing
+            # The floor: the robot anywhere along one place spacing, (1 m)^2 / 12.
+            self.assertGreaterEqual(c[0], 1.0 / 12 - 1e-9)
             self.assertEqual(c[14], 1e6)  # z unknown
 
 

@@ -34,35 +34,13 @@ void QueryCost(int repeats, int m, int n, int d) {
   RecognizerOptions with;
   RecognizerOptions without = with;
   without.method_options.fusion_joint = FusionJoint::kNone;  // the default of 2026-12-03
-  PlaceRecognizer a(with), b(without);
-  for (int u = 0; u < m; ++u) {
-    const RowMatrixXf rows = Uniform(n, d, 300 + u);
-    a.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), rows));
-    b.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), rows));
-  }
-  const RowMatrixXf queries = Uniform(32, d, 17);
-  constexpr int kCalls = 8;
-  int next_a = 0, next_b = 0;
-  const auto stream = [&](PlaceRecognizer* r, int* next) {
-    return [r, next, &queries] {
-      for (int c = 0; c < kCalls; ++c) {
-        r->Recognize(queries.row((*next)++ % queries.rows()).transpose(), true);
-      }
-    };
-  };
-  const auto t0 = Clock::now();
-  a.Recognize(queries.row(0).transpose(), true);  // builds the discriminant (untimed below)
-  const double first = Seconds(t0);
-  std::vector<std::vector<double>> ms =
-      InterleavedTimesMs(repeats, {stream(&a, &next_a), stream(&b, &next_b)});
-  for (std::vector<double>& t : ms) {
-    for (double& v : t) v /= kCalls;
-  }
+  // The first query of the default builds the discriminant (untimed in the rounds).
+  const PairedQueryTimes t = TimePairedQueries(with, without, repeats, m, n, d, 300, 17);
   std::printf(
       "joint   M=%d N=%d D=%d float32, timed in turn: a query of the default (with the "
       "discriminant) %.2f ms, without it (fusion_joint none) %.2f ms: %.2fx (first query, "
       "with the build, %.2f s)\n",
-      m, n, d, Median(ms[0]), Median(ms[1]), MedianRatio(ms[0], ms[1]), first);
+      m, n, d, Median(t.a_ms), Median(t.b_ms), MedianRatio(t.a_ms, t.b_ms), t.a_first_s);
 }
 
 void BuildTimes(int repeats, int m, int n, int d) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -75,6 +77,48 @@ inline double MedianRatio(const std::vector<double>& a, const std::vector<double
   std::vector<double> ratio;
   for (size_t r = 0; r < a.size() && r < b.size(); ++r) ratio.push_back(a[r] / b[r]);
   return Median(ratio);
+}
+
+// A query of two recognisers made with `options_a` and `options_b` over the same M sets of
+// N x D uniform rows (seeds set_seed, set_seed + 1, ...), each fed its own stream of 32
+// uniform queries (seed query_seed) in order, eight a round, the rounds timed in turn
+// (InterleavedTimesMs): per recogniser the ms a query of each round, and the seconds of a's
+// first query (whatever it builds on its first query), made before the rounds.
+struct PairedQueryTimes {
+  std::vector<double> a_ms, b_ms;
+  double a_first_s = 0;
+};
+inline PairedQueryTimes TimePairedQueries(const RecognizerOptions& options_a,
+                                          const RecognizerOptions& options_b, int repeats, int m,
+                                          int n, int d, uint64_t set_seed, uint64_t query_seed) {
+  PlaceRecognizer a(options_a), b(options_b);
+  for (int u = 0; u < m; ++u) {
+    const RowMatrixXf rows = Uniform(n, d, set_seed + static_cast<uint64_t>(u));
+    a.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), rows));
+    b.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), rows));
+  }
+  const RowMatrixXf queries = Uniform(32, d, query_seed);
+  constexpr int kCalls = 8;
+  int next_a = 0, next_b = 0;
+  const auto stream = [&queries](PlaceRecognizer* r, int* next) {
+    return [r, next, &queries] {
+      for (int c = 0; c < kCalls; ++c) {
+        r->Recognize(queries.row((*next)++ % queries.rows()).transpose(), true);
+      }
+    };
+  };
+  PairedQueryTimes out;
+  const auto t0 = std::chrono::steady_clock::now();
+  a.Recognize(queries.row(0).transpose(), true);
+  out.a_first_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::vector<std::vector<double>> ms =
+      InterleavedTimesMs(repeats, {stream(&a, &next_a), stream(&b, &next_b)});
+  for (std::vector<double>& t : ms) {
+    for (double& v : t) v /= kCalls;
+  }
+  out.a_ms = std::move(ms[0]);
+  out.b_ms = std::move(ms[1]);
+  return out;
 }
 
 // Resident memory of this process, bytes (VmRSS).

@@ -14,7 +14,8 @@
 namespace bsf_vpr {
 namespace internal {
 
-double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y) {
+double Correlation(const Eigen::Ref<const Eigen::ArrayXd>& x,
+                   const Eigen::Ref<const Eigen::ArrayXd>& y) {
   double n = 0, sx = 0, sy = 0;
   for (Eigen::Index i = 0; i < x.size(); ++i) {
     if (!std::isfinite(x(i)) || !std::isfinite(y(i))) continue;

@@ -87,6 +87,13 @@ double ConfidenceWithOffMap(double on_odds, double log_off_odds) {
   return -(hi + std::log1p(std::exp(std::min(a, b) - hi)));
 }
 
+namespace {
+
+// log(p / (1 - p)) for P(off) = p, finite where p rounds to 1.
+double OffOdds(double p) { return std::log(p) - std::log(std::max(1 - p, 1e-300)); }
+
+}  // namespace
+
 void OffMapTracker::Reset() {
   last_.resize(0);
   on_.resize(0);
@@ -97,7 +104,7 @@ double OffMapTracker::Update(const Eigen::VectorXd& log_likelihood, const OffMap
                              const TemporalFilterOptions& filter, std::optional<double> step,
                              bool update_state) {
   const Eigen::Index n = log_likelihood.size();
-  const double kept_odds = std::log(off_) - std::log(std::max(1 - off_, 1e-300));
+  const double kept_odds = OffOdds(off_);
   if (n == 0) return kept_odds;
   if (on_.size() == n && last_.size() == n &&
       internal::Correlation(log_likelihood.array(), last_.array()) >= kSameScene) {
@@ -107,7 +114,7 @@ double OffMapTracker::Update(const Eigen::VectorXd& log_likelihood, const OffMap
   double off = off_;
   const double q_out = options.leave_probability, q_in = options.enter_probability;
   if (on_.size() != n) {  // the first query, or another map: from the start
-    off = on_.size() == 0 ? off_ : kOffMapInitialProbability;
+    off = kOffMapInitialProbability;
     on = Eigen::VectorXd::Constant(n, (1 - off) / static_cast<double>(n));
   } else {
     // Predict: the filter's motion, the mass past either end going off.
@@ -150,7 +157,7 @@ double OffMapTracker::Update(const Eigen::VectorXd& log_likelihood, const OffMap
     on /= z;
     off /= z;
   }
-  const double log_odds = std::log(off) - std::log(std::max(1 - off, 1e-300));
+  const double log_odds = OffOdds(off);
   if (update_state) {
     on_ = std::move(on);
     off_ = off;

@@ -13,7 +13,9 @@ namespace internal {
 
 // Pearson's correlation of x and y over the entries where both are finite; 0 where it is
 // undefined (fewer than two such entries, or no spread).
-double Correlation(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y);
+// Taken by reference: a vector's .array() is read in place, not copied.
+double Correlation(const Eigen::Ref<const Eigen::ArrayXd>& x,
+                   const Eigen::Ref<const Eigen::ArrayXd>& y);
 
 // The place of d.values[k], checked against the map's place index: throws
 // std::invalid_argument naming an id outside 0..num_places - 1.

@@ -1,5 +1,6 @@
 #include "bsf_vpr/evaluation/results_io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -81,13 +82,10 @@ std::string FormatSummaryTable(const std::vector<MethodResults>& results) {
     out << pad(r.method.Name(), width) << "  " << Fixed(m.auc, 3) << "   "
         << Fixed(m.recall_at_full_precision, 3) << "  " << Fixed(m.recall_at_1, 3) << "  "
         << Fixed(m.recall_at_5, 3) << "  " << Fixed(m.recall_at_10, 3) << "  " << m.num_queries;
-    if (off_map) {
-      out << "  "
-          << std::string(std::to_string(m.num_queries).size() < 7
-                             ? 7 - std::to_string(m.num_queries).size()
-                             : 0,
-                         ' ')
-          << m.off_map_accepted << " of " << m.off_map_queries;
+    if (off_map) {  // under its heading, which starts 7 places after "queries"
+      const size_t queries_width = std::to_string(m.num_queries).size();
+      out << std::string(2 + 7 - std::min<size_t>(7, queries_width), ' ') << m.off_map_accepted
+          << " of " << m.off_map_queries;
     }
     out << '\n';
   }

@@ -10,7 +10,7 @@ JointBuilder::JointBuilder(std::function<void(Result)> done)
 
 JointBuilder::~JointBuilder() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     stop_ = true;
     waiting_.reset();
   }
@@ -21,28 +21,34 @@ JointBuilder::~JointBuilder() {
 void JointBuilder::Request(JointKind kind, std::vector<StoredReferenceSet> sets, int num_places,
                            JointOptions options, uint64_t generation) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     waiting_ = Request_{kind, std::move(sets), num_places, std::move(options), generation};
   }
   changed_.notify_all();
 }
 
 bool JointBuilder::busy() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return running_ || waiting_.has_value();
 }
 
 void JointBuilder::Wait() const {
-  std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [this] { return !running_ && !waiting_; });
+  MutexLock lock(&mutex_);
+  lock.Await(changed_, [this] {
+    mutex_.AssertHeld();
+    return !running_ && !waiting_;
+  });
 }
 
 void JointBuilder::Run() {
   for (;;) {
     Request_ request;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      changed_.wait(lock, [this] { return stop_ || waiting_.has_value(); });
+      MutexLock lock(&mutex_);
+      lock.Await(changed_, [this] {
+        mutex_.AssertHeld();
+        return stop_ || waiting_.has_value();
+      });
       if (stop_) return;
       request = std::move(*waiting_);
       waiting_.reset();
@@ -68,7 +74,7 @@ void JointBuilder::Run() {
     } catch (...) {  // a callback's failure must not end the builder
     }
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       running_ = false;
     }
     changed_.notify_all();

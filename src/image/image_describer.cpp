@@ -9,6 +9,7 @@
 #include <opencv2/objdetect.hpp>
 #include <stdexcept>
 
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
 
@@ -130,7 +131,7 @@ class OnnxDescriber : public ImageDescriber {
     const cv::Mat blob = cv::dnn::blobFromImage(f);  // 1 x 3 x H x W, no further scaling
     cv::Mat out;
     {
-      std::lock_guard<std::mutex> lock(mutex_);  // cv::dnn::Net::forward is not const
+      MutexLock lock(&mutex_);  // cv::dnn::Net::forward is not const
       net_.setInput(blob);
       out = o_.output_layer.empty() ? net_.forward() : net_.forward(o_.output_layer);
     }
@@ -151,8 +152,8 @@ class OnnxDescriber : public ImageDescriber {
   }
 
   OnnxOptions o_;
-  mutable cv::dnn::Net net_;
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
+  mutable cv::dnn::Net net_ GUARDED_BY(mutex_);
   RowMatrixXf pca_;
   int dimension_ = 0;
 };

@@ -14,6 +14,7 @@
 #include "bsf_vpr/io/file_util.h"
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/ingest/descriptor_ingest.h"
+#include "src/ros/shard/shard_params.h"
 #include "src/tools/common/cli_util.h"
 #include "src/tools/import/import_args.h"
 

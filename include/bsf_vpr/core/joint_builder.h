@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/joint_representation.h"
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/core/stored_reference_set.h"
 
 namespace bsf_vpr {
@@ -59,11 +60,11 @@ class JointBuilder {
   void Run();
 
   const std::function<void(Result)> done_;
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
   mutable std::condition_variable changed_;
-  std::optional<Request_> waiting_;  // guarded by mutex_
-  bool running_ = false;             // guarded by mutex_
-  bool stop_ = false;                // guarded by mutex_
+  std::optional<Request_> waiting_ GUARDED_BY(mutex_);
+  bool running_ GUARDED_BY(mutex_) = false;
+  bool stop_ GUARDED_BY(mutex_) = false;
   std::thread thread_;               // last member: starts once the others exist
 };
 

@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+#include "bsf_vpr/core/mutex.h"
+
 namespace bsf_vpr {
 namespace {
 
@@ -29,7 +31,7 @@ class WorkerPool {
  public:
   ~WorkerPool() {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       quit_ = true;
     }
     wake_.notify_all();
@@ -37,10 +39,10 @@ class WorkerPool {
   }
 
   void Run(int count, int threads, const std::function<void(int)>& task) {
-    std::lock_guard<std::mutex> serial(run_mutex_);  // one job at a time
+    MutexLock serial(&run_mutex_);  // one job at a time
     const int helpers = std::max(0, std::min(threads, count) - 1);
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       while (static_cast<int>(workers_.size()) < helpers) {
         workers_.emplace_back([this] { Work(); });
       }
@@ -54,9 +56,12 @@ class WorkerPool {
     }
     if (helpers > 0) wake_.notify_all();
     Drain();
-    std::unique_lock<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     wanted_ = joined_;  // a worker that wakes only now is not needed any more
-    done_.wait(lock, [this] { return running_ == 0; });
+    lock.Await(done_, [this] {
+      mutex_.AssertHeld();
+      return running_ == 0;
+    });
     task_ = nullptr;
     if (error_) std::rethrow_exception(error_);
   }
@@ -67,44 +72,54 @@ class WorkerPool {
     for (;;) {
       int i;
       {
-        std::lock_guard<std::mutex> lock(mutex_);
+        MutexLock lock(&mutex_);
         if (next_ >= count_) return;
         i = next_++;
       }
       try {
         RunTask(*task_, i);
       } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
+        MutexLock lock(&mutex_);
         if (!error_) error_ = std::current_exception();
       }
     }
   }
 
   void Work() {
-    std::unique_lock<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     long seen = generation_;
     for (;;) {
-      wake_.wait(lock, [&] { return quit_ || generation_ != seen; });
+      lock.Await(wake_, [&] {
+        mutex_.AssertHeld();
+        return quit_ || generation_ != seen;
+      });
       if (quit_) return;
       seen = generation_;
       if (joined_ >= wanted_) continue;  // enough helpers for this job
       ++joined_;
       ++running_;
-      lock.unlock();
+      lock.Unlock();
       Drain();
-      lock.lock();
+      lock.Lock();
       if (--running_ == 0) done_.notify_all();
     }
   }
 
-  std::mutex run_mutex_, mutex_;
+  Mutex run_mutex_ ACQUIRED_BEFORE(mutex_);  // one job at a time
+  Mutex mutex_;
   std::condition_variable wake_, done_;
-  std::vector<std::thread> workers_;
+  std::vector<std::thread> workers_ GUARDED_BY(mutex_);
+  // Set under mutex_ before the helpers wake, read by them while the job runs (Run waits for
+  // every helper before it clears it).
   const std::function<void(int)>* task_ = nullptr;
-  int count_ = 0, next_ = 0, wanted_ = 0, joined_ = 0, running_ = 0;
-  long generation_ = 0;
-  bool quit_ = false;
-  std::exception_ptr error_;
+  int count_ GUARDED_BY(mutex_) = 0;
+  int next_ GUARDED_BY(mutex_) = 0;
+  int wanted_ GUARDED_BY(mutex_) = 0;
+  int joined_ GUARDED_BY(mutex_) = 0;
+  int running_ GUARDED_BY(mutex_) = 0;
+  long generation_ GUARDED_BY(mutex_) = 0;
+  bool quit_ GUARDED_BY(mutex_) = false;
+  std::exception_ptr error_ GUARDED_BY(mutex_);
 };
 
 }  // namespace

@@ -34,6 +34,7 @@
 
 #include "bsf_vpr/Belief.h"
 #include "bsf_vpr/Descriptor.h"
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
 #include "src/ros/common/param_util.h"
@@ -199,13 +200,13 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
   bool images() const { return !options_.images.empty(); }
 
   void OnDescribeTime(const std_msgs::Float64::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     describe_ms_.emplace(in_flight_, msg->data * 1e3);  // the first for this query counts
   }
 
   void OnBelief(const Belief::ConstPtr& msg) {
     const Clock::time_point now = Clock::now();
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     const int id = msg->header.stamp.sec;
     const auto it = sent_.find(id);
     if (it == sent_.end()) return;
@@ -232,7 +233,7 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
       descriptor->data.assign(queries_.row(row).data(), queries_.row(row).data() + queries_.cols());
       descriptor->header.stamp = stamp;
     }
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     in_flight_ = k + 1;
     sent_[k + 1] = Clock::now();
     if (image) {
@@ -243,8 +244,9 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
   }
 
   bool WaitFor(int k) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return cv_.wait_for(lock, std::chrono::duration<double>(options_.timeout_s), [&] {
+    MutexLock lock(&mutex_);
+    return lock.AwaitFor(cv_, std::chrono::duration<double>(options_.timeout_s), [&] {
+      mutex_.AssertHeld();
       return stop_ || received_.count(k + 1) > 0;
     }) && !stop_;
   }
@@ -266,7 +268,7 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
       }
       Send(*k);
       if (WaitFor(*k)) {
-        std::lock_guard<std::mutex> lock(mutex_);
+        MutexLock lock(&mutex_);
         samples.push_back(received_[*k + 1]);
       }
     }
@@ -323,12 +325,12 @@ class PipelineBenchmarkNodelet : public nodelet::Nodelet {
   std::vector<sensor_msgs::ImageConstPtr> images_;
   ros::Publisher pub_, results_pub_;
   ros::Subscriber sub_, describe_time_sub_;
-  std::mutex mutex_;
+  Mutex mutex_;
   std::condition_variable cv_;
-  int in_flight_ = 0;  // the id (stamp.sec) of the last query sent
-  std::map<int, Clock::time_point> sent_;
-  std::map<int, double> describe_ms_;
-  std::map<int, Sample> received_;
+  int in_flight_ GUARDED_BY(mutex_) = 0;  // the id (stamp.sec) of the last query sent
+  std::map<int, Clock::time_point> sent_ GUARDED_BY(mutex_);
+  std::map<int, double> describe_ms_ GUARDED_BY(mutex_);
+  std::map<int, Sample> received_ GUARDED_BY(mutex_);
   std::atomic<bool> stop_{false};
   std::thread worker_;
 };

@@ -4,6 +4,7 @@
 
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/sharding.h"
+#include "bsf_vpr/map/set_loading.h"
 
 namespace bsf_vpr {
 
@@ -106,16 +107,97 @@ geometry_msgs::TransformStamped ToPlaceTransformMsg(const Match& match, const ro
   return t;
 }
 
-ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) {
+ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) { return ToInfoMsg(Summarize(set)); }
+
+ReferenceSetInfo ToInfoMsg(const SetSummary& set) {
   ReferenceSetInfo info;
-  info.name = set.name();
-  info.condition = set.condition();
-  info.descriptor_type = set.descriptor_type();
-  info.num_places = set.size();
-  info.dimension = set.dimension();
-  info.memory_bytes = set.MemoryBytes();
-  info.storage = ToString(set.precision());
+  info.name = set.name;
+  info.condition = set.condition;
+  info.descriptor_type = set.descriptor_type;
+  info.num_places = set.num_places;
+  info.dimension = set.dimension;
+  info.memory_bytes = set.memory_bytes;
+  info.storage = set.storage;
+  info.shard = set.shard;
   return info;
+}
+
+void ToListResponse(const SetList& list, ListReferenceSets::Response* out) {
+  for (const SetSummary& s : list.sets) out->sets.push_back(ToInfoMsg(s));
+  out->num_places = list.num_places;
+}
+
+QueryHeader ToQueryHeader(const std_msgs::Header& header) {
+  QueryHeader out;
+  out.seq = header.seq;
+  out.sec = header.stamp.sec;
+  out.nsec = header.stamp.nsec;
+  out.frame_id = header.frame_id;
+  return out;
+}
+
+std_msgs::Header ToHeaderMsg(const QueryHeader& header) {
+  std_msgs::Header out;
+  out.seq = header.seq;
+  out.stamp.sec = header.sec;
+  out.stamp.nsec = header.nsec;
+  out.frame_id = header.frame_id;
+  return out;
+}
+
+QueryDescriptor ToQueryDescriptor(const Descriptor& msg) {
+  QueryDescriptor out;
+  out.header = ToQueryHeader(msg.header);
+  out.type = msg.descriptor_type;
+  out.values = msg.data.data();
+  out.size = static_cast<Eigen::Index>(msg.data.size());
+  return out;
+}
+
+Descriptor ToDescriptorMsg(const QueryDescriptor& descriptor) {
+  Descriptor out;
+  out.header = ToHeaderMsg(descriptor.header);
+  out.descriptor_type = descriptor.type;
+  out.data.assign(descriptor.values, descriptor.values + descriptor.size);
+  return out;
+}
+
+LoadRequest ToLoadRequest(const LoadReferenceSet::Request& msg) {
+  return {msg.path, msg.name, msg.condition, msg.shard};
+}
+
+LoadReferenceSet::Request ToLoadRequestMsg(const LoadRequest& request) {
+  LoadReferenceSet::Request out;
+  out.path = request.path;
+  out.name = request.name;
+  out.condition = request.condition;
+  out.shard = request.shard;
+  return out;
+}
+
+void AddStatus(const StatusValues& values, diagnostic_updater::DiagnosticStatusWrapper& status) {
+  for (const auto& [key, value] : values) status.add(key, value);
+}
+
+void ToShardDistancesMsg(const ShardAnswer& answer, ShardDistances* out) {
+  out->error = answer.error;
+  size_t total = 0;
+  for (const RowMatrixXf& m : answer.distances) total += static_cast<size_t>(m.size());
+  out->distances.reserve(total);
+  for (size_t u = 0; u < answer.distances.size(); ++u) {
+    const RowMatrixXf& m = answer.distances[u];
+    out->set_names.push_back(answer.set_names[u]);
+    out->fingerprints.push_back(answer.fingerprints[u]);
+    out->counts.push_back(static_cast<int32_t>(m.size()));
+    out->distances.insert(out->distances.end(), m.data(), m.data() + m.size());
+  }
+  if (answer.joint_kind) {
+    out->joint_kind = ToString(*answer.joint_kind);
+    out->joint_build = answer.joint_build;
+    out->joint_sets = answer.joint_sets;
+    const RowMatrixXf& j = answer.joint_distances;
+    out->joint_distances.assign(j.data(), j.data() + j.size());
+  }
 }
 
 ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint) {

@@ -4,9 +4,13 @@
 
 #include <bsf_vpr/Belief.h>
 #include <bsf_vpr/Descriptor.h>
+#include <bsf_vpr/ListReferenceSets.h>
+#include <bsf_vpr/LoadReferenceSet.h>
 #include <bsf_vpr/Match.h>
 #include <bsf_vpr/ReferenceSetInfo.h>
+#include <bsf_vpr/ShardDistances.h>
 #include <bsf_vpr/ShardSet.h>
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/PoseWithCovariance.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -16,6 +20,8 @@
 
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/pose_estimate.h"
+#include "bsf_vpr/map/local_map.h"
+#include "bsf_vpr/map/map_backend.h"
 
 namespace bsf_vpr {
 
@@ -24,6 +30,20 @@ inline Eigen::Map<const Eigen::VectorXf> DescriptorView(const Descriptor& msg) {
   return Eigen::Map<const Eigen::VectorXf>(msg.data.data(),
                                            static_cast<Eigen::Index>(msg.data.size()));
 }
+
+// The map's plain types (map_backend.h) and the messages: converted here, at the ROS edge.
+QueryHeader ToQueryHeader(const std_msgs::Header& header);
+std_msgs::Header ToHeaderMsg(const QueryHeader& header);
+// A view on the message (valid while it lives).
+QueryDescriptor ToQueryDescriptor(const Descriptor& msg);
+Descriptor ToDescriptorMsg(const QueryDescriptor& descriptor);
+LoadRequest ToLoadRequest(const LoadReferenceSet::Request& msg);
+LoadReferenceSet::Request ToLoadRequestMsg(const LoadRequest& request);
+ReferenceSetInfo ToInfoMsg(const SetSummary& set);
+void ToListResponse(const SetList& list, ListReferenceSets::Response* out);
+void AddStatus(const StatusValues& values, diagnostic_updater::DiagnosticStatusWrapper& status);
+// A shard's answer (header and shard name left to the caller).
+void ToShardDistancesMsg(const ShardAnswer& answer, ShardDistances* out);
 
 // Fills `out` (header left to the caller) from a recognition. belief_top_k 0 lists every
 // place; otherwise the K most probable, best first.

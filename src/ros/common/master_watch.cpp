@@ -16,6 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include "bsf_vpr/core/mutex.h"
+
 namespace bsf_vpr {
 namespace {
 
@@ -115,7 +117,7 @@ class MasterWatch::Process {
   Process() : thread_([this] { Run(); }) {}
   ~Process() {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       stop_ = true;
     }
     wake_.notify_all();
@@ -123,20 +125,20 @@ class MasterWatch::Process {
   }
 
   void Join(const std::string& ns) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     namespaces_.insert(ns);
   }
   void Leave(const std::string& ns) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     namespaces_.erase(namespaces_.find(ns));
     if (namespaces_.count(ns) == 0) parameters_.erase(ns);
   }
 
   // The process's watch while some node holds it.
   static std::shared_ptr<Process> Instance() {
-    static std::mutex instance_mutex;
+    static Mutex instance_mutex;
     static std::weak_ptr<Process> instance;
-    std::lock_guard<std::mutex> lock(instance_mutex);
+    MutexLock lock(&instance_mutex);
     std::shared_ptr<Process> process = instance.lock();
     if (!process) {
       process = std::make_shared<Process>();
@@ -149,9 +151,9 @@ class MasterWatch::Process {
   void Run() {
     MasterRun known;
     bool have_known = false;
-    std::unique_lock<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     while (!stop_) {
-      lock.unlock();
+      lock.Unlock();
       MasterRun now;
       const bool up = ros::ok() && GetMasterRun(&now);
       if (up && have_known && !(now == known)) Reregister();
@@ -160,8 +162,11 @@ class MasterWatch::Process {
         have_known = true;
         Remember();
       }
-      lock.lock();
-      wake_.wait_for(lock, kPollPeriod, [this] { return stop_; });
+      lock.Lock();
+      lock.AwaitFor(wake_, kPollPeriod, [this] {
+        mutex_.AssertHeld();
+        return stop_;
+      });
     }
   }
 
@@ -170,7 +175,7 @@ class MasterWatch::Process {
   void Remember() {
     std::set<std::string> namespaces;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       namespaces.insert(namespaces_.begin(), namespaces_.end());
     }
     std::map<std::string, XmlRpcValue> parameters;
@@ -192,7 +197,7 @@ class MasterWatch::Process {
         }
       }
     }
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     for (auto& [ns, value] : parameters) {
       if (namespaces_.count(ns) != 0) parameters_[ns] = value;
     }
@@ -205,7 +210,7 @@ class MasterWatch::Process {
     std::map<std::string, XmlRpcValue> parameters;
     std::set<std::string> services;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       parameters = parameters_;
       services = services_;
     }
@@ -264,12 +269,13 @@ class MasterWatch::Process {
              n_parameters, me.c_str(), refused.c_str());
   }
 
-  std::mutex mutex_;
+  Mutex mutex_;
   std::condition_variable wake_;
-  bool stop_ = false;
-  std::multiset<std::string> namespaces_;
-  std::map<std::string, XmlRpcValue> parameters_;  // last seen on the master, per namespace
-  std::set<std::string> services_;                 // this process's, last seen on the master
+  bool stop_ GUARDED_BY(mutex_) = false;
+  std::multiset<std::string> namespaces_ GUARDED_BY(mutex_);
+  // Last seen on the master, per namespace; and this process's services, last seen there.
+  std::map<std::string, XmlRpcValue> parameters_ GUARDED_BY(mutex_);
+  std::set<std::string> services_ GUARDED_BY(mutex_);
   std::thread thread_;  // last: starts once the members above exist
 };
 

@@ -1,6 +1,7 @@
 // The nodelet and the plain node of each of bsf_vpr's nodes, from one class: a class Node
-// with Node(ros::NodeHandle nh, ros::NodeHandle pnh) and Start(), which reads the
-// parameters and throws std::exception naming what keeps it from starting (model:
+// made by `Make` (by default Node(ros::NodeHandle nh, ros::NodeHandle pnh); the fusion node
+// is handed its map there) with Start(), which reads the parameters and throws
+// std::exception naming what keeps it from starting (model:
 // robot_localization's ekf_localization_node.cpp and ekf_localization_nodelet.cpp). Once
 // started, each joins the process's MasterWatch, which registers it again with a restarted
 // ROS master.
@@ -21,12 +22,19 @@
 
 namespace bsf_vpr {
 
+template <class Node>
+std::unique_ptr<Node> ConstructNode(ros::NodeHandle nh, ros::NodeHandle pnh) {
+  return std::make_unique<Node>(std::move(nh), std::move(pnh));
+}
+template <class Node>
+using NodeMaker = std::unique_ptr<Node> (*)(ros::NodeHandle nh, ros::NodeHandle pnh);
+
 // A nodelet holding one Node; `Name` (a char array) names it in the start-up error.
-template <class Node, const char* Name>
+template <class Node, const char* Name, NodeMaker<Node> Make = &ConstructNode<Node>>
 class NodeletOf : public nodelet::Nodelet {
  private:
   void onInit() override {
-    node_ = std::make_unique<Node>(getNodeHandle(), getPrivateNodeHandle());
+    node_ = Make(getNodeHandle(), getPrivateNodeHandle());
     try {
       node_->Start();
     } catch (const std::exception& e) {
@@ -60,7 +68,7 @@ inline void WaitForRosout(const ros::NodeHandle& nh, double timeout_s) {
 }
 
 // A node's main: runs one Node named `name` until shutdown; 1 if it cannot start.
-template <class Node>
+template <class Node, NodeMaker<Node> Make = &ConstructNode<Node>>
 int RunNode(int argc, char** argv, const char* name) {
   // Line-buffered, so that the console log reaches a file (nohup, a redirection) as it is
   // written, not when the buffer fills or the node ends.
@@ -68,9 +76,9 @@ int RunNode(int argc, char** argv, const char* name) {
   ros::init(argc, argv, name);
   const ros::NodeHandle handle;  // starts the node: its /rosout publisher among the first
   WaitForRosout(handle, 3.0);
-  Node node(ros::NodeHandle(), ros::NodeHandle("~"));
+  const std::unique_ptr<Node> node = Make(ros::NodeHandle(), ros::NodeHandle("~"));
   try {
-    node.Start();
+    node->Start();
   } catch (const std::exception& e) {
     ROS_FATAL("bsf_vpr %s cannot start: %s", name, e.what());
     return 1;

@@ -90,4 +90,16 @@ void RosParamSource::RefuseUnread() const {
   }
 }
 
+const OptionTable<QueueParams>& QueueParamsTable() {
+  static const OptionTable<QueueParams> kTable =
+      OptionTable<QueueParams>()
+          .Add(
+              "queue_size", [](auto& p) -> auto& { return p.queue_size; },
+              "descriptors buffered before the oldest are dropped", "messages", AtLeast(1))
+          .Add(
+              "diagnostic_period", [](auto& p) -> auto& { return p.diagnostic_period; },
+              "time between diagnostics updates (read by diagnostic_updater)", "s", Above(0));
+  return kTable;
+}
+
 }  // namespace bsf_vpr

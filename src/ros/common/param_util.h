@@ -47,4 +47,11 @@ S LoadOptions(const OptionTable<S>& table, RosParamSource& source) {
   return options;
 }
 
+// What a node with a queue of descriptors and diagnostics reads (QueueParamsTable()).
+struct QueueParams {
+  int queue_size = 100;            // descriptors buffered before the oldest are dropped
+  double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
+};
+const OptionTable<QueueParams>& QueueParamsTable();
+
 }  // namespace bsf_vpr

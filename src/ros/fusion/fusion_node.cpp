@@ -7,18 +7,18 @@
 
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/reference_set_io.h"
+#include "bsf_vpr/map/set_loading.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/common/image_problem.h"
 #include "src/ros/common/service_queue.h"
 #include "src/ros/fusion/reconfigure_options.h"
-#include "src/ros/map/make_map.h"
-#include "src/ros/map/set_loading.h"
+#include "src/ros/map/configured_paths.h"
 
 namespace bsf_vpr {
 
-FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
+FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh, MapFactory make_map)
+    : nh_(std::move(nh)), pnh_(std::move(pnh)), make_map_(std::move(make_map)) {}
 
 FusionNode::~FusionNode() {
   // No callback may run on parts about to be destroyed (a nodelet unloaded while a
@@ -58,12 +58,57 @@ void FusionNode::Start() {
                data_dir_->path().c_str());
     }
   }
+  map_ = make_map_(params_, data_dir_.get());  // calls back only once started, below
+  {
+    // The services' callbacks wait for it; released before the reconfiguration server calls
+    // back (on this thread).
+    MutexLock lock(&mutex_);
+    StartParts();
+  }
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<FusionConfig>>(pnh_);
+  reconfigure_->setCallback(
+      [this](FusionConfig& config, uint32_t level) { OnReconfigure(config, level); });
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+  diagnostics_->setHardwareID("bsf_vpr");
+  diagnostics_->add("fusion", this, &FusionNode::Diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
+    diagnostics_->update();  // publishes at ~diagnostic_period
+  });
+
+  // Last: everything the map's callbacks and the descriptors use exists.
+  MapBackend::Callbacks callbacks;
+  callbacks.query = [this](MapBackend::Query& query) {
+    MutexLock lock(&mutex_);
+    DecideAndPublish(query);
+  };
+  callbacks.reject = [this](const std::string& why) {
+    MutexLock lock(&mutex_);
+    RejectMessage(why);
+  };
+  callbacks.layout = [this](MapBackend::Layout layout) {
+    MutexLock lock(&mutex_);
+    AdoptLayout(std::move(layout));
+  };
+  map_->Start(std::move(callbacks));
+  format_sub_ =
+      nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
+  // Always subscribed: the belief is state that must follow every query (a sharded map only
+  // notes the stamp: its shards hear the descriptors themselves).
+  descriptor_sub_ =
+      nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
+                    &FusionNode::OnDescriptor, this);
+  MutexLock lock(&mutex_);
+  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
+           params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
+}
+
+void FusionNode::StartParts() {
   recording_ = std::make_unique<Recording>(
       data_dir_.get(), RecordingLimits{params_.recording_max_descriptors,
                                        int64_t{params_.recording_max_megabytes} * 1000000});
   recording_->set_keep(keep_);
   decider_ = PlaceDecider(params_.recognizer.method, params_.recognizer.method_options);
-  map_ = MakeMap(nh_, params_, data_dir_.get());  // calls back only once started, below
   layout_ = map_->layout();
   decider_.OnLayoutChanged(*layout_);
   // Checks the method against the sets.
@@ -104,10 +149,9 @@ void FusionNode::Start() {
     // arrives on the node's own queue.
     services_.push_back(AdvertiseOnQueue<UnloadReferenceSet>(
         nh_, names::kUnloadReferenceSetService, &FusionNode::OnUnload, this, &load_queue_));
-    // A sharded map's loads and unloads wait for shards: two threads, so that one stalled
-    // shard does not hold up a load to another.
-    load_spinner_ =
-        std::make_unique<ros::AsyncSpinner>(params_.shards.empty() ? 1 : 2, &load_queue_);
+    // Two threads: a sharded map's loads and unloads wait for shards, and one stalled shard
+    // must not hold up a load to another; a local map's loads take its lock in turn.
+    load_spinner_ = std::make_unique<ros::AsyncSpinner>(2, &load_queue_);
     load_spinner_->start();
   }
   // query_place on a queue and thread of its own: a sharded map's calls every shard, and a
@@ -125,43 +169,7 @@ void FusionNode::Start() {
   services_.push_back(
       nh_.advertiseService(names::kSelectionStatisticsService, &FusionNode::OnStatistics, this));
 
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<FusionConfig>>(pnh_);
-  reconfigure_->setCallback(
-      [this](FusionConfig& config, uint32_t level) { OnReconfigure(config, level); });
-
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
-  diagnostics_->setHardwareID("bsf_vpr");
-  diagnostics_->add("fusion", this, &FusionNode::Diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
-    diagnostics_->update();  // publishes at ~diagnostic_period
-  });
   last_diagnostics_ = ros::WallTime::now();
-
-  // Last: everything the map's callbacks and the descriptors use exists.
-  MapBackend::Callbacks callbacks;
-  callbacks.query = [this](MapBackend::Query& query) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    DecideAndPublish(query);
-  };
-  callbacks.reject = [this](const std::string& why) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    RejectMessage(why);
-  };
-  callbacks.layout = [this](MapBackend::Layout layout) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    AdoptLayout(std::move(layout));
-  };
-  map_->Start(std::move(callbacks));
-  if (map_->NeedsDescriptors()) {
-    format_sub_ =
-        nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
-    // Always subscribed: the belief is state that must follow every query.
-    descriptor_sub_ =
-        nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
-                      &FusionNode::OnDescriptor, this);
-  }
-  ROS_INFO("bsf_vpr: fusion ready: method %s, %d reference set(s), %d places",
-           params_.recognizer.method.c_str(), layout_->num_sets(), layout_->num_places());
 }
 
 void FusionNode::RejectMessage(const std::string& why) {
@@ -171,7 +179,7 @@ void FusionNode::RejectMessage(const std::string& why) {
 }
 
 void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   format_ = msg;
   CheckDescriptorFormat();
 }
@@ -226,7 +234,7 @@ void FusionNode::OnRecordingImage(const sensor_msgs::ImageConstPtr& msg) {
     ROS_WARN_THROTTLE(5.0, "bsf_vpr: recording: cannot keep a camera image: %s", e.what());
     return;
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   recording_->AddImage(msg->header.stamp.toSec(), std::string(jpeg.begin(), jpeg.end()));
 }
 
@@ -246,7 +254,7 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   RecordingPlaces places = RecordingPlaces::kSequential;
   bool recording = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     ++received_;
     const uint64_t lost = sequence_gaps_.Note(event.getPublisherName(), msg->header.seq);
     lost_ += lost;
@@ -259,7 +267,7 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
     pose = robot_pose_->PoseAt(msg->header.stamp,
                                places == RecordingPlaces::kPose ? params_.pose_wait_s : 0.0);
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const Eigen::Map<const Eigen::VectorXf> d = DescriptorView(*msg);
   // Recording by localisation waits for the match; the other modes record every descriptor.
   const bool localized =
@@ -284,7 +292,7 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   // DecideAndPublish once the shards answered.
   std::optional<MapBackend::Query> query;
   try {
-    query = map_->Hear(*msg);
+    query = map_->Hear(ToQueryDescriptor(*msg));
   } catch (const std::exception& e) {
     // Without sets a recording still takes the descriptors.
     if (!(recording_->recording() && layout_->num_sets() == 0)) RejectMessage(e.what());
@@ -336,7 +344,8 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
-    r = decider_.Decide(*layout_, query.distances, true, OdometryStep(query.header.stamp));
+    r = decider_.Decide(*layout_, query.distances, true,
+                        OdometryStep(ros::Time(query.header.sec, query.header.nsec)));
   } catch (const std::exception& e) {
     RejectMessage(e.what());
     return std::nullopt;
@@ -349,7 +358,7 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
   processing_s_sum_ += seconds;
   processing_s_max_ = std::max(processing_s_max_, seconds);
   counters_.Count(r, *layout_);
-  publisher_->Publish(query.header, r, *layout_, decider_, seconds);
+  publisher_->Publish(ToHeaderMsg(query.header), r, *layout_, decider_, seconds);
   return r;
 }
 
@@ -374,7 +383,7 @@ RecognizerOptions FusionNode::OptionsInForce() const {
 }
 
 void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const OptionTable<RecognizerOptions>& table = RecognizerOptionsTable();
   dynamic_reconfigure::Config request;
   config.__toMessage__(request);
@@ -420,7 +429,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
 }
 
 void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
   const PlaceLayout& map = *layout_;
@@ -485,7 +494,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.add("last reconfiguration refused", last_reconfigure_refusal_);
   }
   status.add("distance", ToString(map_->metric()));
-  map_->Diagnose(status);  // the first stage; a sharded map's shards
+  AddStatus(map_->Diagnose(), status);  // the first stage; a sharded map's shards
   odometry_->Diagnose(status);
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", map.num_sets());

@@ -15,39 +15,14 @@
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recognition_publisher.h"
 #include "src/ros/fusion/robot_pose.h"
+#include "src/ros/map/map_params.h"
 #include "src/ros/view/belief_view_options.h"
 
 namespace bsf_vpr {
 
-struct ReferenceSetEntry {
-  std::string name;       // required for a .npy; overrides a YAML's name if set
-  std::string path;       // descriptor .npy or reference-set .yaml
-  std::string condition;  // optional
-};
-
-// The parameters of a map whose sets live in this process: a fusion node's own sets, a
-// fusion shard's (MapParamsTable()).
-struct MapParams {
-  std::vector<ReferenceSetEntry> reference_sets;
-  std::string data_directory;  // services read and write files only below it (created)
-  // The distance configured; none (parameter ""): the distance the sets loaded at start
-  // declare, or the first set loaded into an empty map.
-  std::optional<DistanceMetric> distance;
-  StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
-  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
-
-  bool distance_given() const { return distance.has_value(); }
-};
-
 // The recognizer's options (RecognizerOptionsTable()).
 struct RecognizerParams {
   RecognizerOptions recognizer;
-};
-
-// What a node with a queue of descriptors and diagnostics reads (QueueParamsTable()).
-struct QueueParams {
-  int queue_size = 100;            // descriptors buffered before the oldest are dropped
-  double diagnostic_period = 1.0;  // seconds (diagnostic_updater reads it too)
 };
 
 // Odometry for +filter methods: none, topic (nav_msgs/Odometry on odometry_topic) or tf
@@ -76,16 +51,6 @@ struct RecordingParams {
   int recording_max_megabytes = 2000;
 };
 
-// A sharded map (sharded_map.h): the shards whose distances this node fuses instead of
-// holding sets of its own; a query waits shard_timeout for the shards that have not
-// answered after the first did (ShardingParamsTable()).
-struct ShardingParams {
-  std::vector<std::string> shards;
-  double shard_timeout = 0.5;
-  double shard_call_timeout = 0.5;  // beyond shard_timeout
-  double shard_load_timeout = 30;
-};
-
 // The fusion node's parameters, part by part, each part with its table: the map's, the
 // recognizer's (recognizer.metric is the configured distance, or euclidean), what is
 // published (RecognitionPublisherOptions, recognition_publisher.h), odometry, recording by
@@ -99,27 +64,9 @@ struct FusionParams : MapParams,
                       QueueParams,
                       ShardingParams {};
 
-// A fusion shard's parameters: its map's, its first stage and its queue; nothing of the
-// decision (the combiner's).
-struct ShardParams : MapParams, QueueParams {
-  FirstStageOptions first_stage;
-  // The joint representation of the shard's sets it builds and serves (the combiner's
-  // bsf takes it as its joint hypothesis), and how.
-  FusionJoint fusion_joint = FusionJoint::kDiscriminant;
-  JointOptions joint;
-};
-
-const OptionTable<MapParams>& MapParamsTable();
-const OptionTable<QueueParams>& QueueParamsTable();
 const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable();
 const OptionTable<OdometryParams>& OdometryParamsTable();
 const OptionTable<RecordingParams>& RecordingParamsTable();
-const OptionTable<ShardingParams>& ShardingParamsTable();
-const OptionTable<ShardParams>& ShardParamsTable();
-// Reads and validates a shard's parameters as LoadFusionParams does; `shards` (the
-// combiner's) is refused by name.
-ShardParams LoadShardParams(RosParamSource& source);
-ShardParams LoadShardParams(const ros::NodeHandle& pnh);
 
 // The declaration of every parameter (reference_sets, a list of mappings, is read by code
 // of its own).

@@ -3,10 +3,11 @@
 #include <chrono>
 
 #include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/map/set_loading.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/fusion/fusion_node.h"
-#include "src/ros/map/set_loading.h"
+#include "src/ros/map/configured_paths.h"
 
 namespace bsf_vpr {
 namespace {
@@ -37,7 +38,7 @@ std::string ResolvedRequestPath(const LoadReferenceSet::Request& req, const Data
 }  // namespace
 
 bool FusionNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response& res) {
-  map_->List(&res);
+  ToListResponse(map_->List(), &res);
   return true;
 }
 
@@ -47,7 +48,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
   try {
     std::string name;  // once read: not to be recorded until it is in the map
     const MapBackend::SetCheck not_recorded = [this, &name](const std::string& set) {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       recording_->CheckNotRecording(set);
       if (loading_.count(set)) {
         throw std::invalid_argument("a reference set named '" + set + "' is being loaded");
@@ -56,12 +57,12 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
       name = set;
     };
     const auto loaded = [this, &name] {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       loading_.erase(name);
       AdoptLayout(map_->layout());
     };
     try {
-      LoadReferenceSet::Request resolved = req;
+      LoadRequest resolved = ToLoadRequest(req);
       resolved.path = ResolvedRequestPath(req, data_dir_.get());
       res.message = map_->Load(resolved, not_recorded);
     } catch (...) {
@@ -82,12 +83,12 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
 bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res) {
   try {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       decider_.CheckRemovable(req.name);  // e.g. the method nn:<set> needs it
       unloading_.insert(req.name);        // no method may take it up meanwhile
     }
     const auto finish = [this, &req](bool unloaded) {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       if (unloaded) counters_.Forget(req.name);
       unloading_.erase(req.name);
       AdoptLayout(map_->layout());
@@ -113,8 +114,8 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
   // shard), then the decision, the state untouched.
   try {
     const auto start = std::chrono::steady_clock::now();
-    MapBackend::Query query = map_->Ask(req.descriptor);
-    std::lock_guard<std::mutex> lock(mutex_);
+    MapBackend::Query query = map_->Ask(ToQueryDescriptor(req.descriptor));
+    MutexLock lock(&mutex_);
     if (!AdoptLayout(query.layout)) {
       throw std::invalid_argument("the map's sets changed while the query was answered; ask again");
     }
@@ -139,7 +140,7 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
 
 bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
                               GetSelectionStatistics::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   res.queries = counters_.queries();
   for (const SetLayout& s : layout_->sets()) res.sets.push_back(counters_.Usage(s.name));
   if (req.reset) counters_.Reset();
@@ -147,7 +148,7 @@ bool FusionNode::OnStatistics(GetSelectionStatistics::Request& req,
 }
 
 bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   try {
     const std::string cannot = map_->CannotRecord();
     if (!cannot.empty()) throw std::invalid_argument(cannot);
@@ -182,7 +183,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
   std::string summary;
   try {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       // Also in a refusal: what arrived and what is kept.
       // (Nothing when no recording runs: the counts of an ended one are not this answer's.)
       if (recording_->recording()) {
@@ -215,10 +216,14 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     }
     stopped.shutdown();
     if (req.discard) return true;
-    recording_->RunSave(job);  // reads the closed recording only
+    // Without the lock: the save reads the closed recording only (BeginSave closed it under
+    // the lock; nothing adds to it until EndSave), through a pointer the analysis does not
+    // follow.
+    Recording* const closed = recording_.get();
+    closed->RunSave(job);
     Recording::Saved saved;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       try {
         saved = recording_->EndSave(std::move(job));
       } catch (...) {
@@ -240,7 +245,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
       not_loaded = e.what();
     }
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       loading_.erase(name);
       AdoptLayout(map_->layout());
     }

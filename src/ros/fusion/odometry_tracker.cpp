@@ -35,7 +35,7 @@ OdometryTracker::OdometryTracker(ros::NodeHandle nh, OdometrySource source,
 
 void OdometryTracker::OnOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
   const auto& p = msg->pose.pose.position;
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   // Heard on the node's clock: a stamp may be zero or from another machine's clock.
   if (!progress_.Hear(Eigen::Vector3d(p.x, p.y, p.z), ros::Time::now().toSec())) {
     ROS_WARN_THROTTLE(1.0,
@@ -59,7 +59,7 @@ void OdometryTracker::HearTf(const ros::Time& stamp) {
 
 std::optional<double> OdometryTracker::StepPlaces(const ros::Time& stamp, double spacing_m) {
   if (source_ == OdometrySource::kNone) return std::nullopt;
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   double now_s = ros::Time::now().toSec();
   if (source_ == OdometrySource::kTf) {
     HearTf(stamp);
@@ -86,7 +86,7 @@ std::optional<double> OdometryTracker::StepPlaces(const ros::Time& stamp, double
 
 std::string OdometryTracker::Problem() {
   if (source_ == OdometrySource::kNone) return "";
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const double now_s = ros::Time::now().toSec();
   switch (progress_.StateAt(now_s)) {
     case OdometryProgress::State::kNone:
@@ -109,7 +109,7 @@ std::string OdometryTracker::Problem() {
 
 void OdometryTracker::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   if (source_ == OdometrySource::kNone) return;
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const double now_s = ros::Time::now().toSec();
   static const char* const kStates[] = {"none heard", "fresh", "stale"};
   status.add("odometry", kStates[static_cast<int>(progress_.StateAt(now_s))]);

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "bsf_vpr/core/enum_names.h"
+#include "bsf_vpr/core/mutex.h"
 #include "src/ros/fusion/odometry_progress.h"
 
 namespace bsf_vpr {
@@ -52,16 +53,16 @@ class OdometryTracker {
 
  private:
   void OnOdometry(const nav_msgs::Odometry::ConstPtr& msg);
-  // Hears the tf transform at `stamp` (else the latest) into progress_. Caller holds mutex_.
-  void HearTf(const ros::Time& stamp);
+  // Hears the tf transform at `stamp` (else the latest) into progress_.
+  void HearTf(const ros::Time& stamp) REQUIRES(mutex_);
 
   OdometrySource source_;
   std::string odom_frame_, base_frame_;
   ros::Subscriber sub_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::mutex mutex_;
-  OdometryProgress progress_;  // guarded by mutex_
+  Mutex mutex_;
+  OdometryProgress progress_ GUARDED_BY(mutex_);
 };
 
 }  // namespace bsf_vpr

@@ -112,7 +112,7 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
       header = m->header;
       pose = FromPose(m->pose.pose);
     } else {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       bad_loss_ = PoseLoss::kType;
       bad_message_ = sub_.getTopic() + " carries " + type +
                      "; pose_topic takes nav_msgs/Odometry, geometry_msgs/PoseStamped or "
@@ -120,12 +120,12 @@ void RobotPoseSource::OnMessage(const topic_tools::ShapeShifter::ConstPtr& msg) 
       return;
     }
   } catch (const std::exception& e) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     bad_loss_ = PoseLoss::kType;
     bad_message_ = std::string("unreadable pose message: ") + e.what();
     return;
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const std::string frame = header.frame_id.size() > 1 && header.frame_id[0] == '/'
                                 ? header.frame_id.substr(1)
                                 : header.frame_id;
@@ -170,14 +170,14 @@ PoseLookup RobotPoseSource::PoseAt(const ros::Time& stamp, double wait_s) {
       break;
   }
   if (!out.pose && out.cause.empty()) out.cause = ToString(out.loss);
-  std::lock_guard<std::mutex> lock(problem_mutex_);
+  MutexLock lock(&problem_mutex_);
   last_cause_ = out.pose ? "" : out.cause;
   losses_in_row_ = out.pose ? 0 : losses_in_row_ + 1;
   return out;
 }
 
 std::string RobotPoseSource::Problem() const {
-  std::lock_guard<std::mutex> lock(problem_mutex_);
+  MutexLock lock(&problem_mutex_);
   if (last_cause_.empty()) return "";
   return "no pose from " + Describe() + " for the last " + std::to_string(losses_in_row_) +
          " descriptor(s): " + last_cause_;
@@ -275,13 +275,16 @@ PoseLookup RobotPoseSource::FromTf(const ros::Time& stamp, double wait_s) {
 }
 
 PoseLookup RobotPoseSource::FromTopic(const ros::Time& stamp, double wait_s) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   // Wait (on the wall clock: the poses come in real time) for a sample at or after the stamp,
   // only while poses flow: the newest less than max_gap_s before the stamp. Otherwise the
   // answer is at once, so that a missing localiser costs recognition nothing.
   if (!samples_.empty() && (stamp - samples_.back().stamp).toSec() < options_.max_gap_s) {
-    arrived_.wait_until(lock, deadline, [&] { return samples_.back().stamp >= stamp; });
+    lock.AwaitUntil(arrived_, deadline, [&] {
+      mutex_.AssertHeld();
+      return samples_.back().stamp >= stamp;
+    });
   }
   PoseLookup out;
   if (samples_.empty()) {

@@ -26,6 +26,7 @@
 #include <string>
 
 #include "bsf_vpr/core/enum_names.h"
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -111,14 +112,17 @@ class RobotPoseSource {
   ros::CallbackQueue queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
   ros::Subscriber sub_;
-  std::mutex mutex_;
+  Mutex mutex_;
   std::condition_variable arrived_;
-  std::deque<Sample> samples_;  // ascending stamps, the last kHistoryS seconds (.cpp)
-  std::string bad_message_;     // the last message refused (frame, type, not finite)
-  PoseLoss bad_loss_ = PoseLoss::kNone;
-  mutable std::mutex problem_mutex_;  // guards what follows
-  std::string last_cause_;            // of the last lookup; "" when it found a pose
-  long losses_in_row_ = 0;
+  // Ascending stamps, the last kHistoryS seconds (.cpp).
+  std::deque<Sample> samples_ GUARDED_BY(mutex_);
+  // The last message refused (frame, type, not finite).
+  std::string bad_message_ GUARDED_BY(mutex_);
+  PoseLoss bad_loss_ GUARDED_BY(mutex_) = PoseLoss::kNone;
+  mutable Mutex problem_mutex_;
+  // Of the last lookup; "" when it found a pose.
+  std::string last_cause_ GUARDED_BY(problem_mutex_);
+  long losses_in_row_ GUARDED_BY(problem_mutex_) = 0;
 };
 
 // Planar pose (x, y, z, yaw about z) of a position and orientation quaternion.

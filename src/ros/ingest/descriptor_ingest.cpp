@@ -130,7 +130,7 @@ void DescriptorIngest::Start() {
 }
 
 void DescriptorIngest::UpdateSubscription() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const bool wanted = pub_.getNumSubscribers() > 0;
   const bool subscribed = image_sub_ || descriptor_sub_;
   if (wanted && !subscribed) {
@@ -156,7 +156,7 @@ void DescriptorIngest::UpdateSubscription() {
 }
 
 void DescriptorIngest::Reject(const std::string& why) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   ++rejected_;
   last_rejection_ = why;
   ROS_ERROR_THROTTLE(1.0, "bsf_vpr: descriptor_ingest dropped an input: %s", why.c_str());
@@ -197,7 +197,7 @@ void DescriptorIngest::OnAnyDescriptor(
   const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
   const std::string type = msg->getDataType();
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     heard_[event.getPublisherName()] = type;
   }
   try {
@@ -215,7 +215,7 @@ void DescriptorIngest::OnAnyDescriptor(
     return Reject(std::string("bad descriptor message: ") + e.what());
   }
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     wrong_type_ = type;
   }
   Reject("the input topic carries " + type +
@@ -255,7 +255,7 @@ std::string DescriptorIngest::Problem(const Descriptor& d, double* squared_norm)
 }
 
 void DescriptorIngest::NoteSequence(const std::string& publisher, uint32_t seq) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   lost_ += sequence_gaps_.Note(publisher, seq);
 }
 
@@ -263,7 +263,7 @@ void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
   {
     // Numbered here, so that the fusion node counts what its own queue loses (a nodelet in
     // the same manager receives the message as it is, seq included).
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     out->header.seq = next_seq_++;
   }
   double sq = 0;
@@ -279,7 +279,7 @@ void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
 
 void DescriptorIngest::Published(const Descriptor::ConstPtr& out) {
   pub_.publish(out);  // shared pointer: no copy to nodelets in the same manager
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   ++published_;
 }
 
@@ -300,7 +300,7 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
     }
   }
   const std::string unheard = UnheardPublishers();
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   if (!unheard.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, unheard);
   } else if (!image_type_problem.empty() || !wrong_type_.empty()) {
@@ -341,7 +341,7 @@ std::string DescriptorIngest::UnheardPublishers() {
   if (params_.input != IngestInput::kDescriptor) return "";
   ros::Subscriber sub;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     sub = descriptor_sub_;
   }
   if (!sub) return "";
@@ -362,7 +362,7 @@ std::string DescriptorIngest::UnheardPublishers() {
     return "";  // a malformed answer from the master: nothing to say this time
   }
   const ros::WallTime now = ros::WallTime::now();
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   for (const std::string& p : publishers) first_listed_.emplace(p, now);  // keeps the first time
   if (static_cast<int>(sub.getNumPublishers()) >= static_cast<int>(publishers.size())) return "";
   std::string names, heard_type;

@@ -28,6 +28,7 @@
 #include <string>
 
 #include "bsf_vpr/core/enum_names.h"
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/image/image_describer.h"
 #include "src/ros/common/image_problem.h"
 #include "src/ros/common/param_util.h"
@@ -77,39 +78,41 @@ class DescriptorIngest {
   std::string UnheardPublishers();
   void OnDescriptor(const Descriptor::ConstPtr& msg);
   // Counts the inputs lost before `seq` from `publisher` (SequenceGaps).
-  void NoteSequence(const std::string& publisher, uint32_t seq);
+  void NoteSequence(const std::string& publisher, uint32_t seq) EXCLUDES(mutex_);
   // Validates, normalises and publishes; `out` is handed to the publisher without a copy.
   void ValidateAndPublish(const Descriptor::Ptr& out);
   // Why `d` cannot pass ("" if it can); `squared_norm` receives its squared L2 norm.
   std::string Problem(const Descriptor& d, double* squared_norm) const;
   void Published(const Descriptor::ConstPtr& out);
-  void Reject(const std::string& why);
-  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void Reject(const std::string& why) EXCLUDES(mutex_);
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) EXCLUDES(mutex_);
 
   ros::NodeHandle nh_, pnh_;
   IngestParams params_;
   std::unique_ptr<ImageDescriber> describer_;  // built at start (an ONNX model is loaded then)
-  std::mutex mutex_;
+  Mutex mutex_;
   image_transport::ImageTransport it_;
-  image_transport::Subscriber image_sub_;
-  ros::Subscriber descriptor_sub_;
+  image_transport::Subscriber image_sub_ GUARDED_BY(mutex_);
+  ros::Subscriber descriptor_sub_ GUARDED_BY(mutex_);
   ros::Publisher pub_;
   ros::Publisher describe_time_pub_;  // images only
   ros::Publisher format_pub_;         // DescriptorFormat, latched
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
-  long published_ = 0, rejected_ = 0;
+  long published_ GUARDED_BY(mutex_) = 0;
+  long rejected_ GUARDED_BY(mutex_) = 0;
   // Inputs lost to a full queue before this node saw them (header.seq gaps), since the
   // last diagnostics; and the number of the next descriptor made here (header.seq).
-  uint64_t lost_ = 0;
-  uint32_t next_seq_ = 0;
-  SequenceGaps sequence_gaps_;
-  std::string last_rejection_;
-  std::string wrong_type_;  // the input topic's type, when a publisher offers another one
+  uint64_t lost_ GUARDED_BY(mutex_) = 0;
+  uint32_t next_seq_ GUARDED_BY(mutex_) = 0;
+  SequenceGaps sequence_gaps_ GUARDED_BY(mutex_);
+  std::string last_rejection_ GUARDED_BY(mutex_);
+  // The input topic's type, when a publisher offers another one.
+  std::string wrong_type_ GUARDED_BY(mutex_);
   // Descriptor input: the type each publisher was heard with, and when the master first
   // listed each publisher (one not connected after kUnheardGraceS is reported).
-  std::map<std::string, std::string> heard_;
-  std::map<std::string, ros::WallTime> first_listed_;
+  std::map<std::string, std::string> heard_ GUARDED_BY(mutex_);
+  std::map<std::string, ros::WallTime> first_listed_ GUARDED_BY(mutex_);
   static constexpr double kUnheardGraceS = 3.0;
 };
 

@@ -13,9 +13,9 @@
 
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/reference_set_io.h"
+#include "bsf_vpr/map/set_loading.h"
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
-#include "src/ros/map/set_loading.h"
 
 namespace bsf_vpr {
 namespace {
@@ -28,13 +28,15 @@ double NowS() {
 }
 
 // The descriptor's L2 norm (it bounds a Euclidean distance: ShardDistancesProblem).
-double Norm(const Descriptor& descriptor) {
+double Norm(const QueryDescriptor& descriptor) {
   double sum = 0;
-  for (const float x : descriptor.data) sum += static_cast<double>(x) * x;
+  for (Eigen::Index i = 0; i < descriptor.size; ++i) {
+    sum += static_cast<double>(descriptor.values[i]) * descriptor.values[i];
+  }
   return std::sqrt(sum);
 }
 
-std::string SetList(const ShardInfo* info) {
+std::string SetNames(const ShardInfo* info) {
   if (!info || info->sets.empty()) return "no sets";
   std::string out;
   for (const ShardSet& s : info->sets) out += (out.empty() ? "" : ", ") + s.name;
@@ -66,7 +68,7 @@ class ShardCall {
     }
     std::thread([state = state_, service] {
       const bool ok = ros::service::call(service, state->srv);
-      std::lock_guard<std::mutex> lock(state->mutex);
+      MutexLock lock(&state->mutex);
       state->finished = true;
       state->ok = ok;
       if (state->abandoned) --*state->stalled;
@@ -80,8 +82,11 @@ class ShardCall {
       return "has not answered an earlier call yet (a stalled shard is not called again until "
              "it does)";
     }
-    std::unique_lock<std::mutex> lock(state_->mutex);
-    if (!state_->done.wait_until(lock, deadline, [this] { return state_->finished; })) {
+    MutexLock lock(&state_->mutex);
+    if (!lock.AwaitUntil(state_->done, deadline, [this] {
+          state_->mutex.AssertHeld();
+          return state_->finished;
+        })) {
       if (!state_->abandoned) {
         state_->abandoned = true;
         ++*state_->stalled;
@@ -99,9 +104,11 @@ class ShardCall {
   struct State {
     Service srv;
     std::shared_ptr<std::atomic<int>> stalled;
-    std::mutex mutex;
+    Mutex mutex;
     std::condition_variable done;
-    bool finished = false, ok = false, abandoned = false;
+    bool finished GUARDED_BY(mutex) = false;
+    bool ok GUARDED_BY(mutex) = false;
+    bool abandoned GUARDED_BY(mutex) = false;
   };
   std::string service_;
   std::shared_ptr<State> state_;
@@ -149,8 +156,14 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options)
       join_(
           static_cast<int>(options_.shards.size()), options_.timeout_s,
           static_cast<size_t>(std::max(1, options_.queue_size)),
-          [this](int k) { return CanAnswer(k); },
+          // The join calls these from its own calls, which run under mutex_ (join_ is
+          // guarded by it).
+          [this](int k) {
+            mutex_.AssertHeld();
+            return CanAnswer(k);
+          },
           [this](Join::Level level, int k, const std::string& what) {
+            mutex_.AssertHeld();
             const std::string& name = shards_[static_cast<size_t>(k)].name;
             if (level == Join::Level::kWarn) {
               ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
@@ -160,14 +173,14 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options)
               ROS_INFO("bsf_vpr: shard %s %s", name.c_str(), what.c_str());
             }
           }),
-      layout_(std::make_shared<MapLayout>(PlaceLayout(), 0)),
+      layout_(std::make_shared<NumberedLayout>(PlaceLayout(), 0)),
       metric_(options_.metric.value_or(DistanceMetric::kEuclidean)) {
   for (size_t k = 0; k < shards_.size(); ++k) shards_[k].name = nh_.resolveName(options_.shards[k]);
 }
 
 void ShardedMap::Start(Callbacks callbacks) {
   callbacks_ = std::move(callbacks);
-  std::lock_guard<std::mutex> lock(mutex_);  // the subscriptions' callbacks take it
+  MutexLock lock(&mutex_);  // the subscriptions' callbacks take it
   for (size_t k = 0; k < shards_.size(); ++k) {
     Shard& s = shards_[k];
     const int index = static_cast<int>(k);
@@ -190,11 +203,11 @@ void ShardedMap::Start(Callbacks callbacks) {
   ros::WallTimerOptions confirm(
       ros::WallDuration(1.0),
       [this](const ros::WallTimerEvent&) {
-        for (size_t k = 0; k < shards_.size(); ++k) {
+        for (size_t k = 0; k < options_.shards.size(); ++k) {  // one per configured shard
           ShardInfo::ConstPtr msg;
           std::string publisher;
           {
-            std::lock_guard<std::mutex> guard(mutex_);
+            MutexLock guard(&mutex_);
             std::swap(msg, shards_[k].unconfirmed);
             publisher = shards_[k].unconfirmed_publisher;
           }
@@ -209,7 +222,7 @@ void ShardedMap::Start(Callbacks callbacks) {
   timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.timeout_s / 5)),
                                [this](const ros::WallTimerEvent&) {
                                  {
-                                   std::lock_guard<std::mutex> guard(mutex_);
+                                   MutexLock guard(&mutex_);
                                    Queue(join_.Tick(NowS()));
                                  }
                                  Deliver();
@@ -221,7 +234,7 @@ ShardedMap::~ShardedMap() {
   // down without it (shutdown waits for a running callback, which takes the lock).
   std::vector<ros::Subscriber> subscribers;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     for (Shard& s : shards_) {
       subscribers.push_back(std::move(s.info_sub));
       subscribers.push_back(std::move(s.distances_sub));
@@ -234,13 +247,13 @@ ShardedMap::~ShardedMap() {
   nh_.getCallbackQueue()->removeByID(reinterpret_cast<uint64_t>(this));
 }
 
-std::optional<MapBackend::Query> ShardedMap::Hear(const Descriptor& descriptor) {
-  if (descriptor.header.stamp.isZero()) return std::nullopt;  // the shards' answers say so
+std::optional<MapBackend::Query> ShardedMap::Hear(const QueryDescriptor& descriptor) {
+  if (descriptor.header.stamp_is_zero()) return std::nullopt;  // the shards' answers say so
   bool decided = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    std::vector<Join::Decision> decisions = join_.Hear(
-        static_cast<int64_t>(descriptor.header.stamp.toNSec()), Norm(descriptor), NowS());
+    MutexLock lock(&mutex_);
+    std::vector<Join::Decision> decisions =
+        join_.Hear(descriptor.header.stamp_ns(), Norm(descriptor), NowS());
     decided = !decisions.empty();
     Queue(std::move(decisions));
   }
@@ -254,12 +267,12 @@ void ShardedMap::DeliverLater() {
 }
 
 MapBackend::Layout ShardedMap::layout() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return layout_;
 }
 
 DistanceMetric ShardedMap::metric() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return metric_;
 }
 
@@ -295,7 +308,7 @@ int ShardedMap::LeastLoaded() const {
 
 void ShardedMap::OnInfo(int k, const ros::MessageEvent<const ShardInfo>& event) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     shards_[static_cast<size_t>(k)].unconfirmed.reset();  // superseded
   }
   ConfirmInfo(k, event.getConstMessage(), event.getPublisherName());
@@ -305,7 +318,7 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
   std::string name;
   std::shared_ptr<std::atomic<int>> stalled;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     name = shards_[static_cast<size_t>(k)].name;
     stalled = shards_[static_cast<size_t>(k)].stalled_calls;
   }
@@ -313,7 +326,7 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
   const std::string why =
       CallShard(name + "/" + names::kShardInfoService, &ask, stalled, options_.call_timeout_s);
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     Shard& shard = shards_[static_cast<size_t>(k)];
     if (!why.empty()) {
       // Not believed until the shard says so (a shard starting, or stalled): asked again.
@@ -344,11 +357,12 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
   if (!SameSets(msg.get(), &ask.response.info)) {
     // The shard's own answer is what it holds (its shard_info was superseded, or forged
     // under its name).
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     ++shards_[static_cast<size_t>(k)].corrected_infos;
-    ROS_WARN("bsf_vpr: a shard_info of %s says it holds %s, the shard's get_shard_info %s: "
-             "the map takes the shard's answer",
-             name.c_str(), SetList(msg.get()).c_str(), SetList(&ask.response.info).c_str());
+    ROS_WARN(
+        "bsf_vpr: a shard_info of %s says it holds %s, the shard's get_shard_info %s: "
+        "the map takes the shard's answer",
+        name.c_str(), SetNames(msg.get()).c_str(), SetNames(&ask.response.info).c_str());
     confirmed = boost::make_shared<const ShardInfo>(ask.response.info);
   }
   TakeShardInfo(k, confirmed);
@@ -356,7 +370,7 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
 }
 
 void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   Shard& shard = shards_[static_cast<size_t>(k)];
   // What the shard holds now supersedes a layout of it refused before (a load that was
   // refused and unloaded again, a restart).
@@ -429,13 +443,13 @@ bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
   try {
     DistanceMetric metric;
     PlaceLayout layout = LayoutWith(k, *msg, &metric);
-    const std::string why = "shard " + shard.name + " holds " + SetList(msg.get()) +
-                            (shard.info ? " (was " + SetList(shard.info.get()) + ")" : "");
+    const std::string why = "shard " + shard.name + " holds " + SetNames(msg.get()) +
+                            (shard.info ? " (was " + SetNames(shard.info.get()) + ")" : "");
     ROS_INFO(
         "bsf_vpr: sharded map: %s; the map now has %d set(s), %d places; the belief starts "
         "afresh",
         why.c_str(), layout.num_sets(), layout.num_places());
-    layout_ = std::make_shared<MapLayout>(std::move(layout), ++generations_);
+    layout_ = std::make_shared<NumberedLayout>(std::move(layout), ++generations_);
     outbox_.push_back(Outgoing{std::nullopt, "", layout_});
     metric_ = metric;
     // Sets gone without a load or unload routed here: the shard restarted with its
@@ -477,7 +491,7 @@ bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
 
 void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     if (msg->header.stamp.isZero()) {
       // Every shard answers it: said once, by the first shard that answers queries.
       for (int j = 0; j < k; ++j) {
@@ -498,10 +512,10 @@ void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
 void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
   for (Join::Decision& d : decisions) {
     std::vector<const ShardDistances*> answers;
-    std_msgs::Header header;
+    QueryHeader header;
     for (const ShardDistances::ConstPtr& a : d.answers) {
       answers.push_back(a.get());
-      if (a) header = a->header;
+      if (a) header = ToQueryHeader(a->header);
     }
     try {
       Query query = Assemble(header, d.query_norm, answers);
@@ -515,11 +529,11 @@ void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
 }
 
 void ShardedMap::Deliver() {
-  std::lock_guard<std::mutex> order(deliver_);
+  MutexLock order(&deliver_);
   for (;;) {
     Outgoing next;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       if (outbox_.empty()) return;
       next = std::move(outbox_.front());
       outbox_.pop_front();
@@ -534,7 +548,7 @@ void ShardedMap::Deliver() {
   }
 }
 
-MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header, double query_norm,
+MapBackend::Query ShardedMap::Assemble(const QueryHeader& header, double query_norm,
                                        const std::vector<const ShardDistances*>& answers) {
   Query query;
   query.header = header;
@@ -602,20 +616,20 @@ MapBackend::Query ShardedMap::Assemble(const std_msgs::Header& header, double qu
   return query;
 }
 
-MapBackend::Query ShardedMap::Ask(const Descriptor& descriptor) {
+MapBackend::Query ShardedMap::Ask(const QueryDescriptor& descriptor) {
   // Each shard's distances through its get_distances service, called at once and waited for
   // until one deadline (without the lock: the shards answer while descriptors stream in).
   std::vector<std::string> names;
   std::vector<std::shared_ptr<std::atomic<int>>> stalled;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     for (const Shard& s : shards_) {
       names.push_back(s.name);
       stalled.push_back(s.stalled_calls);
     }
   }
   GetShardDistances request;
-  request.request.descriptor = descriptor;
+  request.request.descriptor = ToDescriptorMsg(descriptor);
   std::vector<std::unique_ptr<ShardCall<GetShardDistances>>> calls;
   for (size_t k = 0; k < names.size(); ++k) {
     calls.push_back(std::make_unique<ShardCall<GetShardDistances>>(
@@ -632,7 +646,7 @@ MapBackend::Query ShardedMap::Ask(const Descriptor& descriptor) {
                         names[k].c_str(), why.c_str());
     }
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return Assemble(descriptor.header, Norm(descriptor), answers);
 }
 
@@ -642,7 +656,7 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv, d
   uint64_t infos = 0, refusals = 0;
   std::shared_ptr<std::atomic<int>> stalled;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     Shard& shard = shards_.at(static_cast<size_t>(k));
     name = shard.name;
     infos = shard.info_count;
@@ -659,15 +673,20 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv, d
   if (!srv->response.success) {
     throw std::invalid_argument("shard " + name + ": " + srv->response.message);
   }
-  const Shard& shard = shards_[static_cast<size_t>(k)];
   const auto deadline =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(kShardInfoWaitS);
-  const auto taken = [&] { return shard.info_count > infos; };
-  std::unique_lock<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
+  const Shard& shard = shards_[static_cast<size_t>(k)];
+  const auto taken = [&] {
+    mutex_.AssertHeld();
+    return shard.info_count > infos;
+  };
   // The shard published its new sets before answering: wait for the map to take them, or
   // to refuse them (a set that cannot share the map with the other shards' sets).
-  if (!infos_changed_.wait_until(lock, deadline,
-                                 [&] { return taken() || shard.refusals > refusals; })) {
+  if (!lock.AwaitUntil(infos_changed_, deadline, [&] {
+        mutex_.AssertHeld();
+        return taken() || shard.refusals > refusals;
+      })) {
     throw std::invalid_argument(
         srv->response.message + ", but its new shard_info has not reached this node in " +
         std::to_string(static_cast<int>(kShardInfoWaitS)) + " s (see diagnostics)");
@@ -686,7 +705,7 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv, d
     }
   }
   const std::string refusal = shard.refused;
-  lock.unlock();
+  lock.Unlock();
   for (const std::string& set : added) {
     UnloadReferenceSet undo;
     undo.request.name = set;
@@ -694,20 +713,18 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv, d
                                          stalled, options_.call_timeout_s);
     if (!undone.empty()) ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), undone.c_str());
   }
-  if (!added.empty()) {
-    lock.lock();
-    infos_changed_.wait_until(lock, deadline, taken);
-  }
+  lock.Lock();
+  if (!added.empty()) lock.AwaitUntil(infos_changed_, deadline, taken);
   throw std::invalid_argument("the map refused shard " + name + "'s new sets (" + refusal + ")" +
                               (added.empty() ? "" : "; unloaded again from the shard"));
 }
 
-std::string ShardedMap::Load(const LoadReferenceSet::Request& request, const SetCheck&) {
+std::string ShardedMap::Load(const LoadRequest& request, const SetCheck&) {
   // Routed to the shard asked for, or the one holding the fewest places; the path is below
   // that shard's data directory.
   int shard = -1;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     for (size_t k = 0; k < shards_.size(); ++k) {
       const std::string& name = shards_[k].name;
       if (!request.shard.empty() &&
@@ -729,7 +746,7 @@ std::string ShardedMap::Load(const LoadReferenceSet::Request& request, const Set
                                           " (parameter shards)");
   }
   LoadReferenceSet forward;
-  forward.request = request;
+  forward.request = ToLoadRequestMsg(request);
   forward.request.shard.clear();
   return Route(shard, names::kLoadReferenceSetService, &forward, options_.load_timeout_s);
 }
@@ -737,7 +754,7 @@ std::string ShardedMap::Load(const LoadReferenceSet::Request& request, const Set
 std::string ShardedMap::Unload(const std::string& name) {
   int shard = -1;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     shard = OwnerOf(name);
   }
   if (shard < 0) {
@@ -757,26 +774,28 @@ std::string ShardedMap::Add(ReferenceSet, const std::string&) {
   throw std::invalid_argument(CannotRecord());
 }
 
-void ShardedMap::List(ListReferenceSets::Response* response) const {
+SetList ShardedMap::List() const {
   // This map holds the layout; the shard, the rows (a shard's refused sets are in its
   // refused_info, not in info).
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
+  SetList out;
   for (const Shard& shard : shards_) {
     if (!shard.info) continue;
     for (const ShardSet& s : shard.info->sets) {
-      ReferenceSetInfo info;
+      SetSummary info;
       info.name = s.name;
       info.condition = s.condition;
       info.descriptor_type = s.descriptor_type;
-      info.num_places = static_cast<int32_t>(s.place_ids.size());
+      info.num_places = static_cast<int>(s.place_ids.size());
       info.dimension = s.dimension;
       info.memory_bytes = s.memory_bytes;
       info.storage = s.storage;
       info.shard = shard.name;
-      response->sets.push_back(info);
+      out.sets.push_back(info);
     }
   }
-  response->num_places = layout_->num_places();
+  out.num_places = layout_->num_places();
+  return out;
 }
 
 std::string ShardedMap::MissingSummaryLocked() const {
@@ -790,7 +809,7 @@ std::string ShardedMap::MissingSummaryLocked() const {
       why = "its sets refused: " + shard.refused;
     } else if (!shard.info->sets.empty() && (join_.counts(static_cast<int>(k)).missing ||
                                              shard.distances_sub.getNumPublishers() == 0)) {
-      why = SetList(shard.info.get());
+      why = SetNames(shard.info.get());
     }
     if (!why.empty()) out += (out.empty() ? "" : "; ") + shard.name + " (" + why + ")";
   }
@@ -831,33 +850,37 @@ void ShardedMap::AttachJoint(const std::vector<const ShardDistances*>& answers, 
 }
 
 void ShardedMap::SetJoint(std::optional<JointKind> kind, const JointOptions& /*options*/) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   joint_kind_ = kind;
 }
 
 std::string ShardedMap::Problem() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const std::string missing = MissingSummaryLocked();
   return missing.empty() ? "" : "deciding without shard(s) " + missing;
 }
 
-void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+StatusValues ShardedMap::Diagnose() const {
+  MutexLock lock(&mutex_);
+  StatusValues status;
+  const auto add = [&status](const std::string& key, const std::string& value) {
+    status.emplace_back(key, value);
+  };
   // The shards' own: this map computes no distances.
-  status.add("first stage", ToString(FirstStageKind::kExact));
-  status.add("joint representation",
-             !joint_kind_ ? std::string("none asked for")
-             : joint_used_.empty()
-                 ? "none: no shard serves the " + ToString(*joint_kind_) +
-                       " of two or more sets over every place (shard parameter fusion_joint)"
-                 : ToString(*joint_kind_) + " from shard " + joint_used_);
-  status.add("shards", static_cast<int>(shards_.size()));
-  status.add("map layouts taken", layouts_);
-  status.add("queries decided", decided_);
-  status.add("decided without some shard", decided_partial_);
+  add("first stage", ToString(FirstStageKind::kExact));
+  add("joint representation",
+      !joint_kind_ ? std::string("none asked for")
+      : joint_used_.empty()
+          ? "none: no shard serves the " + ToString(*joint_kind_) +
+                " of two or more sets over every place (shard parameter fusion_joint)"
+          : ToString(*joint_kind_) + " from shard " + joint_used_);
+  add("shards", std::to_string(shards_.size()));
+  add("map layouts taken", std::to_string(layouts_));
+  add("queries decided", std::to_string(decided_));
+  add("decided without some shard", std::to_string(decided_partial_));
   // Heard, but no shard's answer came within shard_timeout_s (lost on the way, e.g. from a
   // shard's full publisher queue while this node stalled): no belief for them.
-  status.add("queries no shard answered", join_.unanswered());
+  add("queries no shard answered", std::to_string(join_.unanswered()));
   for (size_t k = 0; k < shards_.size(); ++k) {
     const Shard& shard = shards_[k];
     const Join::ShardCounts& counts = join_.counts(static_cast<int>(k));
@@ -866,12 +889,12 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
     if (!shard.info) {
       state += "no shard_info yet";
     } else if (shard.distances_sub.getNumPublishers() == 0) {
-      state += "not publishing (" + SetList(shard.info.get()) + " missing)";
+      state += "not publishing (" + SetNames(shard.info.get()) + " missing)";
     } else if (counts.missing) {
       state += "missing for " + std::to_string(static_cast<int>(NowS() - counts.missing_since_s)) +
-               " s (" + SetList(shard.info.get()) + ")";
+               " s (" + SetNames(shard.info.get()) + ")";
     } else {
-      state += "answering: " + SetList(shard.info.get());
+      state += "answering: " + SetNames(shard.info.get());
     }
     if (!shard.lost.empty()) state += "; lost at its last change: " + shard.lost;
     if (shard.unconfirmed) state += "; a shard_info waits for the shard to confirm it";
@@ -887,14 +910,17 @@ void ShardedMap::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) c
       state += "; " + std::to_string(shard.stalled_calls->load()) +
                " service call(s) not answered in time, still pending";
     }
-    status.addf("shard " + shard.name,
-                "%s; %ld answers, %ld missed, %ld late, %ld for stamps no descriptor had, %ld "
-                "with impossible distances%s",
-                state.c_str(), static_cast<long>(counts.answered), static_cast<long>(counts.missed),
-                static_cast<long>(counts.late), static_cast<long>(counts.unheard),
-                static_cast<long>(shard.invalid_answers),
-                shard.invalid.empty() ? "" : (" (last: " + shard.invalid + ")").c_str());
+    char counted[256];
+    std::snprintf(counted, sizeof counted,
+                  "; %ld answers, %ld missed, %ld late, %ld for stamps no descriptor had, %ld "
+                  "with impossible distances",
+                  static_cast<long>(counts.answered), static_cast<long>(counts.missed),
+                  static_cast<long>(counts.late), static_cast<long>(counts.unheard),
+                  static_cast<long>(shard.invalid_answers));
+    add("shard " + shard.name,
+        state + counted + (shard.invalid.empty() ? "" : " (last: " + shard.invalid + ")"));
   }
+  return status;
 }
 
 }  // namespace bsf_vpr

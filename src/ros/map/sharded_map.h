@@ -29,8 +29,8 @@
 #include <bsf_vpr/ShardDistances.h>
 #include <bsf_vpr/ShardInfo.h>
 #include <ros/callback_queue.h>
-#include <ros/spinner.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -42,8 +42,9 @@
 #include <string>
 #include <vector>
 
-#include "src/ros/map/map_backend.h"
-#include "src/ros/map/shard_join.h"
+#include "bsf_vpr/core/mutex.h"
+#include "bsf_vpr/map/map_backend.h"
+#include "bsf_vpr/map/shard_join.h"
 
 namespace bsf_vpr {
 
@@ -65,25 +66,24 @@ class ShardedMap : public MapBackend {
 
   // Subscribes to the shards; queries and layouts are handed on from then on.
   void Start(Callbacks callbacks) override;
-  bool NeedsDescriptors() const override { return true; }
   Layout layout() const override;
   DistanceMetric metric() const override;
   // Notes the descriptor's stamp and norm for the join; its query comes back through
   // Callbacks::query once the shards answered.
-  std::optional<Query> Hear(const Descriptor& descriptor) override;
-  Query Ask(const Descriptor& descriptor) override;
-  std::string Load(const LoadReferenceSet::Request& request, const SetCheck& check) override;
+  std::optional<Query> Hear(const QueryDescriptor& descriptor) override;
+  Query Ask(const QueryDescriptor& descriptor) override;
+  std::string Load(const LoadRequest& request, const SetCheck& check) override;
   std::string Unload(const std::string& name) override;
   std::string Add(ReferenceSet set, const std::string& where) override;
   std::string CannotRecord() const override;
-  void List(ListReferenceSets::Response* response) const override;
+  SetList List() const override;
   // The shards build the joint representation of their own sets (their parameter
   // fusion_joint) and serve its distances; each query takes, of the kind asked for, the one
   // over every place of the layout built from the most sets (the diagnostics say whose).
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
   void WaitForJoint() const override {}
   std::string Problem() const override;
-  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const override;
+  StatusValues Diagnose() const override;
 
  private:
   struct Shard {
@@ -118,61 +118,69 @@ class ShardedMap : public MapBackend {
     Layout layout;
   };
 
-  void OnInfo(int k, const ros::MessageEvent<const ShardInfo>& event);
+  void OnInfo(int k, const ros::MessageEvent<const ShardInfo>& event) EXCLUDES(mutex_);
   // Asks shard k's get_shard_info about `msg` (published by `publisher`) and takes what the
   // shard answers; keeps `msg` to ask again when the shard does not answer. Without mutex_,
   // on the info thread.
-  void ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::string& publisher);
+  void ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::string& publisher)
+      EXCLUDES(mutex_);
   // OnInfo's work under mutex_ (a new layout is queued for the callbacks).
-  void TakeShardInfo(int k, const ShardInfo::ConstPtr& msg);
-  void OnDistances(int k, const ShardDistances::ConstPtr& msg);
+  void TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) EXCLUDES(mutex_);
+  void OnDistances(int k, const ShardDistances::ConstPtr& msg) EXCLUDES(mutex_);
   // Makes `msg` shard k's layout if it fits the others'; else keeps it as refused. Caller
   // holds mutex_.
-  bool TakeInfo(int k, const ShardInfo::ConstPtr& msg);
+  bool TakeInfo(int k, const ShardInfo::ConstPtr& msg) REQUIRES(mutex_);
   // Every shard's sets with shard k's from `info`, in the map's order, and their distance.
   // Throws std::invalid_argument when they cannot share a map. Caller holds mutex_.
-  PlaceLayout LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const;
+  PlaceLayout LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const
+      REQUIRES(mutex_);
   // The query of `answers` (one per shard, null where none) on the layout now, for a
   // descriptor of L2 norm `query_norm`. A shard's refusal, an answer that does not fit its
   // sets or distances that cannot be exact ones make that shard missing; throws
   // std::invalid_argument when every shard that answered with sets refused the descriptor.
   // Caller holds mutex_.
-  Query Assemble(const std_msgs::Header& header, double query_norm,
-                 const std::vector<const ShardDistances*>& answers);
+  Query Assemble(const QueryHeader& header, double query_norm,
+                 const std::vector<const ShardDistances*>& answers) REQUIRES(mutex_);
   // Gives `query` the joint distances of the shard whose joint representation fits best
   // (SetJoint). Caller holds mutex_.
-  void AttachJoint(const std::vector<const ShardDistances*>& answers, Query* query);
+  void AttachJoint(const std::vector<const ShardDistances*>& answers, Query* query)
+      REQUIRES(mutex_);
   // Queues the join's decisions for the callbacks. Caller holds mutex_.
-  void Queue(std::vector<Join::Decision> decisions);
+  void Queue(std::vector<Join::Decision> decisions) REQUIRES(mutex_);
   // Hands the queued queries to the callbacks, in order. Called without mutex_.
-  void Deliver();
+  void Deliver() EXCLUDES(mutex_, deliver_);
   // Deliver() soon, from the node's callback queue (for a caller that holds the node's
   // lock, which the callbacks take).
   void DeliverLater();
   // Routes a load or unload to shard k (waiting `timeout_s` for its answer) and waits for
   // its new shard_info. Without mutex_.
   template <typename Service>
-  std::string Route(int k, const std::string& service, Service* srv, double timeout_s);
-  int OwnerOf(const std::string& set) const;  // caller holds mutex_; -1 if none
-  int LeastLoaded() const;                    // caller holds mutex_; -1 if none published
-  bool CanAnswer(int k) const;                // caller holds mutex_
-  std::string MissingSummaryLocked() const;
+  std::string Route(int k, const std::string& service, Service* srv, double timeout_s)
+      EXCLUDES(mutex_);
+  int OwnerOf(const std::string& set) const REQUIRES(mutex_);  // -1 if none
+  int LeastLoaded() const REQUIRES(mutex_);                    // -1 if none published
+  bool CanAnswer(int k) const REQUIRES(mutex_);
+  std::string MissingSummaryLocked() const REQUIRES(mutex_);
 
   ros::NodeHandle nh_;
   const ShardedMapOptions options_;
   Callbacks callbacks_;  // set once by Start, before any subscription
-  mutable std::mutex mutex_;
-  std::optional<JointKind> joint_kind_;    // guarded by mutex_: the one the method asked for
-  std::string joint_used_;                 // guarded by mutex_: whose the last query took
+  // Held while a callback runs: one at a time, in order (taken before mutex_).
+  Mutex deliver_ ACQUIRED_BEFORE(mutex_);
+  mutable Mutex mutex_;
+  // The kind the method asked for, and whose the last query took.
+  std::optional<JointKind> joint_kind_ GUARDED_BY(mutex_);
+  std::string joint_used_ GUARDED_BY(mutex_);
   std::condition_variable infos_changed_;  // a shard_info taken or refused
-  std::vector<Shard> shards_;
-  Join join_;
-  Layout layout_;
-  uint64_t generations_ = 0;  // layouts made
-  DistanceMetric metric_;
-  int64_t decided_ = 0, decided_partial_ = 0, layouts_ = 0;
-  std::deque<Outgoing> outbox_;
-  std::mutex deliver_;  // held while a callback runs: one at a time, in order
+  std::vector<Shard> shards_ GUARDED_BY(mutex_);
+  Join join_ GUARDED_BY(mutex_);
+  Layout layout_ GUARDED_BY(mutex_);
+  uint64_t generations_ GUARDED_BY(mutex_) = 0;  // layouts made
+  DistanceMetric metric_ GUARDED_BY(mutex_);
+  int64_t decided_ GUARDED_BY(mutex_) = 0;
+  int64_t decided_partial_ GUARDED_BY(mutex_) = 0;
+  int64_t layouts_ GUARDED_BY(mutex_) = 0;
+  std::deque<Outgoing> outbox_ GUARDED_BY(mutex_);
   ros::WallTimer timer_;
   // shard_info and its confirmation (service calls) on a queue and thread of their own.
   ros::CallbackQueue info_queue_;

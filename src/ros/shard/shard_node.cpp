@@ -7,6 +7,7 @@
 #include "bsf_vpr/ros/names.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/common/service_queue.h"
+#include "src/ros/map/make_map.h"
 
 namespace bsf_vpr {
 
@@ -22,12 +23,11 @@ void ShardNode::Start() {
   if (!params_.data_directory.empty()) {
     data_dir_ = std::make_unique<DataDirectory>(params_.data_directory, /*create=*/true);
   }
-  LocalMapOptions options = LocalMapOptions::From(params_, params_.first_stage);
+  LocalMapOptions options = ToLocalMapOptions(params_, params_.first_stage);
   options.fingerprints = true;  // the combiner tells its sets' versions apart by them
   map_ = std::make_unique<LocalMap>(options, data_dir_.get(), pnh_.getNamespace());
   map_->SetJoint(ToJointKind(params_.fusion_joint), params_.joint);  // built in the background
-  map_->LoadConfigured(params_.reference_sets,
-                       params_.data_directory.empty() ? "." : params_.data_directory);
+  map_->LoadConfigured(ResolveConfiguredSets(params_));
 
   distances_pub_ = pnh_.advertise<ShardDistances>(names::kShardDistancesTopic,
                                                   static_cast<uint32_t>(params_.queue_size));
@@ -47,7 +47,7 @@ void ShardNode::Start() {
   load_spinner_->start();
   {
     // After the services: a combiner confirms it with get_shard_info.
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     PublishInfo();
   }
 
@@ -56,7 +56,10 @@ void ShardNode::Start() {
   diagnostics_->add("shard", this, &ShardNode::Diagnose);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1),
                                        [this](const ros::TimerEvent&) { diagnostics_->update(); });
-  last_diagnostics_ = ros::WallTime::now();
+  {
+    MutexLock lock(&mutex_);
+    last_diagnostics_ = ros::WallTime::now();
+  }
 
   descriptor_sub_ =
       nh_.subscribe(names::kDescriptorTopic, static_cast<uint32_t>(params_.queue_size),
@@ -70,30 +73,30 @@ ShardInfo ShardNode::Info() const {
   info.header.stamp = ros::Time::now();
   info.shard = pnh_.getNamespace();
   info.distance = ToString(map_->metric());
-  info.sets = map_->ShardSets();
+  map_->ForEachSet([&info](const StoredReferenceSet& set, uint64_t fingerprint) {
+    info.sets.push_back(ToShardSetMsg(set, fingerprint));
+  });
   return info;
 }
 
 void ShardNode::PublishInfo() { info_pub_.publish(Info()); }
 
 bool ShardNode::OnInfo(GetShardInfo::Request&, GetShardInfo::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   res.node = ros::this_node::getName();
   res.info = Info();
   return true;
 }
 
 void ShardNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const std::string mismatch = map_->DescriptorTypeMismatch(msg->descriptor_type);
   if (!mismatch.empty()) {
     type_mismatch_ = mismatch;
     ROS_WARN_THROTTLE(5.0, "bsf_vpr: shard %s: %s: the distances compare unlike descriptors",
                       pnh_.getNamespace().c_str(), mismatch.c_str());
   }
-  ShardDistances out;
-  out.shard = pnh_.getNamespace();
-  map_->ShardAnswer(*msg, &out);
+  const ShardDistances out = Answer(*msg);
   if (out.error.empty()) {
     ++processed_;
     processing_s_sum_ += out.processing_time;
@@ -107,14 +110,24 @@ void ShardNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   distances_pub_.publish(out);
 }
 
+ShardDistances ShardNode::Answer(const Descriptor& descriptor) const {
+  const auto start = std::chrono::steady_clock::now();
+  ShardDistances out;
+  out.header = descriptor.header;
+  out.shard = pnh_.getNamespace();
+  ToShardDistancesMsg(map_->Answer(ToQueryDescriptor(descriptor)), &out);
+  out.processing_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
 bool ShardNode::OnCompute(GetShardDistances::Request& req, GetShardDistances::Response& res) {
-  res.distances.shard = pnh_.getNamespace();
-  map_->ShardAnswer(req.descriptor, &res.distances);
+  res.distances = Answer(req.descriptor);
   return true;
 }
 
 bool ShardNode::OnList(ListReferenceSets::Request&, ListReferenceSets::Response& res) {
-  map_->List(&res);
+  ToListResponse(map_->List(), &res);
   for (ReferenceSetInfo& info : res.sets) info.shard = pnh_.getNamespace();
   return true;
 }
@@ -125,7 +138,7 @@ void ShardNode::Change(const std::string& service, const std::function<std::stri
   try {
     res->message = change();
     res->success = true;
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     PublishInfo();  // the combiner takes the new sets from it
     ROS_INFO("bsf_vpr: %s", res->message.c_str());
   } catch (const std::exception& e) {
@@ -138,7 +151,8 @@ void ShardNode::Change(const std::string& service, const std::function<std::stri
 
 bool ShardNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) {
   Change(
-      names::kLoadReferenceSetService, [&] { return map_->Load(req, nullptr); }, &res);
+      names::kLoadReferenceSetService, [&] { return map_->Load(ToLoadRequest(req), nullptr); },
+      &res);
   return true;
 }
 
@@ -149,7 +163,7 @@ bool ShardNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::R
 }
 
 void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
   const std::string problem = map_->Problem();
@@ -167,11 +181,10 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("mean processing time (ms)", processed_ ? 1e3 * processing_s_sum_ / processed_ : 0.0);
   status.add("refused descriptors", rejected_);
   status.add("distance", ToString(map_->metric()));
-  map_->Diagnose(status);  // the first stage
-  ListReferenceSets::Response held;
-  map_->List(&held);
+  AddStatus(map_->Diagnose(), status);  // the first stage
+  const SetList held = map_->List();
   status.add("loaded reference sets", static_cast<int>(held.sets.size()));
-  for (const ReferenceSetInfo& s : held.sets) {
+  for (const SetSummary& s : held.sets) {
     status.addf("set: " + s.name, "%d places, %.1f MB", s.num_places, s.memory_bytes / 1e6);
   }
   processed_ = rejected_ = 0;

@@ -39,9 +39,10 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/io/data_directory.h"
-#include "src/ros/fusion/fusion_params.h"
-#include "src/ros/map/local_map.h"
+#include "bsf_vpr/map/local_map.h"
+#include "src/ros/shard/shard_params.h"
 
 namespace bsf_vpr {
 
@@ -55,27 +56,31 @@ class ShardNode {
   void Start();
 
  private:
-  void OnDescriptor(const Descriptor::ConstPtr& msg);
-  // Publishes what the shard holds now (latched). Caller holds mutex_.
-  void PublishInfo();
-  // What the shard holds now. Caller holds mutex_.
-  ShardInfo Info() const;
+  void OnDescriptor(const Descriptor::ConstPtr& msg) EXCLUDES(mutex_);
+  // The shard's answer for `descriptor` (the map's own lock).
+  ShardDistances Answer(const Descriptor& descriptor) const;
+  // Publishes what the shard holds now (latched).
+  void PublishInfo() REQUIRES(mutex_);
+  // What the shard holds now.
+  ShardInfo Info() const REQUIRES(mutex_);
   // A load or unload: `change` runs on the map (its message answers), then what the shard
   // holds is published; a refusal answers with its reason. Without mutex_.
   template <typename Response>
-  void Change(const std::string& service, const std::function<std::string()>& change,
-              Response* res);
-  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void Change(const std::string& service, const std::function<std::string()>& change, Response* res)
+      EXCLUDES(mutex_);
+  void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) EXCLUDES(mutex_);
 
   bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
   bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res);
   bool OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::Response& res);
   bool OnCompute(GetShardDistances::Request& req, GetShardDistances::Response& res);
-  bool OnInfo(GetShardInfo::Request& req, GetShardInfo::Response& res);
+  bool OnInfo(GetShardInfo::Request& req, GetShardInfo::Response& res) EXCLUDES(mutex_);
 
   ros::NodeHandle nh_, pnh_;
   ShardParams params_;
-  std::mutex mutex_;
+  // Held while the shard publishes what it holds, and over the diagnostics' counts; the map
+  // has a lock of its own.
+  Mutex mutex_;
   std::unique_ptr<DataDirectory> data_dir_;  // null: load_reference_set is off
   std::unique_ptr<LocalMap> map_;            // the shard's sets; it decides nothing
   ros::CallbackQueue load_queue_;
@@ -87,12 +92,14 @@ class ShardNode {
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
 
-  // Since the last diagnostics update (guarded by mutex_).
-  int processed_ = 0, rejected_ = 0;
-  double processing_s_sum_ = 0;
-  std::string last_rejection_;
-  std::string type_mismatch_;  // the last descriptor_type that differs from the sets'
-  ros::WallTime last_diagnostics_;
+  // Since the last diagnostics update.
+  int processed_ GUARDED_BY(mutex_) = 0;
+  int rejected_ GUARDED_BY(mutex_) = 0;
+  double processing_s_sum_ GUARDED_BY(mutex_) = 0;
+  std::string last_rejection_ GUARDED_BY(mutex_);
+  // The last descriptor_type that differs from the sets'.
+  std::string type_mismatch_ GUARDED_BY(mutex_);
+  ros::WallTime last_diagnostics_ GUARDED_BY(mutex_);
 };
 
 }  // namespace bsf_vpr

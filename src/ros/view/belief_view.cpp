@@ -46,7 +46,7 @@ BeliefView::BeliefView(ros::NodeHandle& nh, ros::NodeHandle& pnh, BeliefViewOpti
 }
 
 void BeliefView::OnMatchImageSubscribers() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   if (match_image_pub_.getNumSubscribers() > 0 && !image_sub_) {
     image_sub_ = it_.subscribe(names::kImageTopic, 5, &BeliefView::OnImage, this);
   } else if (match_image_pub_.getNumSubscribers() == 0 && image_sub_) {
@@ -56,7 +56,7 @@ void BeliefView::OnMatchImageSubscribers() {
 }
 
 void BeliefView::OnImage(const sensor_msgs::ImageConstPtr& image) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   images_.push_back(image);
   if (images_.size() > kImagesKept) images_.pop_front();
   if (pending_ && pending_->header.stamp == image->header.stamp) {
@@ -92,7 +92,7 @@ void BeliefView::PublishPending() {
 }
 
 void BeliefView::OnGroundTruth(const QueryGroundTruth::ConstPtr& truth) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   truths_.emplace_back(truth->header.stamp, truth->correct_places);
   if (truths_.size() > kTruthsKept) truths_.pop_front();
   if (!drawn_has_truth_ && truth->header.stamp == drawn_header_.stamp) {
@@ -117,7 +117,7 @@ const std::vector<int>* BeliefView::FindTruth(const ros::Time& stamp) const {
 }
 
 std::vector<int> BeliefView::TruePlaces(const ros::Time& stamp) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const std::vector<int>* found = FindTruth(stamp);
   return found ? *found : std::vector<int>();
 }
@@ -196,7 +196,7 @@ void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
   content.match = belief.match;
   content.true_places = truth;
   next.options.log_scale = options_.log_scale;
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   if (pending_) {  // its image never came: shown without
     pending_->content.query_note =
         "no query image with this stamp on " + nh_.resolveName(names::kImageTopic);
@@ -234,7 +234,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r, const PlaceLay
     view.transform.rotation.w = 1;
     tf_.sendTransform(view);
     marker_pub_.publish(MakeBeliefMarkers(route, belief, truth, probabilistic, options_));
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     drawn_layout_ = std::move(route);
     drawn_header_ = belief.header;
     drawn_has_truth_ = !truth.empty();

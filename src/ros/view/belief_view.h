@@ -31,6 +31,7 @@
 #include <utility>
 #include <vector>
 
+#include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/io/data_directory.h"
@@ -59,16 +60,16 @@ class BeliefView {
   void OnMatchImageSubscribers();
   std::vector<int> TruePlaces(const ros::Time& stamp);
   // The cached ground truth of `stamp`, or null. Caller holds mutex_.
-  const std::vector<int>* FindTruth(const ros::Time& stamp) const;
+  const std::vector<int>* FindTruth(const ros::Time& stamp) const REQUIRES(mutex_);
   // Adds `places` to the markers last drawn (their ground truth came late). Caller holds
   // mutex_.
-  void AddLateTruth(const std::vector<int>& places);
+  void AddLateTruth(const std::vector<int>& places) REQUIRES(mutex_);
   // The cached query image of `stamp`, or null. Caller holds mutex_.
-  sensor_msgs::ImageConstPtr QueryImage(const ros::Time& stamp) const;
+  sensor_msgs::ImageConstPtr QueryImage(const ros::Time& stamp) const REQUIRES(mutex_);
   // `image` as BGR, or empty with `note` saying why.
   static cv::Mat ToBgr(const sensor_msgs::ImageConstPtr& image, std::string* note);
   // Renders and publishes pending_, then clears it. Caller holds mutex_.
-  void PublishPending();
+  void PublishPending() REQUIRES(mutex_);
   // The image of the matched place in the set that supplied it, or empty with `note` saying
   // why; `note` names the set and place otherwise. Read within options_' limits, through
   // reference_images_.
@@ -97,15 +98,16 @@ class BeliefView {
     MatchImageOptions options;
   };
 
-  std::mutex mutex_;  // guards what follows (filled by the subscriptions' threads)
-  std::optional<PendingImage> pending_;
-  std::deque<sensor_msgs::ImageConstPtr> images_;              // the latest query images
-  std::deque<std::pair<ros::Time, std::vector<int>>> truths_;  // the latest ground truth
+  Mutex mutex_;  // guards what follows (filled by the subscriptions' threads)
+  std::optional<PendingImage> pending_ GUARDED_BY(mutex_);
+  // The latest query images, and ground truth.
+  std::deque<sensor_msgs::ImageConstPtr> images_ GUARDED_BY(mutex_);
+  std::deque<std::pair<ros::Time, std::vector<int>>> truths_ GUARDED_BY(mutex_);
   // The last markers drawn, so that ground truth arriving after its belief (a bag holds
   // the image before its ground truth) is added to them.
-  RouteLayout drawn_layout_;
-  std_msgs::Header drawn_header_;
-  bool drawn_has_truth_ = true;
+  RouteLayout drawn_layout_ GUARDED_BY(mutex_);
+  std_msgs::Header drawn_header_ GUARDED_BY(mutex_);
+  bool drawn_has_truth_ GUARDED_BY(mutex_) = true;
 };
 
 }  // namespace bsf_vpr

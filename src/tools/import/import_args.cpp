@@ -60,7 +60,7 @@ void CheckCombination(const ImportArgs& a) {
   CheckNames(a.queries, "--query");
   for (const auto& [name, condition] : a.conditions) {
     if (std::none_of(a.references.begin(), a.references.end(),
-                     [&](const NamedSpec& s) { return s.name == name; })) {
+                     [&wanted = name](const NamedSpec& s) { return s.name == wanted; })) {
       throw std::invalid_argument("--condition " + name + "=" + condition +
                                   ": there is no --reference named '" + name + "'");
     }

@@ -8,6 +8,7 @@
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/fusion/reconfigure_options.h"
 #include "src/ros/ingest/descriptor_ingest.h"
+#include "src/ros/shard/shard_params.h"
 #include "test/core/enum_names_check.h"
 
 namespace bsf_vpr {

@@ -380,7 +380,7 @@ TEST_F(RecordingTest, RefusesBadNamesTakenNamesAndNoDataDirectory) {
            {std::string(200, 'x'), "(200 characters) is too long"},
            {std::string(5000, 'y'), "(5000 characters) is too long"},
            {"a/" + std::string(130, 'z') + "/b", "(134 characters) is too long"}}) {
-    const std::string why = Refusal([&] { rec.Start(bad, "", false, map_); });
+    const std::string why = Refusal([&, &name = bad] { rec.Start(name, "", false, map_); });
     EXPECT_NE(why.find(expect), std::string::npos) << why;
     EXPECT_NE(why.find("1 to 128 bytes of printable UTF-8"), std::string::npos) << why;
     EXPECT_FALSE(rec.recording());

@@ -1,7 +1,4 @@
-#include "src/ros/map/set_loading.h"
-
-#include <ros/console.h>
-#include <ros/package.h>
+#include "bsf_vpr/map/set_loading.h"
 
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/reference_set_io.h"
@@ -16,22 +13,7 @@ void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std:
   }
 }
 
-std::string ResolveConfiguredPath(const std::string& base, const std::string& path) {
-  constexpr char kScheme[] = "package://";
-  if (path.rfind(kScheme, 0) != 0) return ResolvePath(base, path);
-  const std::string rest = path.substr(sizeof(kScheme) - 1);
-  const size_t slash = rest.find('/');
-  const std::string package = rest.substr(0, slash);
-  const std::string folder = package.empty() ? "" : ros::package::getPath(package);
-  if (folder.empty()) {
-    throw std::invalid_argument("reference set path " + QuotedForMessage(path) + " names package " +
-                                QuotedForMessage(package) +
-                                ", which ROS does not find (ROS_PACKAGE_PATH)");
-  }
-  return slash == std::string::npos ? folder : folder + rest.substr(slash);
-}
-
-ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadReferenceSet::Request& req) {
+ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req) {
   if (!dir) {
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
@@ -49,6 +31,18 @@ std::string TypeMismatch(const std::string& type, const PlaceLayout& layout) {
     }
   }
   return "";
+}
+
+SetSummary Summarize(const StoredReferenceSet& set) {
+  SetSummary s;
+  s.name = set.name();
+  s.condition = set.condition();
+  s.descriptor_type = set.descriptor_type();
+  s.num_places = set.size();
+  s.dimension = set.dimension();
+  s.memory_bytes = set.MemoryBytes();
+  s.storage = ToString(set.precision());
+  return s;
 }
 
 }  // namespace bsf_vpr

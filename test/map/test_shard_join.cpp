@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "src/ros/map/shard_join.h"
+#include "bsf_vpr/map/shard_join.h"
 
 namespace bsf_vpr {
 namespace {

@@ -1,0 +1,197 @@
+// The map of sets held in this process, through the plain interface the fusion node uses
+// (map_backend.h), without ROS: load and unload from a data directory, a query's distances and
+// the layout it is for, refusals that leave the sets as they were, a shard's answer.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bsf_vpr/io/reference_set_io.h"
+#include "bsf_vpr/map/local_map.h"
+
+namespace bsf_vpr {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A set of `n` places of dimension 4, row k = (k, 1, 0, 0) + offset.
+ReferenceSet MakeSet(const std::string& name, int n, float offset) {
+  ReferenceSet set;
+  set.name = name;
+  set.descriptors = RowMatrixXf::Zero(n, 4);
+  for (int k = 0; k < n; ++k) {
+    set.descriptors(k, 0) = static_cast<float>(k) + offset;
+    set.descriptors(k, 1) = 1.0f;
+    set.place_ids.push_back(k);
+  }
+  return set;
+}
+
+struct MapFixture : ::testing::Test {
+  void SetUp() override {
+    root = fs::temp_directory_path() /
+           ("bsf_local_map_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(root);
+    dir = std::make_unique<DataDirectory>(root.string(), /*create=*/true);
+    SaveReferenceSet(*dir, MakeSet("summer", 5, 0.0f), "summer.yaml", false);
+    SaveReferenceSet(*dir, MakeSet("winter", 5, 0.25f), "winter.yaml", false);
+    LocalMapOptions options;
+    options.log = [this](LogLevel, const std::string& m) { log.push_back(m); };
+    map = std::make_unique<LocalMap>(options, dir.get());
+  }
+  void TearDown() override {
+    map.reset();
+    fs::remove_all(root);
+  }
+  // The query of descriptor `d` through the interface.
+  MapBackend::Query Ask(const std::vector<float>& d, uint32_t sec = 7) {
+    QueryDescriptor q;
+    q.header.sec = sec;
+    q.header.frame_id = "camera";
+    q.values = d.data();
+    q.size = static_cast<Eigen::Index>(d.size());
+    return map->Ask(q);
+  }
+
+  fs::path root;
+  std::unique_ptr<DataDirectory> dir;
+  std::unique_ptr<LocalMap> map;
+  std::vector<std::string> log;
+};
+
+TEST_F(MapFixture, LoadsAsksAndUnloadsThroughThePlainInterface) {
+  const uint64_t empty = map->layout()->generation;
+  EXPECT_EQ(map->layout()->num_sets(), 0);
+  EXPECT_EQ(map->Load({"summer.yaml", "", "", ""}, nullptr), "loaded 'summer' (5 places)");
+  EXPECT_EQ(map->Load({"winter.yaml", "", "night", ""}, nullptr), "loaded 'winter' (5 places)");
+  const MapBackend::Layout layout = map->layout();
+  EXPECT_GT(layout->generation, empty);
+  ASSERT_EQ(layout->num_sets(), 2);
+
+  const MapBackend::Query q = Ask({2.0f, 1.0f, 0.0f, 0.0f});
+  EXPECT_EQ(q.header.sec, 7u);
+  EXPECT_EQ(q.header.frame_id, "camera");
+  EXPECT_EQ(q.layout, layout);  // the layout the distances are for
+  ASSERT_EQ(q.distances.num_sets(), 2);
+  const RowMatrixXf& summer = q.distances.of(0);
+  ASSERT_EQ(summer.cols(), 5);
+  EXPECT_FLOAT_EQ(summer(0, 2), 0.0f);  // the same descriptor as summer's place 2
+  EXPECT_FLOAT_EQ(summer(0, 0), 2.0f);
+  EXPECT_FLOAT_EQ(q.distances.of(1)(0, 2), 0.25f);
+
+  const SetList list = map->List();
+  ASSERT_EQ(list.sets.size(), 2u);
+  EXPECT_EQ(list.num_places, 5);
+  EXPECT_EQ(list.sets[1].name, "winter");
+  EXPECT_EQ(list.sets[1].condition, "night");
+  EXPECT_EQ(list.sets[1].dimension, 4);
+  EXPECT_EQ(list.sets[1].storage, "float32");
+
+  EXPECT_EQ(map->Unload("summer"), "unloaded 'summer'");
+  EXPECT_GT(map->layout()->generation, layout->generation);
+  EXPECT_EQ(map->List().sets.size(), 1u);
+  EXPECT_EQ(q.layout->num_sets(), 2);  // a layout never changes once made
+}
+
+TEST_F(MapFixture, RefusalsNameTheProblemAndLeaveTheSetsAsTheyWere) {
+  map->Load({"summer.yaml", "", "", ""}, nullptr);
+  const MapBackend::Layout before = map->layout();
+  const auto refused = [&](const std::function<void()>& f, const std::string& words) {
+    try {
+      f();
+      ADD_FAILURE() << "not refused: " << words;
+    } catch (const std::exception& e) {  // a file that cannot be read: std::runtime_error
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(map->layout(), before);
+  };
+  refused([&] { map->Load({"missing.yaml", "", "", ""}, nullptr); }, "missing.yaml");
+  refused([&] { map->Load({"../outside.yaml", "", "", ""}, nullptr); }, "outside");
+  refused([&] { map->Load({"winter.yaml", "", "", "shard_1"}, nullptr); }, "fuses no shards");
+  refused(
+      [&] {
+        map->Load({"winter.yaml", "", "", ""},
+                  [](const std::string& name) { throw std::invalid_argument(name + " taken"); });
+      },
+      "winter taken");
+  refused([&] { map->Unload("autumn"); }, "no reference set named");
+  refused([&] { Ask({1.0f, 2.0f}); }, "dimension");
+  EXPECT_EQ(map->List().sets.size(), 1u);
+}
+
+TEST_F(MapFixture, ASetMeantForAnotherDistanceIsRefused) {
+  LocalMapOptions options;
+  options.metric = DistanceMetric::kCosine;
+  LocalMap cosine(options, dir.get());
+  try {
+    ReferenceSet set = MakeSet("euclidean_set", 3, 0.0f);
+    set.distance = "euclidean";
+    cosine.Add(set, "recorded");
+    ADD_FAILURE() << "a set meant for another distance was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("meant for euclidean"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(cosine.layout()->num_sets(), 0);
+}
+
+TEST_F(MapFixture, AShardsAnswerCarriesEverySetWithItsFingerprint) {
+  LocalMapOptions options;
+  options.fingerprints = true;
+  options.log = [this](LogLevel, const std::string& m) { log.push_back(m); };
+  LocalMap shard(options, dir.get(), "/shard_0");
+  shard.LoadConfigured(
+      {{(root / "summer.yaml").string(), "", ""}, {(root / "winter.yaml").string(), "", "snow"}});
+  const std::vector<float> d = {1.0f, 1.0f, 0.0f, 0.0f};
+  QueryDescriptor q;
+  q.values = d.data();
+  q.size = 4;
+  const ShardAnswer a = shard.Answer(q);
+  EXPECT_EQ(a.error, "");
+  ASSERT_EQ(a.set_names, (std::vector<std::string>{"summer", "winter"}));
+  ASSERT_EQ(a.fingerprints.size(), 2u);
+  EXPECT_NE(a.fingerprints[0], 0u);
+  EXPECT_NE(a.fingerprints[0], a.fingerprints[1]);
+  EXPECT_FLOAT_EQ(a.distances[0](0, 1), 0.0f);
+  std::vector<uint64_t> visited;
+  shard.ForEachSet([&](const StoredReferenceSet& s, uint64_t f) {
+    visited.push_back(f);
+    if (s.name() == "winter") EXPECT_EQ(s.condition(), "snow");
+  });
+  EXPECT_EQ(visited, a.fingerprints);
+  const std::vector<float> wrong = {1.0f};
+  q.values = wrong.data();
+  q.size = 1;
+  const ShardAnswer refused = shard.Answer(q);
+  EXPECT_NE(refused.error, "");
+  EXPECT_TRUE(refused.set_names.empty());
+  EXPECT_TRUE(refused.distances.empty());
+  EXPECT_EQ(shard.Diagnose().size(), 2u);
+  ASSERT_FALSE(log.empty());
+  EXPECT_EQ(log[0], "loaded reference set 'summer' (5 places, dimension 4, float32)");
+}
+
+TEST_F(MapFixture, AskingWhileSetsLoadAndUnloadGivesEachQueryTheLayoutItWasComputedFor) {
+  map->Load({"summer.yaml", "", "", ""}, nullptr);
+  std::atomic<bool> stop{false};
+  std::thread changer([&] {
+    while (!stop) {
+      map->Load({"winter.yaml", "", "", ""}, nullptr);
+      map->Unload("winter");
+    }
+  });
+  for (int i = 0; i < 300; ++i) {
+    const MapBackend::Query q = Ask({0.0f, 1.0f, 0.0f, 0.0f});
+    ASSERT_EQ(q.distances.num_sets(), q.layout->num_sets());
+  }
+  stop = true;
+  changer.join();
+}
+
+}  // namespace
+}  // namespace bsf_vpr

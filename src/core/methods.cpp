@@ -335,18 +335,23 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
   if (adaptive) {
     const std::vector<double> weights =
         ConditionWeights(sets, out.selection.set_stats, options.selection);
-    AdaptiveFusion first;  // without a stream: the first query of one
+    const FusionStream none;
+    const FusionStream& s = stream ? *stream : none;
+    AdaptiveFusion::Query query(sets, out.selection.set_stats, weights, num_places);
+    query.set_ids = s.set_ids;
+    query.joint = source ? &source->distances : nullptr;
+    query.log_prior = log_prior;
+    query.step_places = s.step_places;
     AdaptiveFusionOptions adaptive_options;
     adaptive_options.memory_queries = options.fusion_memory_queries;
     adaptive_options.place_means = options.fusion_place_means;
     adaptive_options.place_prior_queries = options.fusion_place_prior_queries;
     adaptive_options.filter = options.filter;
-    const FusionStream none;
-    const FusionStream& s = stream ? *stream : none;
-    (s.state ? s.state : &first)
-        ->Fuse(sets, s.set_ids, weights, num_places, options.likelihood, log_prior,
-               options.threshold, options.top_k, adaptive_options, s.step_places, s.update_state,
-               &out, out.selection.set_stats, source ? &source->distances : nullptr);
+    adaptive_options.likelihood = options.likelihood;
+    adaptive_options.threshold = options.threshold;
+    adaptive_options.top_k = options.top_k;
+    AdaptiveFusion first;  // without a stream: the first query of one
+    (s.state ? s.state : &first)->Fuse(query, adaptive_options, s.update_state, &out);
     return out;
   }
   if (method.NeedsSharedPlaces()) {  // one source built from every set

@@ -165,6 +165,58 @@ std::vector<double> IndependenceExponents(const std::vector<SetDistances>& sets,
   return effect;
 }
 
+// Per source: the sets' non-match statistics pooled over their groups (every set of a group,
+// as the singles and the product use them; the mixture's are the same for its sets of
+// non-zero weight), then those of the sources after the sets (the joint) as they are.
+std::vector<DistanceStats> PooledSourceStats(const std::vector<SetDistances>& sets,
+                                             const std::vector<DistanceStats>& set_stats,
+                                             const std::vector<DistanceStats>& source_stats,
+                                             internal::Groups groups) {
+  groups.components = groups.members;
+  std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, groups, set_stats);
+  pooled.insert(pooled.end(), source_stats.begin() + static_cast<long>(sets.size()),
+                source_stats.end());
+  return pooled;
+}
+
+// Each source's likelihood with the statistics `pooled` (one per source), each of mean 1 over
+// the places, as a log column in (*log_l)[u] (0 where the source does not cover a place) and
+// a linear one in (*lin_l)[u] (1 there); the buffers are resized and written over.
+void SourceLikelihoods(const std::vector<SetDistances>& sources,
+                       const std::vector<DistanceStats>& pooled, int num_places,
+                       const LikelihoodOptions& likelihood, std::vector<Eigen::VectorXd>* log_l,
+                       std::vector<Eigen::ArrayXd>* lin_l) {
+  log_l->resize(sources.size());
+  lin_l->resize(sources.size());
+  const auto likelihood_of = [&](int k) {
+    const size_t u = static_cast<size_t>(k);
+    const SetDistances& d = sources[u];
+    // With every place covered once in order (the usual case) the values are the columns.
+    const bool in_order = internal::CoversEachPlaceInOrder(d, num_places);
+    Eigen::VectorXd laid_out;
+    Eigen::VectorXd& l = in_order ? (*log_l)[u] : laid_out;
+    l.resize(d.count);
+    UnnormalisedPlaceMatchLogLikelihood(d, pooled[u], likelihood, l.data());
+    const double top = l.maxCoeff();
+    Eigen::ArrayXd laid_out_linear;
+    Eigen::ArrayXd& e = in_order ? (*lin_l)[u] : laid_out_linear;
+    e.resize(d.count);
+    const double mean = kernels::Exp(l.data(), d.count, top, e.data()) / d.count;
+    e *= 1.0 / mean;
+    l.array() -= top + std::log(mean);
+    if (!in_order) {
+      (*log_l)[u] = Eigen::VectorXd::Zero(num_places);
+      internal::AddAtPlaces(d, std::vector<double>(l.data(), l.data() + l.size()), num_places,
+                            &(*log_l)[u]);  // checks the place ids
+      (*lin_l)[u] = LayOutLinear(d, e, num_places);
+    }
+  };
+  int64_t work = 0;
+  for (const SetDistances& d : sources) work += d.count;
+  RunParallel(static_cast<int>(sources.size()), work >= kParallelWork ? DistanceThreads() : 1,
+              likelihood_of);
+}
+
 }  // namespace
 
 void AdaptiveFusion::Reset() {
@@ -276,16 +328,50 @@ std::vector<double> AdaptiveFusion::LastWeights(int group) const {
   return {};
 }
 
-void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
-                          const std::vector<int>* set_ids, const std::vector<double>& weights,
-                          int num_places, const LikelihoodOptions& likelihood,
-                          const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
-                          const AdaptiveFusionOptions& options, std::optional<double> step_places,
-                          bool update_state, PlaceBelief* out,
-                          const std::vector<DistanceStats>& raw_stats, const SetDistances* joint) {
-  if (set_ids != nullptr && set_ids->size() != raw_sets.size()) {
-    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(set_ids->size()) +
-                                " set ids for " + std::to_string(raw_sets.size()) + " sets");
+void AdaptiveFusion::Fuse(const Query& query, const AdaptiveFusionOptions& options,
+                          bool update_state, PlaceBelief* out) {
+  CheckQuery(query, options);
+  // Everything below sees the distances corrected by their places' means. The condition
+  // weights, the selection's soft form, are those of the raw distances (the caller's).
+  const Sources sources = CorrectedSources(query, options);
+  const internal::Groups groups = internal::GroupSets(sources.sets, query.weights);
+  // The likelihoods: every source's, with its group's pooled non-match statistics.
+  SourceLikelihoods(sources.corrected,
+                    PooledSourceStats(sources.sets, sources.set_stats, sources.stats, groups),
+                    query.num_places, options.likelihood, &log_l_, &lin_l_);
+  // The fusion: per group its hypotheses averaged by their scores; the groups multiply.
+  internal::StartFromPrior(query.log_prior, query.num_places, out);
+  out->set_weights.assign(sources.sets.size(), 0.0);
+  std::vector<GroupState> pending;  // what this query leaves in the state, with update_state
+  for (size_t g = 0; g < groups.ids.size(); ++g) {
+    const std::vector<int>& members = groups.members[g];
+    if (members.size() == 1) {  // one set: the three hypotheses are its likelihood
+      out->log_posterior += log_l_[static_cast<size_t>(members[0])];
+      out->set_weights[static_cast<size_t>(members[0])] = 1.0;
+      continue;
+    }
+    GroupState next =
+        FuseGroup(query, sources, groups.ids[g], members, groups.components[g], options, out);
+    if (update_state) {
+      pending.push_back(std::move(next));
+    } else {
+      Recycle(&next.hypotheses);
+    }
+  }
+  for (size_t u = 0; u < sources.sets.size(); ++u) {
+    if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
+  }
+  // The decision.
+  internal::Decide(options.threshold, options.top_k, out);
+  // The state changes only once the belief is decided: a query that throws leaves it as it was.
+  if (update_state) Commit(query.num_places, sources, options.place_prior_queries, &pending);
+}
+
+void AdaptiveFusion::CheckQuery(const Query& query, const AdaptiveFusionOptions& options) {
+  const size_t n = query.sets.size();
+  if (query.set_ids != nullptr && query.set_ids->size() != n) {
+    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(query.set_ids->size()) +
+                                " set ids for " + std::to_string(n) + " sets");
   }
   if (!(options.memory_queries >= 1)) {
     throw std::invalid_argument("fusion_memory_queries must be at least 1, got " +
@@ -295,270 +381,266 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
     throw std::invalid_argument("fusion_place_prior_queries must be above 0, got " +
                                 std::to_string(options.place_prior_queries));
   }
-  if (raw_stats.size() != raw_sets.size()) {
-    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(raw_stats.size()) +
-                                " set statistics for " + std::to_string(raw_sets.size()) +
-                                " sets");
+  if (query.set_stats.size() != n) {
+    throw std::invalid_argument("AdaptiveFusion: " + std::to_string(query.set_stats.size()) +
+                                " set statistics for " + std::to_string(n) + " sets");
   }
-  // The distances corrected by their places' means (the raw ones where there are none yet),
-  // with their statistics: everything below sees only these. The condition weights stay
-  // those of the raw distances (the selection's).
-  // The joint representation, if given, is one more source after the sets: entry n of
-  // `sources` (its places' means kept under the id kJoint), with its own statistics.
-  const size_t n = raw_sets.size();
-  std::vector<SetDistances> raw_sources = raw_sets;
-  std::vector<DistanceStats> source_stats = raw_stats;
-  std::vector<int> source_ids;
+  const SetDistances* joint = query.joint;
+  if (joint != nullptr && (joint->count != query.num_places || joint->place_ids != nullptr)) {
+    throw std::invalid_argument("AdaptiveFusion: the joint distances cover " +
+                                std::to_string(joint->count) + " places of " +
+                                std::to_string(query.num_places));
+  }
+}
+
+AdaptiveFusion::Sources AdaptiveFusion::CorrectedSources(const Query& query,
+                                                         const AdaptiveFusionOptions& options) {
+  // The joint representation, if given, is one more source after the sets (its places'
+  // means kept under the id kJoint), with its own statistics.
+  const size_t n = query.sets.size();
+  Sources s;
+  s.raw = query.sets;
+  s.stats = query.set_stats;
+  std::vector<int> ids;
   for (size_t u = 0; u < n; ++u)
-    source_ids.push_back(set_ids ? (*set_ids)[u] : static_cast<int>(u));
-  if (joint != nullptr) {
-    if (joint->count != num_places || joint->place_ids != nullptr) {
-      throw std::invalid_argument("AdaptiveFusion: the joint distances cover " +
-                                  std::to_string(joint->count) + " places of " +
-                                  std::to_string(num_places));
-    }
-    raw_sources.push_back(*joint);
-    source_stats.push_back(ComputeDistanceStats(*joint));
-    source_ids.push_back(kJoint);
+    ids.push_back(query.set_ids ? (*query.set_ids)[u] : static_cast<int>(u));
+  if (query.joint != nullptr) {
+    s.raw.push_back(*query.joint);
+    s.stats.push_back(ComputeDistanceStats(*query.joint));
+    ids.push_back(kJoint);
   }
-  std::vector<SetDistances> sources;
-  std::vector<PlaceUpdate> place_updates;
-  CorrectByPlaceMeans(raw_sources, &source_ids, num_places, options, &sources, &source_stats,
-                      &place_updates);
-  const std::vector<SetDistances> sets(sources.begin(), sources.begin() + static_cast<long>(n));
-  const std::vector<DistanceStats> set_stats(source_stats.begin(),
-                                             source_stats.begin() + static_cast<long>(n));
-  const internal::Groups groups = internal::GroupSets(sets, weights);
-  // Every set's likelihood with its group's pooled statistics (the singles and the product
-  // use them all; the mixture those of non-zero weight), as a log column (0 where the set
-  // does not cover a place) and as a linear one (1 there), each of mean 1 over the places.
-  internal::Groups all = groups;
-  all.components = all.members;
-  std::vector<DistanceStats> pooled = internal::PooledGroupStats(sets, all, set_stats);
-  if (joint != nullptr) pooled.push_back(source_stats[n]);
-  std::vector<Eigen::VectorXd>& log_l = log_l_;
-  std::vector<Eigen::ArrayXd>& lin_l = lin_l_;
-  log_l.resize(sources.size());
-  lin_l.resize(sources.size());
-  const auto likelihood_of = [&](int k) {
-    const size_t u = static_cast<size_t>(k);
-    const SetDistances& d = sources[u];
-    // With every place covered once in order (the usual case) the values are the columns.
-    const bool in_order = internal::CoversEachPlaceInOrder(d, num_places);
-    Eigen::VectorXd laid_out;
-    Eigen::VectorXd& l = in_order ? log_l[u] : laid_out;
-    l.resize(d.count);
-    UnnormalisedPlaceMatchLogLikelihood(d, pooled[u], likelihood, l.data());
-    const double top = l.maxCoeff();
-    Eigen::ArrayXd laid_out_linear;
-    Eigen::ArrayXd& e = in_order ? lin_l[u] : laid_out_linear;
-    e.resize(d.count);
-    const double mean = kernels::Exp(l.data(), d.count, top, e.data()) / d.count;
-    e *= 1.0 / mean;
-    l.array() -= top + std::log(mean);
-    if (!in_order) {
-      log_l[u] = Eigen::VectorXd::Zero(num_places);
-      internal::AddAtPlaces(d, std::vector<double>(l.data(), l.data() + l.size()), num_places,
-                            &log_l[u]);  // checks the place ids
-      lin_l[u] = LayOutLinear(d, e, num_places);
+  CorrectByPlaceMeans(s.raw, &ids, query.num_places, options, &s.corrected, &s.stats, &s.updates);
+  s.sets.assign(s.corrected.begin(), s.corrected.begin() + static_cast<long>(n));
+  s.set_stats.assign(s.stats.begin(), s.stats.begin() + static_cast<long>(n));
+  return s;
+}
+
+AdaptiveFusion::GroupState AdaptiveFusion::FuseGroup(const Query& query, const Sources& sources,
+                                                     int group, const std::vector<int>& members,
+                                                     const std::vector<int>& components,
+                                                     const AdaptiveFusionOptions& options,
+                                                     PlaceBelief* out) {
+  // The joint hypothesis belongs to its sets' group, and needs two of them present.
+  const bool with_joint =
+      query.joint != nullptr && query.joint->group == group && members.size() >= 2;
+  std::vector<int> set_ids;
+  for (int u : members)
+    set_ids.push_back(query.set_ids ? (*query.set_ids)[static_cast<size_t>(u)] : u);
+  GroupState next = StartHypotheses(group, set_ids, with_joint);
+  const Records records = RecordsOf(next, query.num_places);
+  // The mixture weighs the sets by their condition weights w_u / W; the product counts each
+  // set once per independent piece of evidence it carries: set u's log-likelihood is divided
+  // by its design effect sum_v max(rho_uv, 0).
+  const size_t m = members.size();
+  double component_weight = 0;
+  for (int u : components) component_weight += query.weights[static_cast<size_t>(u)];
+  std::vector<double> mixture_weight(m);
+  for (size_t j = 0; j < m; ++j) {  // no weight at all (gamma = 0, no set at 0): equal weights
+    const size_t u = static_cast<size_t>(members[j]);
+    mixture_weight[j] =
+        component_weight > 0 ? query.weights[u] / component_weight : 1.0 / static_cast<double>(m);
+  }
+  const std::vector<double> exponent =
+      IndependenceExponents(sources.sets, sources.set_stats, members, query.num_places);
+  const std::vector<const Eigen::ArrayXd*> l = HypothesisLikelihoods(
+      members, mixture_weight, exponent,
+      with_joint ? std::optional<size_t>(query.sets.size()) : std::nullopt, query.num_places);
+  ScoreHypotheses(records, l, options, query.step_places, query.num_places, &next);
+  std::vector<double> a = AverageHypotheses(next, l, query.num_places, out);
+  for (size_t j = 0; j < m; ++j) {
+    const size_t u = static_cast<size_t>(members[j]);
+    const double as_component =
+        component_weight > 0 ? a[m] * query.weights[u] / component_weight : a[m] / m;
+    out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
+  }
+  if (with_joint) out->joint_weight = a[m + 2];
+  next.last_weights = std::move(a);
+  return next;
+}
+
+// This query's hypotheses: the singles of the sets present, the mixture, the product (and
+// the joint), each with a buffer for its belief where one is spare.
+AdaptiveFusion::GroupState AdaptiveFusion::StartHypotheses(int group,
+                                                           const std::vector<int>& set_ids,
+                                                           bool with_joint) {
+  GroupState next;
+  next.group = group;
+  const auto add = [&](int id) {
+    next.hypotheses.emplace_back();
+    next.hypotheses.back().set_id = id;
+    if (!spare_.empty()) {
+      next.hypotheses.back().posterior.swap(spare_.back());
+      spare_.pop_back();
     }
   };
-  int64_t work = 0;
-  for (const SetDistances& d : sources) work += d.count;
-  RunParallel(static_cast<int>(sources.size()), work >= kParallelWork ? DistanceThreads() : 1,
-              likelihood_of);
-  internal::StartFromPrior(log_prior, num_places, out);
-  const auto id_of = [&](int u) { return set_ids ? (*set_ids)[static_cast<size_t>(u)] : u; };
-  const bool known_places = num_places == num_places_;
+  for (int id : set_ids) add(id);
+  add(kMixture);
+  add(kProduct);
+  if (with_joint) add(kJoint);
+  return next;
+}
+
+// Each hypothesis's record from the last query on these places. A hypothesis without one
+// (new, or its set was missing from the last query) starts at the mean score of those that
+// have one, with a uniform belief.
+AdaptiveFusion::Records AdaptiveFusion::RecordsOf(const GroupState& next, int num_places) const {
+  const GroupState* state = nullptr;
+  for (const GroupState& s : groups_) {
+    if (num_places == num_places_ && s.group == next.group) state = &s;
+  }
+  Records r;
+  r.of.assign(next.hypotheses.size(), nullptr);
+  int recorded = 0;
+  if (state != nullptr) {
+    for (const Hypothesis& h : state->hypotheses) {
+      if (h.stale) continue;
+      r.mean_score += h.score;
+      ++recorded;
+      for (size_t k = 0; k < next.hypotheses.size(); ++k) {
+        if (next.hypotheses[k].set_id == h.set_id) r.of[k] = &h;
+      }
+    }
+  }
+  if (recorded > 0) r.mean_score /= recorded;
+  return r;
+}
+
+// The hypotheses' likelihoods L_h, linear, each of mean 1 over the places, in the order of
+// the hypotheses: the singles of `members`, the mixture, the product and (`joint`: its index
+// among the sources) the joint. The product's is formed from the logs (a product of many
+// small factors underflows) and normalised; the mixture and the product are written to
+// mixture_ and product_.
+std::vector<const Eigen::ArrayXd*> AdaptiveFusion::HypothesisLikelihoods(
+    const std::vector<int>& members, const std::vector<double>& mixture_weight,
+    const std::vector<double>& exponent, std::optional<size_t> joint, int num_places) {
+  const size_t m = members.size();
+  std::vector<const Eigen::ArrayXd*> l(m + (joint ? 3 : 2));
+  if (joint) l[m + 2] = &lin_l_[*joint];
+  for (size_t j = 0; j < m; ++j) l[j] = &lin_l_[static_cast<size_t>(members[j])];
+  Eigen::ArrayXd& mixture = mixture_;
+  Eigen::ArrayXd& product = product_;
+  mixture.setZero(num_places);
+  product.setZero(num_places);
+  std::vector<double> block_max(static_cast<size_t>(PlaceBlocks(num_places)));
+  // The columns and their weights as the kernels take them (the mixture's of weight 0 left
+  // out), summed in the order of the sets.
+  std::vector<const double*> mixture_columns, product_columns;
+  std::vector<double> mixture_weights;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t u = static_cast<size_t>(members[j]);
+    if (mixture_weight[j] > 0) {
+      mixture_columns.push_back(lin_l_[u].data());
+      mixture_weights.push_back(mixture_weight[j]);
+    }
+    product_columns.push_back(log_l_[u].data());
+  }
+  ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
+    std::vector<const double*> at(m);
+    for (size_t j = 0; j < mixture_columns.size(); ++j) at[j] = mixture_columns[j] + i0;
+    kernels::AddScaled(mixture.data() + i0, at.data(), mixture_weights.data(),
+                       static_cast<int>(mixture_columns.size()), len);
+    for (size_t j = 0; j < m; ++j) at[j] = product_columns[j] + i0;
+    kernels::AddScaled(product.data() + i0, at.data(), exponent.data(), static_cast<int>(m), len);
+    block_max[static_cast<size_t>(b)] = product.segment(i0, len).maxCoeff();
+  });
+  l[m] = &mixture;
+  const double product_max = *std::max_element(block_max.begin(), block_max.end());
+  std::vector<double> block_sum(block_max.size());
+  ForPlaceBlocks(num_places, 1, [&](int b, Eigen::Index i0, Eigen::Index len) {
+    block_sum[static_cast<size_t>(b)] =
+        kernels::Exp(product.data() + i0, len, product_max, product.data() + i0);
+  });
+  double product_sum = 0;
+  for (double v : block_sum) product_sum += v;
+  const double uniform = 1.0 / static_cast<double>(num_places);
+  product *= 1.0 / (product_sum * uniform);
+  l[m + 1] = &product;
+  return l;
+}
+
+// Each hypothesis's belief moved on from its last query by this query's step (as +filter
+// moves it), its predictive likelihood of this query, sum_i prior_h(i) L_h(i), its score,
+// and its belief after this query (up to a factor); in parallel when there is enough work
+// (the same bits either way).
+void AdaptiveFusion::ScoreHypotheses(const Records& records,
+                                     const std::vector<const Eigen::ArrayXd*>& likelihoods,
+                                     const AdaptiveFusionOptions& options,
+                                     std::optional<double> step_places, int num_places,
+                                     GroupState* next) {
   const double lambda = 1.0 - 1.0 / options.memory_queries;
   const double uniform = 1.0 / static_cast<double>(num_places);
-  // What this query leaves in the state, kept only with update_state and once the belief is
-  // decided (a query that throws leaves the state as it was).
-  std::vector<GroupState> pending;
-  out->set_weights.assign(sets.size(), 0.0);
-  for (size_t g = 0; g < groups.ids.size(); ++g) {
-    const std::vector<int>& members = groups.members[g];
-    const std::vector<int>& components = groups.components[g];
-    // The joint hypothesis belongs to its sets' group, and needs two of them present.
-    const bool with_joint =
-        joint != nullptr && joint->group == groups.ids[g] && members.size() >= 2;
-    if (members.size() == 1) {  // one set: the three hypotheses are its likelihood
-      out->log_posterior += log_l[static_cast<size_t>(members[0])];
-      out->set_weights[static_cast<size_t>(members[0])] = 1.0;
-      continue;
+  bool any_prior = false;
+  for (const Hypothesis* from : records.of) {
+    any_prior = any_prior || (from != nullptr && from->posterior.size() == num_places);
+  }
+  const MotionStep step = any_prior ? MotionStepOf(options.filter, step_places) : MotionStep{};
+  const auto one = [&](int k) {
+    const size_t h = static_cast<size_t>(k);
+    Hypothesis& to = next->hypotheses[h];
+    const Hypothesis* from = records.of[h];
+    const double* l = likelihoods[h]->data();
+    Eigen::VectorXd& posterior = to.posterior;  // prior * L_h, the prior PredictPrior's
+    double predictive;
+    if (from != nullptr && from->posterior.size() == num_places) {
+      posterior.resize(num_places);
+      predictive = PredictPriorTimes(step, from->posterior.data(), num_places, l, posterior.data());
+    } else {  // a uniform prior: (0 x + 1 / N) L_h, summed as above
+      posterior.setZero(num_places);
+      predictive = kernels::ScaleShiftMultiply(posterior.data(), num_places, 0.0, uniform, l);
     }
-    const GroupState* state = nullptr;
-    for (const GroupState& s : groups_) {
-      if (known_places && s.group == groups.ids[g]) state = &s;
-    }
-    // This query's hypotheses: the singles of the sets present, the mixture, the product,
-    // each with its record. A hypothesis without one (new, or its set was missing from the
-    // last query) starts at the mean score of those that have one, with a uniform belief.
-    GroupState next;
-    next.group = groups.ids[g];
-    const auto add = [&](int id) {
-      next.hypotheses.emplace_back();
-      next.hypotheses.back().set_id = id;
-      if (!spare_.empty()) {  // a buffer to write its belief into
-        next.hypotheses.back().posterior.swap(spare_.back());
-        spare_.pop_back();
-      }
-    };
-    for (int u : members) add(id_of(u));
-    add(kMixture);
-    add(kProduct);
-    if (with_joint) add(kJoint);
-    std::vector<const Hypothesis*> record(next.hypotheses.size(), nullptr);
-    double mean_score = 0;
-    int recorded = 0;
-    if (state != nullptr) {
-      for (const Hypothesis& h : state->hypotheses) {
-        if (h.stale) continue;
-        mean_score += h.score;
-        ++recorded;
-        for (size_t k = 0; k < next.hypotheses.size(); ++k) {
-          if (next.hypotheses[k].set_id == h.set_id) record[k] = &h;
-        }
-      }
-    }
-    if (recorded > 0) mean_score /= recorded;
-    // The hypotheses' likelihoods L_h, linear, each of mean 1 over the places. The product's
-    // is formed from the logs (a product of many small factors underflows) and normalised.
-    const size_t m = members.size();
-    std::vector<const Eigen::ArrayXd*> l(m + (with_joint ? 3 : 2));
-    if (with_joint) l[m + 2] = &lin_l[n];
-    for (size_t j = 0; j < m; ++j) l[j] = &lin_l[static_cast<size_t>(members[j])];
-    double component_weight = 0;
-    for (int u : components) component_weight += weights[static_cast<size_t>(u)];
-    std::vector<double> mixture_weight(m);
-    for (size_t j = 0; j < m; ++j) {  // no weight at all (gamma = 0, no set at 0): equal weights
-      const size_t u = static_cast<size_t>(members[j]);
-      mixture_weight[j] =
-          component_weight > 0 ? weights[u] / component_weight : 1.0 / static_cast<double>(m);
-    }
-    // The product counts each set once per independent piece of evidence it carries: set u's
-    // log-likelihood is divided by its design effect sum_v max(rho_uv, 0).
-    const std::vector<double> exponent =
-        IndependenceExponents(sets, set_stats, members, num_places);
-    Eigen::ArrayXd& mixture = mixture_;
-    Eigen::ArrayXd& product = product_;
-    mixture.setZero(num_places);
-    product.setZero(num_places);
-    std::vector<double> block_max(static_cast<size_t>(PlaceBlocks(num_places)));
-    // The columns and their weights as the kernels take them (the mixture's of weight 0 left
-    // out), summed in the order of the sets.
-    std::vector<const double*> mixture_columns, product_columns;
-    std::vector<double> mixture_weights;
-    for (size_t j = 0; j < m; ++j) {
-      const size_t u = static_cast<size_t>(members[j]);
-      if (mixture_weight[j] > 0) {
-        mixture_columns.push_back(lin_l[u].data());
-        mixture_weights.push_back(mixture_weight[j]);
-      }
-      product_columns.push_back(log_l[u].data());
-    }
-    ForPlaceBlocks(num_places, m, [&](int b, Eigen::Index i0, Eigen::Index len) {
-      std::vector<const double*> at(m);
-      for (size_t j = 0; j < mixture_columns.size(); ++j) at[j] = mixture_columns[j] + i0;
-      kernels::AddScaled(mixture.data() + i0, at.data(), mixture_weights.data(),
-                         static_cast<int>(mixture_columns.size()), len);
-      for (size_t j = 0; j < m; ++j) at[j] = product_columns[j] + i0;
-      kernels::AddScaled(product.data() + i0, at.data(), exponent.data(), static_cast<int>(m), len);
-      block_max[static_cast<size_t>(b)] = product.segment(i0, len).maxCoeff();
-    });
-    l[m] = &mixture;
-    const double product_max = *std::max_element(block_max.begin(), block_max.end());
-    std::vector<double> block_sum(block_max.size());
-    ForPlaceBlocks(num_places, 1, [&](int b, Eigen::Index i0, Eigen::Index len) {
-      block_sum[static_cast<size_t>(b)] =
-          kernels::Exp(product.data() + i0, len, product_max, product.data() + i0);
-    });
-    double product_sum = 0;
-    for (double v : block_sum) product_sum += v;
-    product *= 1.0 / (product_sum * uniform);
-    l[m + 1] = &product;
-    // Each hypothesis's belief moved on from its last query by this query's step (as
-    // +filter moves it), its predictive likelihood of this query, sum_i prior_h(i) L_h(i),
-    // its score, and its belief after this query (up to a factor); in parallel when there is
-    // enough work (the same bits either way).
-    bool any_prior = false;
-    for (const Hypothesis* from : record) {
-      any_prior = any_prior || (from != nullptr && from->posterior.size() == num_places);
-    }
-    const MotionStep step = any_prior ? MotionStepOf(options.filter, step_places) : MotionStep{};
-    const auto one = [&](int k) {
-      const size_t h = static_cast<size_t>(k);
-      Hypothesis& to = next.hypotheses[h];
-      const Hypothesis* from = record[h];
-      Eigen::VectorXd& posterior = to.posterior;  // prior * L_h, the prior PredictPrior's
-      double predictive;
-      if (from != nullptr && from->posterior.size() == num_places) {
-        posterior.resize(num_places);
-        predictive = PredictPriorTimes(step, from->posterior.data(), num_places, l[h]->data(),
-                                       posterior.data());
-      } else {  // a uniform prior: (0 x + 1 / N) L_h, summed as above
-        posterior.setZero(num_places);
-        predictive =
-            kernels::ScaleShiftMultiply(posterior.data(), num_places, 0.0, uniform, l[h]->data());
-      }
-      to.score = lambda * (from != nullptr ? from->score : mean_score) + std::log(predictive);
-    };
-    const int64_t filter_work = static_cast<int64_t>(l.size()) * num_places;
-    RunParallel(static_cast<int>(l.size()), filter_work >= kParallelWork ? DistanceThreads() : 1,
-                one);
-    // a_h = softmax of the scores; the group's likelihood sum_h a_h L_h.
-    double top = -INFINITY;
-    for (const Hypothesis& h : next.hypotheses) top = std::max(top, h.score);
-    std::vector<double> a(l.size());
-    double total = 0;
-    for (size_t h = 0; h < l.size(); ++h) total += a[h] = std::exp(next.hypotheses[h].score - top);
-    for (double& v : a) v /= total;
-    // Where every hypothesis's likelihood underflowed, a floor keeps the log finite (such
-    // places are e^-690 below the mean: no belief or confidence depends on them).
-    std::vector<double> fused_weights;
-    std::vector<const double*> fused_columns;
-    for (size_t h = 0; h < l.size(); ++h) {
-      if (a[h] > 0) {
-        fused_weights.push_back(a[h]);
-        fused_columns.push_back(l[h]->data());
-      }
-    }
-    ForPlaceBlocks(num_places, l.size(), [&](int, Eigen::Index i0, Eigen::Index len) {
-      Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(len);
-      std::vector<const double*> at(fused_columns.size());
-      for (size_t h = 0; h < at.size(); ++h) at[h] = fused_columns[h] + i0;
-      kernels::AddScaled(fused.data(), at.data(), fused_weights.data(), static_cast<int>(at.size()),
-                         len);
-      fused = fused.max(kLikelihoodFloor);
-      kernels::Log(fused.data(), len, fused.data());
-      out->log_posterior.array().segment(i0, len) += fused;
-    });
-    for (size_t j = 0; j < m; ++j) {
-      const size_t u = static_cast<size_t>(members[j]);
-      const double as_component =
-          component_weight > 0 ? a[m] * weights[u] / component_weight : a[m] / m;
-      out->set_weights[u] = std::min(1.0, a[j] + as_component + a[m + 1] * exponent[j]);
-    }
-    if (with_joint) out->joint_weight = a[m + 2];
-    next.last_weights = std::move(a);
-    if (update_state) {
-      pending.push_back(std::move(next));
-    } else {
-      Recycle(&next.hypotheses);
+    to.score = lambda * (from != nullptr ? from->score : records.mean_score) + std::log(predictive);
+  };
+  const int64_t work = static_cast<int64_t>(likelihoods.size()) * num_places;
+  RunParallel(static_cast<int>(likelihoods.size()), work >= kParallelWork ? DistanceThreads() : 1,
+              one);
+}
+
+// a_h = softmax of the scores; adds the group's log sum_h a_h L_h to out->log_posterior and
+// returns a.
+std::vector<double> AdaptiveFusion::AverageHypotheses(
+    const GroupState& next, const std::vector<const Eigen::ArrayXd*>& likelihoods, int num_places,
+    PlaceBelief* out) {
+  const size_t count = likelihoods.size();
+  double top = -INFINITY;
+  for (const Hypothesis& h : next.hypotheses) top = std::max(top, h.score);
+  std::vector<double> a(count);
+  double total = 0;
+  for (size_t h = 0; h < count; ++h) total += a[h] = std::exp(next.hypotheses[h].score - top);
+  for (double& v : a) v /= total;
+  // Where every hypothesis's likelihood underflowed, a floor keeps the log finite (such
+  // places are e^-690 below the mean: no belief or confidence depends on them).
+  std::vector<double> fused_weights;
+  std::vector<const double*> fused_columns;
+  for (size_t h = 0; h < count; ++h) {
+    if (a[h] > 0) {
+      fused_weights.push_back(a[h]);
+      fused_columns.push_back(likelihoods[h]->data());
     }
   }
-  for (size_t u = 0; u < sets.size(); ++u) {
-    if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
-  }
-  internal::Decide(threshold, top_k, out);
-  if (!update_state) return;
-  if (!known_places) {
+  ForPlaceBlocks(num_places, count, [&](int, Eigen::Index i0, Eigen::Index len) {
+    Eigen::ArrayXd fused = Eigen::ArrayXd::Zero(len);
+    std::vector<const double*> at(fused_columns.size());
+    for (size_t h = 0; h < at.size(); ++h) at[h] = fused_columns[h] + i0;
+    kernels::AddScaled(fused.data(), at.data(), fused_weights.data(), static_cast<int>(at.size()),
+                       len);
+    fused = fused.max(kLikelihoodFloor);
+    kernels::Log(fused.data(), len, fused.data());
+    out->log_posterior.array().segment(i0, len) += fused;
+  });
+  return a;
+}
+
+// Keeps what a decided query leaves: its places' means and its groups' hypotheses (those of
+// sets missing from it stay, marked stale: back, they start again).
+void AdaptiveFusion::Commit(int num_places, const Sources& sources, double prior_queries,
+                            std::vector<GroupState>* pending) {
+  if (num_places != num_places_) {
     groups_.clear();
     place_means_.clear();
     num_places_ = num_places;
   }
-  CountPlaceMeans(raw_sources, place_updates, options.place_prior_queries);
-  for (GroupState& next : pending) {
+  CountPlaceMeans(sources.raw, sources.updates, prior_queries);
+  for (GroupState& next : *pending) {
     GroupState* state = nullptr;
     for (GroupState& s : groups_) {
       if (s.group == next.group) state = &s;
@@ -567,7 +649,6 @@ void AdaptiveFusion::Fuse(const std::vector<SetDistances>& raw_sets,
       groups_.push_back(std::move(next));
       continue;
     }
-    // The hypotheses of sets missing from this query stay, marked: back, they start again.
     for (Hypothesis& h : state->hypotheses) {
       const bool present = std::any_of(next.hypotheses.begin(), next.hypotheses.end(),
                                        [&h](const Hypothesis& n) { return n.set_id == h.set_id; });

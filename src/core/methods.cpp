@@ -15,8 +15,25 @@ std::string Method::Name() const {
 
 namespace {
 
-// The names of the methods that name no set, written once: BaseName and ParseMethod.
-const EnumNames<MethodKind>& PlainMethodNames() {
+// Whether a method of this kind runs on one set, named after a colon: nn:<set>, bayes:<set>.
+bool NamesASet(MethodKind kind) {
+  return kind == MethodKind::kNearestNeighbour || kind == MethodKind::kBayesSingle;
+}
+
+// The methods as messages list them: "bsf, ..., bayes:<set> or nn:<set>".
+std::string ListedMethods() {
+  const std::vector<EnumNames<MethodKind>::Entry>& entries = MethodKindNames().entries();
+  std::string out;
+  for (size_t i = 0; i < entries.size(); ++i) {
+    if (i > 0) out += i + 1 == entries.size() ? " or " : ", ";
+    out += std::string(entries[i].second) + (NamesASet(entries[i].first) ? ":<set>" : "");
+  }
+  return out;
+}
+
+}  // namespace
+
+const EnumNames<MethodKind>& MethodKindNames() {
   static const EnumNames<MethodKind> kNames{{MethodKind::kBsf, "bsf"},
                                             {MethodKind::kBayesFull, "bayes_full"},
                                             {MethodKind::kMed, "med"},
@@ -24,16 +41,15 @@ const EnumNames<MethodKind>& PlainMethodNames() {
                                             {MethodKind::kMeanDescriptor, "mean_descriptor"},
                                             {MethodKind::kUnionNn, "union_nn"},
                                             {MethodKind::kSubspace, "subspace"},
-                                            {MethodKind::kDiscriminant, "discriminant"}};
+                                            {MethodKind::kDiscriminant, "discriminant"},
+                                            {MethodKind::kBayesSingle, "bayes"},
+                                            {MethodKind::kNearestNeighbour, "nn"}};
   return kNames;
 }
 
-}  // namespace
-
 std::string Method::BaseName() const {
-  if (kind == MethodKind::kNearestNeighbour) return "nn:" + set_name;
-  if (kind == MethodKind::kBayesSingle) return "bayes:" + set_name;
-  return PlainMethodNames().Name(kind);
+  const std::string name = MethodKindNames().Name(kind);
+  return NamesASet(kind) ? name + ":" + set_name : name;
 }
 
 bool Method::IsBayesian() const {
@@ -111,12 +127,15 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
     }
     name.resize(plus);
   }
-  const EnumNames<MethodKind>& plain_names = PlainMethodNames();
-  if (const std::optional<MethodKind> plain = plain_names.Find(name)) {
-    m.kind = *plain;
-  } else if (name.rfind("nn:", 0) == 0 || name.rfind("bayes:", 0) == 0) {
-    const size_t colon = name.find(':');
-    m.kind = name[0] == 'n' ? MethodKind::kNearestNeighbour : MethodKind::kBayesSingle;
+  // The method's name, then after a colon its set's for the methods that name one.
+  const size_t colon = name.find(':');
+  const std::optional<MethodKind> kind = MethodKindNames().Find(name.substr(0, colon));
+  if (!kind || NamesASet(*kind) != (colon != std::string::npos)) {
+    throw std::invalid_argument("unknown method '" + full_name + "' (expected " + ListedMethods() +
+                                ")");
+  }
+  m.kind = *kind;
+  if (NamesASet(m.kind)) {
     m.set_name = name.substr(colon + 1);
     const auto it = std::find(set_names.begin(), set_names.end(), m.set_name);
     if (it == set_names.end()) {
@@ -124,9 +143,6 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
                                   m.set_name + "' (loaded: " + JoinNames(set_names) + ")");
     }
     m.set_index = static_cast<int>(it - set_names.begin());
-  } else {
-    throw std::invalid_argument("unknown method '" + full_name +
-                                "' (expected nn:<set>, bayes:<set>, " + plain_names.Listed() + ")");
   }
   if (m.temporal_filter && !m.IsBayesian()) {
     throw std::invalid_argument("method '" + full_name +
@@ -137,16 +153,15 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
 
 std::vector<Method> AllMethods(const std::vector<std::string>& set_names, bool joint_methods) {
   std::vector<Method> out;
-  for (const char* name : {"bsf", "bayes_full", "med", "med_selective"}) {
-    out.push_back(ParseMethod(name, set_names));
-  }
-  if (joint_methods) {
-    for (const char* name : {"mean_descriptor", "union_nn", "subspace", "discriminant"}) {
+  for (const auto& [kind, name] : MethodKindNames().entries()) {
+    if (NamesASet(kind)) {
+      for (const std::string& s : set_names) {
+        out.push_back(ParseMethod(std::string(name) + ":" + s, set_names));
+      }
+    } else if (joint_methods || !Method{kind}.NeedsSharedPlaces()) {
       out.push_back(ParseMethod(name, set_names));
     }
   }
-  for (const std::string& s : set_names) out.push_back(ParseMethod("bayes:" + s, set_names));
-  for (const std::string& s : set_names) out.push_back(ParseMethod("nn:" + s, set_names));
   return out;
 }
 
@@ -335,18 +350,23 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
   if (adaptive) {
     const std::vector<double> weights =
         ConditionWeights(sets, out.selection.set_stats, options.selection);
-    AdaptiveFusion first;  // without a stream: the first query of one
+    const FusionStream none;
+    const FusionStream& s = stream ? *stream : none;
+    AdaptiveFusion::Query query(sets, out.selection.set_stats, weights, num_places);
+    query.set_ids = s.set_ids;
+    query.joint = source ? &source->distances : nullptr;
+    query.log_prior = log_prior;
+    query.step_places = s.step_places;
     AdaptiveFusionOptions adaptive_options;
     adaptive_options.memory_queries = options.fusion_memory_queries;
     adaptive_options.place_means = options.fusion_place_means;
     adaptive_options.place_prior_queries = options.fusion_place_prior_queries;
     adaptive_options.filter = options.filter;
-    const FusionStream none;
-    const FusionStream& s = stream ? *stream : none;
-    (s.state ? s.state : &first)
-        ->Fuse(sets, s.set_ids, weights, num_places, options.likelihood, log_prior,
-               options.threshold, options.top_k, adaptive_options, s.step_places, s.update_state,
-               &out, out.selection.set_stats, source ? &source->distances : nullptr);
+    adaptive_options.likelihood = options.likelihood;
+    adaptive_options.threshold = options.threshold;
+    adaptive_options.top_k = options.top_k;
+    AdaptiveFusion first;  // without a stream: the first query of one
+    (s.state ? s.state : &first)->Fuse(query, adaptive_options, s.update_state, &out);
     return out;
   }
   if (method.NeedsSharedPlaces()) {  // one source built from every set

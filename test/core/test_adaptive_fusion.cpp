@@ -213,6 +213,7 @@ TEST(AdaptiveFusion, MatchesItsEquationsOverAStream) {
 
 TEST(AdaptiveFusion, LearnsToTrustTheSetThatTracksTheRouteAndToMultiplyIndependentOnes) {
   AdaptiveFusionOptions options;
+  options.top_k = 5;
   const auto weights_after = [&](const Stream& s) {
     AdaptiveFusion f;
     MethodOptions mo;
@@ -221,8 +222,8 @@ TEST(AdaptiveFusion, LearnsToTrustTheSetThatTracksTheRouteAndToMultiplyIndepende
       std::vector<DistanceStats> stats;
       for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
       PlaceBelief b;
-      f.Fuse(views, nullptr, ConditionWeights(views, stats, mo.selection), s.n, mo.likelihood,
-             nullptr, mo.threshold, 5, options, std::nullopt, true, &b, stats);
+      const std::vector<double> weights = ConditionWeights(views, stats, mo.selection);
+      f.Fuse(AdaptiveFusion::Query(views, stats, weights, s.n), options, true, &b);
     }
     return f.LastWeights(0);  // s0, s1, mixture, product
   };
@@ -242,6 +243,7 @@ TEST(AdaptiveFusion, TheJointHypothesisIsTrustedWhereItPredictsTheQueries) {
     AdaptiveFusion f;
     MethodOptions mo;
     AdaptiveFusionOptions options;
+    options.top_k = 5;
     *right = 0;
     for (int t = 0; t < static_cast<int>(s.d.size()); ++t) {
       std::vector<SetDistances> views = s.Views(t);
@@ -250,8 +252,10 @@ TEST(AdaptiveFusion, TheJointHypothesisIsTrustedWhereItPredictsTheQueries) {
       std::vector<DistanceStats> stats;
       for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
       PlaceBelief b;
-      f.Fuse(views, nullptr, ConditionWeights(views, stats, mo.selection), s.n, mo.likelihood,
-             nullptr, mo.threshold, 5, options, std::nullopt, true, &b, stats, &joint);
+      const std::vector<double> weights = ConditionWeights(views, stats, mo.selection);
+      AdaptiveFusion::Query query(views, stats, weights, s.n);
+      query.joint = &joint;
+      f.Fuse(query, options, true, &b);
       *joint_weight = b.joint_weight;
       *right += t >= 20 && b.match == t % s.n ? 1 : 0;
     }
@@ -279,10 +283,10 @@ TEST(AdaptiveFusion, TheJointHypothesisIsTrustedWhereItPredictsTheQueries) {
   std::vector<DistanceStats> stats;
   for (const SetDistances& d : views) stats.push_back(ComputeDistanceStats(d));
   PlaceBelief b;
-  MethodOptions mo;
-  EXPECT_THROW(f.Fuse(views, nullptr, {1.0, 1.0}, 10, mo.likelihood, nullptr, mo.threshold, 5, {},
-                      std::nullopt, true, &b, stats, &short_joint),
-               std::invalid_argument);
+  const std::vector<double> weights = {1.0, 1.0};
+  AdaptiveFusion::Query query(views, stats, weights, 10);
+  query.joint = &short_joint;
+  EXPECT_THROW(f.Fuse(query, {}, true, &b), std::invalid_argument);
 }
 
 TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {

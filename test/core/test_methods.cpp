@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
 #include "bsf_vpr/core/methods.h"
+#include "test/core/enum_names_check.h"
 #include "test/core/test_util.h"
 
 namespace bsf_vpr {
@@ -114,6 +116,41 @@ TEST(Methods, NamesParseAndUnknownNamesAreRefusedWithTheChoices) {
   }
   EXPECT_THROW(ParseMethod("seqslam", kNames), std::invalid_argument);
   EXPECT_THROW(ParseMethodList(",", kNames), std::invalid_argument);
+}
+
+// The methods' one table of names: every method AllMethods lists (every kind, nn and bayes
+// once per set) reads back through its Name, and an unknown method is refused with a message
+// that names every one as it is written.
+TEST(Methods, EveryMethodNameRoundTripsThroughTheOneTable) {
+  testing::ExpectNamesRoundTrip<MethodKind>(MethodKindNames(), nullptr, "method");
+  const std::vector<Method> all = AllMethods(kNames, /*joint_methods=*/true);
+  EXPECT_EQ(all.size(), MethodKindNames().entries().size() - 2 + 2 * kNames.size());
+  for (const auto& [kind, name] : MethodKindNames().entries()) {
+    EXPECT_TRUE(std::any_of(all.begin(), all.end(), [&](const Method& m) {
+      return m.kind == kind;
+    })) << name;
+  }
+  for (const Method& m : all) {
+    const Method back = ParseMethod(m.Name(), kNames);
+    EXPECT_EQ(back.kind, m.kind) << m.Name();
+    EXPECT_EQ(back.set_index, m.set_index) << m.Name();
+    EXPECT_EQ(back.Name(), m.Name());
+  }
+  EXPECT_EQ(all.front().Name(), "bsf");
+  EXPECT_EQ(all.back().Name(), "nn:fall");
+  try {
+    ParseMethod("seqslam", kNames);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    const std::string message = e.what();
+    for (const Method& m : AllMethods({"<set>"}, true)) {
+      EXPECT_NE(message.find(m.Name()), std::string::npos) << m.Name() << " in " << message;
+    }
+  }
+  // A method that runs on one set needs its name; the others take none.
+  EXPECT_THROW(ParseMethod("nn", kNames), std::invalid_argument);
+  EXPECT_THROW(ParseMethod("bsf:winter", kNames), std::invalid_argument);
+  EXPECT_EQ(ParseMethod("bayes:winter+seq", kNames).Name(), "bayes:winter+seq");
 }
 
 TEST(Methods, SuffixesParseAndNeedWhatTheyUse) {

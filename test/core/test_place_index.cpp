@@ -44,14 +44,14 @@ TEST(PlaceIndex, PlacesEveryMetreWhateverTheSpeed) {
 }
 
 TEST(PlaceIndex, AssociatesTheNearestFrameAndLeavesOthersUncovered) {
-  std::vector<std::optional<PlacePose>> map;
-  for (const PlacePose& p : Straight(30, 1)) map.push_back(p);
+  std::vector<std::optional<PlacePose>> place_poses;
+  for (const PlacePose& p : Straight(30, 1)) place_poses.push_back(p);
   // The second traversal is 0.4 m to the side, covers 5..20 m at 0.3 m per frame.
   std::vector<PlacePose> drive;
   for (int i = 0; i <= 50; ++i) drive.push_back(At(5 + 0.3 * i, 0.4));
   PlaceIndexOptions o;
   o.association_radius_m = 0.6;  // places 4 and 21 lie 1.08 m from the ends: not covered
-  const PlaceAssignment a = AssociateWithPlaces(drive, map, o);
+  const PlaceAssignment a = AssociateWithPlaces(drive, place_poses, o);
   ASSERT_EQ(a.place_ids.front(), 5);
   ASSERT_EQ(a.place_ids.back(), 20);
   EXPECT_EQ(a.place_ids.size(), 16u);
@@ -63,8 +63,8 @@ TEST(PlaceIndex, AssociatesTheNearestFrameAndLeavesOthersUncovered) {
 }
 
 TEST(PlaceIndex, OppositeHeadingIsAnotherViewAndDetoursAddPlaces) {
-  std::vector<std::optional<PlacePose>> map;
-  for (const PlacePose& p : Straight(20, 1)) map.push_back(p);
+  std::vector<std::optional<PlacePose>> place_poses;
+  for (const PlacePose& p : Straight(20, 1)) place_poses.push_back(p);
   // East 0..10 m, a detour 30 m north for 10 m, back on the route, then west over 20..10 m.
   std::vector<PlacePose> drive;
   for (double x = 0; x <= 10; x += 0.5) drive.push_back(At(x, 0, 0));
@@ -72,12 +72,12 @@ TEST(PlaceIndex, OppositeHeadingIsAnotherViewAndDetoursAddPlaces) {
   for (double x = 20; x >= 10; x -= 0.5) drive.push_back(At(x, 0, kPi));
   PlaceIndexOptions o;
   o.association_radius_m = 0.75;
-  const PlaceAssignment kept = AssociateWithPlaces(drive, map, o);
+  const PlaceAssignment kept = AssociateWithPlaces(drive, place_poses, o);
   // Only 0..10 m east: the westward stretch sees the places from behind.
   EXPECT_EQ(kept.place_ids.size(), 11u);
   EXPECT_EQ(kept.place_ids.back(), 10);
   o.add_new_places = true;
-  const PlaceAssignment grown = AssociateWithPlaces(drive, map, o);
+  const PlaceAssignment grown = AssociateWithPlaces(drive, place_poses, o);
   // + the detour (10 m: 11 places) + the westward stretch (10 m: 11 places), numbered after
   // the map's 21.
   EXPECT_EQ(grown.new_places, 22);
@@ -86,7 +86,7 @@ TEST(PlaceIndex, OppositeHeadingIsAnotherViewAndDetoursAddPlaces) {
   EXPECT_NEAR(grown.place_poses[11].y_m, 30, 1e-9);
   EXPECT_NEAR(grown.place_poses.back().yaw_rad, kPi, 1e-9);
   o.max_yaw_difference_deg = 180;  // heading ignored: the westward stretch is the route
-  EXPECT_EQ(AssociateWithPlaces(drive, map, o).new_places, 11);
+  EXPECT_EQ(AssociateWithPlaces(drive, place_poses, o).new_places, 11);
 }
 
 TEST(PlaceIndex, InterpolatesPosesAndHeadings) {

@@ -57,6 +57,7 @@
 
 namespace bsf_vpr {
 
+// How AdaptiveFusion::Fuse fuses and decides a query.
 struct AdaptiveFusionOptions {
   // The queries over which a hypothesis's predictions count: lambda = 1 - 1 / memory.
   double memory_queries = 10;
@@ -65,32 +66,54 @@ struct AdaptiveFusionOptions {
   bool place_means = true;
   double place_prior_queries = 20;
   TemporalFilterOptions filter;  // how each hypothesis's belief moves between queries
+  // Each set's likelihood, and the decision from the belief: as FuseBayes takes them.
+  LikelihoodOptions likelihood;
+  Threshold threshold;
+  int top_k = 10;  // how many ranked places the belief keeps
 };
 
 class AdaptiveFusion {
  public:
+  // One query's inputs, what the selection made of them included. The fusion reads them
+  // during Fuse only; the caller owns them.
+  struct Query {
+    // The query's distances to each set present (`sets`), each set's ComputeDistanceStats
+    // (the selection's: one per set) and the condition weights (ConditionWeights, the soft
+    // form of the selection rule; one per set, in [0, 1]) over `num_places` places.
+    Query(const std::vector<SetDistances>& sets, const std::vector<DistanceStats>& set_stats,
+          const std::vector<double>& weights, int num_places)
+        : sets(sets), set_stats(set_stats), weights(weights), num_places(num_places) {}
+
+    const std::vector<SetDistances>& sets;
+    const std::vector<DistanceStats>& set_stats;
+    const std::vector<double>& weights;
+    int num_places;
+    // Names each set stably across queries (its index in the map, when some sets are
+    // missing for this query); null: 0, 1, ...
+    const std::vector<int>* set_ids = nullptr;
+    // The query's distances to a joint representation of the sets of its group (to every
+    // place in order); null: none.
+    const SetDistances* joint = nullptr;
+    const Eigen::VectorXd* log_prior = nullptr;  // N entries, may be unnormalised; null: uniform
+    // The progress since the previous query (odometry: it moves every hypothesis's belief,
+    // as +filter's); nullopt: the filter's mean step.
+    std::optional<double> step_places;
+  };
+
   // Fuses one query as described above and fills `out` as FuseBayes does, plus set_weights:
-  // per set, the weight its likelihood has, a_u + a_mixture w_u / W + a_product c_u.
-  // `set_ids` (null: 0, 1, ...) names each set of `sets` stably across queries (its index in
-  // the map, when some sets are missing for this query); a set missing from a query has no
-  // hypothesis in it, and when it is back its hypothesis starts again (uniform belief, the
-  // mean score). `step_places` is the progress since the previous query (odometry: it moves
-  // every hypothesis's belief, as +filter's), else the filter's mean step. Without
-  // update_state, or if it throws, the state is left as it was. `weights` and `set_stats` as
-  // for FuseMixture. `joint` (null: none), the query's distances to a joint representation
-  // of the sets of its group (to every place in order), adds the hypothesis
+  // per set, the weight its likelihood has, a_u + a_mixture w_u / W + a_product c_u. A set
+  // missing from a query has no hypothesis in it, and when it is back its hypothesis starts
+  // again (uniform belief, the mean score). Without update_state, or if it throws, the
+  // state is left as it was. A query's `joint` adds the hypothesis
   //
   //   joint      the query is best told by what the sets share:                 L_J(i)
   //
   // L_J the training-free likelihood of those distances with their own statistics (their
   // places' means corrected as a set's); PlaceBelief::joint_weight is its a_J. A group with
-  // fewer than two sets present leaves it out.
-  void Fuse(const std::vector<SetDistances>& sets, const std::vector<int>* set_ids,
-            const std::vector<double>& weights, int num_places, const LikelihoodOptions& likelihood,
-            const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
-            const AdaptiveFusionOptions& options, std::optional<double> step_places,
-            bool update_state, PlaceBelief* out, const std::vector<DistanceStats>& set_stats,
-            const SetDistances* joint = nullptr);
+  // fewer than two sets present leaves it out. Throws std::invalid_argument for inputs
+  // that do not fit together or options out of range.
+  void Fuse(const Query& query, const AdaptiveFusionOptions& options, bool update_state,
+            PlaceBelief* out);
 
   // Forgets every hypothesis's belief and score, and the places' means.
   void Reset();
@@ -148,6 +171,46 @@ class AdaptiveFusion {
                            std::vector<SetDistances>* corrected,
                            std::vector<DistanceStats>* corrected_stats,
                            std::vector<PlaceUpdate>* updates);
+  // A query's sources of evidence: its sets, then (given a joint) the joint representation,
+  // with the distances corrected by their places' means (the raw ones where there are none
+  // yet) and their statistics, and the updates of the means the query would make.
+  struct Sources {
+    std::vector<SetDistances> raw, corrected;
+    std::vector<DistanceStats> stats;  // of `corrected`
+    // The sets' entries of `corrected` and `stats` (all but the joint's).
+    std::vector<SetDistances> sets;
+    std::vector<DistanceStats> set_stats;
+    std::vector<PlaceUpdate> updates;
+  };
+  // A group's hypotheses' records from the last query.
+  struct Records {
+    std::vector<const Hypothesis*> of;  // per hypothesis of the query; null: none (new, stale)
+    double mean_score = 0;              // over the records kept (0 without)
+  };
+
+  // The steps of Fuse (adaptive_fusion.cpp).
+  static void CheckQuery(const Query& query, const AdaptiveFusionOptions& options);
+  Sources CorrectedSources(const Query& query, const AdaptiveFusionOptions& options);
+  // Adds the group's averaged likelihood to out->log_posterior and its sets' weights to
+  // out->set_weights; returns what the group would leave in the state.
+  GroupState FuseGroup(const Query& query, const Sources& sources, int group,
+                       const std::vector<int>& members, const std::vector<int>& components,
+                       const AdaptiveFusionOptions& options, PlaceBelief* out);
+  GroupState StartHypotheses(int group, const std::vector<int>& set_ids, bool with_joint);
+  Records RecordsOf(const GroupState& next, int num_places) const;
+  std::vector<const Eigen::ArrayXd*> HypothesisLikelihoods(
+      const std::vector<int>& members, const std::vector<double>& mixture_weight,
+      const std::vector<double>& exponent, std::optional<size_t> joint, int num_places);
+  static void ScoreHypotheses(const Records& records,
+                              const std::vector<const Eigen::ArrayXd*>& likelihoods,
+                              const AdaptiveFusionOptions& options,
+                              std::optional<double> step_places, int num_places, GroupState* next);
+  static std::vector<double> AverageHypotheses(
+      const GroupState& next, const std::vector<const Eigen::ArrayXd*>& likelihoods, int num_places,
+      PlaceBelief* out);
+  void Commit(int num_places, const Sources& sources, double prior_queries,
+              std::vector<GroupState>* pending);
+
   // Makes the updates with the raw distances `sets` (after a query that is kept).
   void CountPlaceMeans(const std::vector<SetDistances>& sets,
                        const std::vector<PlaceUpdate>& updates, double prior_queries);

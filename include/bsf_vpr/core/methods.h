@@ -54,6 +54,11 @@ enum class MethodKind {
   kDiscriminant
 };
 
+// The methods' names, written once: Method::Name, ParseMethod, its message and AllMethods
+// come from it, in the order AllMethods lists the methods. nn and bayes run on one set, named
+// after a colon (nn:<set>, bayes:<set>).
+const EnumNames<MethodKind>& MethodKindNames();
+
 // What bsf (fusion adaptive) adds to the sets' hypotheses: a joint representation of them
 // as one more, or nothing (the fusion of 2026-12-03).
 enum class FusionJoint { kNone, kMeanDescriptor, kSubspace, kDiscriminant };

@@ -125,7 +125,7 @@ void ReportSkipped(const Traversal& t, std::ostream& report) {
 std::vector<ReferenceSet> MakeReferenceSets(const ImportArgs& a, const std::vector<Traversal>& all,
                                             const FrameDescriber& frames, SharedPlaceIndex* index,
                                             int* aligned_places, std::ostream& report) {
-  const bool with_poses = all.front().pose_source != PoseSource::kNone;
+  const bool with_poses = all.front().pose_coordinates != PoseCoordinates::kNone;
   std::vector<ReferenceSet> sets;
   for (size_t r = 0; r < a.references.size(); ++r) {
     const Traversal& t = all[r];
@@ -221,14 +221,14 @@ int Run(int argc, char** argv) {
   if (all.front().descriptors.size() == 0) describer = MakeImageDescriber(a.describer);
   const FrameDescriber frames(describer.get(), a.resize);
   const std::string origin = BringToMapFrame(&all);
-  CheckOptionsApply(a, all.front().pose_source != PoseSource::kNone);
+  CheckOptionsApply(a, all.front().pose_coordinates != PoseCoordinates::kNone);
   std::ostringstream report;
 
   SharedPlaceIndex index(a.options.place_index);
   int aligned_places = 0;
   const std::vector<ReferenceSet> sets =
       MakeReferenceSets(a, all, frames, &index, &aligned_places, report);
-  const bool with_poses = all.front().pose_source != PoseSource::kNone;
+  const bool with_poses = all.front().pose_coordinates != PoseCoordinates::kNone;
   const PlacesWithinRadius near(index.place_poses(), a.options.tolerance_m);
   QueryTruth truth;
   if (with_poses) {

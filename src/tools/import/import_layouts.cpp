@@ -73,15 +73,18 @@ DatasetLayout ParseDatasetLayout(const std::string& text) {
 
 std::string ToString(DatasetLayout layout) { return DatasetLayoutNames().Name(layout); }
 
-const EnumNames<PoseSource>& PoseSourceNames() {
-  static const EnumNames<PoseSource> kNames{{PoseSource::kNone, "no poses (frame-aligned)"},
-                                            {PoseSource::kMap, "x,y,z,yaw poses"},
-                                            {PoseSource::kUtm, "UTM poses"},
-                                            {PoseSource::kLatLon, "latitude/longitude fixes"}};
+const EnumNames<PoseCoordinates>& PoseCoordinatesNames() {
+  static const EnumNames<PoseCoordinates> kNames{
+      {PoseCoordinates::kNone, "no poses (frame-aligned)"},
+      {PoseCoordinates::kMapFrame, "x,y,z,yaw poses"},
+      {PoseCoordinates::kUtm, "UTM poses"},
+      {PoseCoordinates::kLatLon, "latitude/longitude fixes"}};
   return kNames;
 }
 
-std::string ToString(PoseSource source) { return PoseSourceNames().Name(source); }
+std::string ToString(PoseCoordinates coordinates) {
+  return PoseCoordinatesNames().Name(coordinates);
+}
 
 Traversal ReadTraversal(DatasetLayout layout, const std::string& name, const std::string& spec,
                         const ReadOptions& options) {
@@ -130,7 +133,7 @@ Traversal ReadNordlandTraversal(const std::string& name, const std::string& fold
     }
     return t;
   }
-  t.pose_source = PoseSource::kLatLon;
+  t.pose_coordinates = PoseCoordinates::kLatLon;
   const CsvTable csv = CsvTable::Read(gps_csv);
   const int frame_col = csv.Find({"frame"});
   const int time_col = frame_col >= 0 ? -1 : csv.Require({"frame", "timestamp"});
@@ -189,10 +192,10 @@ Traversal ReadGenericTraversal(const std::string& name, const std::string& sourc
   const int x = csv.Find({"x"});
   int y = -1, z = -1, yaw = -1, lat = -1, lon = -1;
   if (x >= 0) {
-    t.pose_source = PoseSource::kMap;
+    t.pose_coordinates = PoseCoordinates::kMapFrame;
     y = csv.Require({"y"}), z = csv.Require({"z"}), yaw = csv.Require({"yaw"});
   } else if (csv.Find({"lat", "latitude"}) >= 0) {
-    t.pose_source = PoseSource::kLatLon;
+    t.pose_coordinates = PoseCoordinates::kLatLon;
     lat = csv.Require({"lat", "latitude"}), lon = csv.Require({"lon", "longitude"});
   } else {
     throw std::runtime_error("'" + poses_csv +
@@ -220,7 +223,7 @@ Traversal ReadGenericTraversal(const std::string& name, const std::string& sourc
     if (r > 0 && f.stamp_ns < t.frames.back().stamp_ns) {
       throw std::runtime_error(csv.Where(r) + ": timestamps must not decrease");
     }
-    if (t.pose_source == PoseSource::kMap) {
+    if (t.pose_coordinates == PoseCoordinates::kMapFrame) {
       f.pose = PlacePose{csv.Number(r, x), csv.Number(r, y), csv.Number(r, z), csv.Number(r, yaw)};
     } else {
       f.fix = GeoFix{csv.Number(r, lat), csv.Number(r, lon)};
@@ -239,15 +242,15 @@ std::string BringToMapFrame(std::vector<Traversal>* traversals) {
   if (all.empty()) return "";
   const Traversal& first = all.front();
   for (const Traversal& t : all) {
-    if (t.pose_source != first.pose_source) {
-      throw std::runtime_error("traversal '" + t.name + "' has " + ToString(t.pose_source) +
+    if (t.pose_coordinates != first.pose_coordinates) {
+      throw std::runtime_error("traversal '" + t.name + "' has " + ToString(t.pose_coordinates) +
                                ", the first reference '" + first.name + "' " +
-                               ToString(first.pose_source) + ": one import, one kind of pose");
+                               ToString(first.pose_coordinates) + ": one import, one kind of pose");
     }
   }
   std::ostringstream origin;
   origin.precision(12);
-  if (first.pose_source == PoseSource::kUtm) {
+  if (first.pose_coordinates == PoseCoordinates::kUtm) {
     const PlacePose o = first.first_utm;
     for (Traversal& t : all) {
       for (Frame& f : t.frames) {
@@ -258,7 +261,7 @@ std::string BringToMapFrame(std::vector<Traversal>* traversals) {
     }
     origin << "UTM easting " << o.x_m << " m, northing " << o.y_m << " m, up " << o.z_m
            << " m (the first sample of '" << first.name << "'s gps/ins.csv)";
-  } else if (first.pose_source == PoseSource::kLatLon) {
+  } else if (first.pose_coordinates == PoseCoordinates::kLatLon) {
     const GeoFix o = first.first_fix;
     for (Traversal& t : all) {
       std::vector<PlacePose> poses;

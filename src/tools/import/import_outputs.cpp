@@ -56,7 +56,7 @@ int WriteQueries(const Traversal& t, const FrameDescriber& describer, bool as_de
       truth.by_position == nullptr
           ? GroundTruth::FromFrameTolerance(n, truth.num_places, truth.tolerance)
           : GroundTruth();
-  const bool with_poses = t.pose_source != PoseSource::kNone;
+  const bool with_poses = t.pose_coordinates != PoseCoordinates::kNone;
   const std::string type = describer.DescriptorType(t);
   for (int k = 0; k < n; ++k) {
     const Frame& f = t.frames[static_cast<size_t>(k)];

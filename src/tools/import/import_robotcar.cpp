@@ -112,7 +112,7 @@ Traversal ReadRobotCarTraversal(const std::string& name, const std::string& fold
                                 const std::string& camera) {
   Traversal t;
   t.name = name;
-  t.pose_source = PoseSource::kUtm;
+  t.pose_coordinates = PoseCoordinates::kUtm;
   t.bayer_code = RobotCarBayerCode(camera);
   const fs::path images = Folder(fs::path(folder) / camera);
   if (!fs::is_directory(images)) {

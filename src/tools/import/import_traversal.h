@@ -27,16 +27,18 @@ const EnumNames<DatasetLayout>& DatasetLayoutNames();
 DatasetLayout ParseDatasetLayout(const std::string& text);
 std::string ToString(DatasetLayout layout);
 
-// Where a traversal's poses come from, before BringToMapFrame.
-enum class PoseSource {
-  kNone,    // no poses: frame-aligned (Nordland without GPS), frame k is place k
-  kMap,     // metres and radians in the map frame as given (generic x,y,z,yaw)
-  kUtm,     // RobotCar INS: x easting, y northing, z up (metres), yaw as in the map frame
-  kLatLon,  // latitude/longitude fixes (Frame::fix); no heading
+// The coordinates a traversal's logged poses are given in, before BringToMapFrame. (Not the
+// fusion node's PoseSource, which says where the robot's live pose comes from: tf or a
+// topic.)
+enum class PoseCoordinates {
+  kNone,      // no poses: frame-aligned (Nordland without GPS), frame k is place k
+  kMapFrame,  // metres and radians in the map frame as given (generic x,y,z,yaw)
+  kUtm,       // RobotCar INS: x easting, y northing, z up (metres), yaw as in the map frame
+  kLatLon,    // latitude/longitude fixes (Frame::fix); no heading
 };
-// What each source gives, for messages ("UTM poses").
-const EnumNames<PoseSource>& PoseSourceNames();
-std::string ToString(PoseSource source);
+// What each kind of coordinates gives, for messages ("UTM poses").
+const EnumNames<PoseCoordinates>& PoseCoordinatesNames();
+std::string ToString(PoseCoordinates coordinates);
 
 struct GeoFix {
   double latitude_deg = 0, longitude_deg = 0;
@@ -46,13 +48,13 @@ struct Frame {
   std::string image;     // image file; empty for a descriptor row
   int row = -1;          // row of Traversal::descriptors (a descriptor .npy)
   int64_t stamp_ns = 0;  // original time, > 0 (see each layout)
-  PlacePose pose;        // kMap / kUtm (after BringToMapFrame: map frame for all sources)
+  PlacePose pose;        // kMapFrame / kUtm (after BringToMapFrame: the map frame for all)
   GeoFix fix;            // kLatLon, until BringToMapFrame
 };
 
 struct Traversal {
   std::string name;
-  PoseSource pose_source = PoseSource::kNone;
+  PoseCoordinates pose_coordinates = PoseCoordinates::kNone;
   std::vector<Frame> frames;  // time order; frames without a pose are left out (counted)
   RowMatrixXf descriptors;    // a descriptor .npy (generic); empty for images
   std::string image_folder;   // the folder holding the frames' images; "" for a .npy
@@ -96,7 +98,7 @@ Traversal ReadGenericTraversal(const std::string& name, const std::string& sourc
 // counter-clockwise from east (radians). UTM positions and latitude/longitude fixes are
 // taken relative to the first sample of `traversals[0]`'s log (the first reference);
 // latitude/longitude become local metres (LocalMetresFromLatLon) with headings from the
-// path (HeadingsFromPath). Throws std::runtime_error when the traversals' pose sources
+// path (HeadingsFromPath). Throws std::runtime_error when the traversals' pose coordinates
 // differ, naming the traversal. Returns the origin as text for the user ("" for none).
 std::string BringToMapFrame(std::vector<Traversal>* traversals);
 

@@ -152,12 +152,12 @@ void ExpectRowsNameTheirFrames(const ReferenceSet& set, const std::string& folde
   }
 }
 
-// The layouts and pose sources have one table of names each.
+// The layouts and pose coordinates have one table of names each.
 TEST(ImportNames, EveryEnumerationsNamesRoundTrip) {
   testing::ExpectNamesRoundTrip(tools::DatasetLayoutNames(), tools::ParseDatasetLayout, "--layout");
-  testing::ExpectNamesRoundTrip<tools::PoseSource>(tools::PoseSourceNames(), nullptr,
-                                                   "pose source");
-  EXPECT_EQ(tools::ToString(tools::PoseSource::kUtm), "UTM poses");
+  testing::ExpectNamesRoundTrip<tools::PoseCoordinates>(tools::PoseCoordinatesNames(), nullptr,
+                                                        "pose coordinates");
+  EXPECT_EQ(tools::ToString(tools::PoseCoordinates::kUtm), "UTM poses");
 }
 
 TEST(ImportBayer, OpenCvCodesDemosaicTheSdkPatterns) {

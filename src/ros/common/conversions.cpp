@@ -13,12 +13,12 @@ void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int be
   ToBeliefMsg(r, recognizer.map().layout(), recognizer.decider(), belief_top_k, out);
 }
 
-void ToBeliefMsg(const Recognition& r, const PlaceLayout& map, const PlaceDecider& decider,
+void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDecider& decider,
                  int belief_top_k, Belief* out) {
   const PlaceBelief& b = r.belief;
   out->method = decider.method_name();
   out->gamma = decider.method_options().selection.gamma_fraction;
-  out->num_places = map.num_places();
+  out->num_places = layout.num_places();
   out->place_ids.clear();
   out->posterior.clear();
   if (b.log_posterior.size() > 0) {
@@ -40,19 +40,19 @@ void ToBeliefMsg(const Recognition& r, const PlaceLayout& map, const PlaceDecide
   }
   out->set_names.clear();
   out->set_min_distances.clear();
-  for (int u = 0; u < map.num_sets(); ++u) {
-    out->set_names.push_back(map.set(u).name);
+  for (int u = 0; u < layout.num_sets(); ++u) {
+    out->set_names.push_back(layout.set(u).name);
     out->set_min_distances.push_back(b.selection.set_stats.at(static_cast<size_t>(u)).min);
   }
   out->selected_sets.clear();
-  for (int u : b.selection.selected) out->selected_sets.push_back(map.set(u).name);
+  for (int u : b.selection.selected) out->selected_sets.push_back(layout.set(u).name);
   out->used_sets.clear();
-  for (int u : b.used_sets) out->used_sets.push_back(map.set(u).name);
+  for (int u : b.used_sets) out->used_sets.push_back(layout.set(u).name);
   out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
   out->joint_weight = static_cast<float>(b.joint_weight);
   out->off_map_probability = b.off_map_probability;
   out->missing_sets.clear();
-  for (int u : r.missing_sets) out->missing_sets.push_back(map.set(u).name);
+  for (int u : r.missing_sets) out->missing_sets.push_back(layout.set(u).name);
   out->match = b.match;
   out->confidence = b.confidence;
   out->accepted = b.accepted;
@@ -68,11 +68,11 @@ geometry_msgs::Pose ToPoseMsg(const PlacePose& pose) {
   return p;
 }
 
-bool ToMatchMsg(const Recognition& r, const PlaceLayout& map, Match* out) {
+bool ToMatchMsg(const Recognition& r, const PlaceLayout& layout, Match* out) {
   out->place_id = r.belief.match;
   out->confidence = r.belief.confidence;
-  out->reference_set = r.closest_set >= 0 ? map.set(r.closest_set).name : "";
-  return ToMatchPose(map.PoseOf(r.belief.match), out);
+  out->reference_set = r.closest_set >= 0 ? layout.set(r.closest_set).name : "";
+  return ToMatchPose(layout.PoseOf(r.belief.match), out);
 }
 
 bool ToMatchPose(const std::optional<PlacePose>& pose, Match* out) {

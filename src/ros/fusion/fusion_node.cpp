@@ -185,12 +185,12 @@ void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
 }
 
 void FusionNode::CheckDescriptorFormat() {
-  const PlaceLayout& map = *layout_;
+  const PlaceLayout& places = *layout_;
   std::string problem;
-  if (format_ && format_->dimension > 0 && map.num_sets() > 0 &&
-      map.dimension() != format_->dimension) {
+  if (format_ && format_->dimension > 0 && places.num_sets() > 0 &&
+      places.dimension() != format_->dimension) {
     std::string types;
-    for (const SetLayout& s : map.sets()) {
+    for (const SetLayout& s : places.sets()) {
       if (!s.descriptor_type.empty() && types.find(s.descriptor_type) == std::string::npos) {
         types += (types.empty() ? "" : ", ") + s.descriptor_type;
       }
@@ -199,8 +199,8 @@ void FusionNode::CheckDescriptorFormat() {
         "descriptor_ingest sends " + std::to_string(format_->dimension) + "-d " +
         (format_->descriptor_type.empty() ? std::string("descriptors")
                                           : "'" + format_->descriptor_type + "' descriptors") +
-        " (" + format_->source + "); the reference sets hold " + std::to_string(map.dimension()) +
-        "-d ones" + (types.empty() ? "" : " (" + types + ")") +
+        " (" + format_->source + "); the reference sets hold " +
+        std::to_string(places.dimension()) + "-d ones" + (types.empty() ? "" : " (" + types + ")") +
         ": no descriptor can be recognised. Load sets made with the ingest's describer "
         "(bsf_make_reference --images <folder> --image-descriptor <the ingest's "
         "image_descriptor>), or give the ingest the sets' describer or input:=descriptor";
@@ -432,7 +432,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   MutexLock lock(&mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double elapsed = std::max(1e-9, (now - last_diagnostics_).toSec());
-  const PlaceLayout& map = *layout_;
+  const PlaceLayout& places = *layout_;
   const std::string map_problem = map_->Problem();
   const std::string odometry_problem = odometry_->Problem();
   // Recording by pose while the poses fail (a frame missing, no publisher) keeps nothing.
@@ -465,7 +465,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
                    "recording '" + recording_->name() + "' by pose: " + pose_problem);
   } else if (!map_problem.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, map_problem);
-  } else if (map.num_sets() == 0) {
+  } else if (places.num_sets() == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference set loaded");
   } else if (!odometry_problem.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, odometry_problem);
@@ -497,9 +497,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   AddStatus(map_->Diagnose(), status);  // the first stage; a sharded map's shards
   odometry_->Diagnose(status);
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
-  status.add("loaded reference sets", map.num_sets());
-  status.add("places", map.num_places());
-  for (const SetLayout& s : map.sets()) {
+  status.add("loaded reference sets", places.num_sets());
+  status.add("places", places.num_places());
+  for (const SetLayout& s : places.sets()) {
     const ReferenceSetUsage usage = counters_.Usage(s.name);
     status.addf("selected: " + s.name, "%.1f%% of %ld queries, mean weight %.3f",
                 100.0 * usage.selected_fraction, counters_.queries(), usage.mean_weight);

@@ -10,13 +10,13 @@ long CountOf(const std::map<std::string, long>& m, const std::string& key) {
 
 }  // namespace
 
-void SelectionCounters::Count(const Recognition& r, const PlaceLayout& map) {
+void SelectionCounters::Count(const Recognition& r, const PlaceLayout& layout) {
   ++queries_;
-  for (int u : r.belief.selection.selected) ++selected_[map.set(u).name];
-  if (r.belief.selection.best >= 0) ++best_[map.set(r.belief.selection.best).name];
-  if (r.closest_set >= 0) ++supplied_[map.set(r.closest_set).name];
+  for (int u : r.belief.selection.selected) ++selected_[layout.set(u).name];
+  if (r.belief.selection.best >= 0) ++best_[layout.set(r.belief.selection.best).name];
+  if (r.closest_set >= 0) ++supplied_[layout.set(r.closest_set).name];
   for (size_t u = 0; u < r.belief.set_weights.size(); ++u) {
-    weight_[map.set(static_cast<int>(u)).name] += r.belief.set_weights[u];
+    weight_[layout.set(static_cast<int>(u)).name] += r.belief.set_weights[u];
   }
 }
 

@@ -17,7 +17,7 @@ namespace bsf_vpr {
 class SelectionCounters {
  public:
   // Counts one query's recognition against the map it was made with.
-  void Count(const Recognition& r, const PlaceLayout& map);
+  void Count(const Recognition& r, const PlaceLayout& layout);
   // Drops the counts of an unloaded set.
   void Forget(const std::string& set_name);
   void Reset();

@@ -107,15 +107,15 @@ std::string Joined(const std::vector<std::string>& items, size_t max_chars) {
 
 }  // namespace
 
-RouteLayout MakeRouteLayout(const PlaceLayout& map, const BeliefViewOptions& options) {
+RouteLayout MakeRouteLayout(const PlaceLayout& places, const BeliefViewOptions& options) {
   RouteLayout layout;
-  const int n = map.num_places();
-  const auto& poses = map.place_poses();
+  const int n = places.num_places();
+  const auto& poses = places.place_poses();
   layout.from_poses =
       n > 0 && std::all_of(poses.begin(), poses.end(), [](const auto& p) { return p.has_value(); });
   if (layout.from_poses) {
     for (const auto& p : poses) layout.points.emplace_back(p->x_m, p->y_m, p->z_m);
-    layout.spacing_m = map.MedianPlaceSpacing().value_or(0.0);
+    layout.spacing_m = places.MedianPlaceSpacing().value_or(0.0);
   } else {
     layout.spacing_m = options.marker_spacing_m > 0 ? options.marker_spacing_m
                        : n > 1                      ? options.view_size_m / (n - 1)

@@ -56,7 +56,7 @@ struct RouteLayout {
   double draw_scale = 1;
 };
 
-RouteLayout MakeRouteLayout(const PlaceLayout& map, const BeliefViewOptions& options);
+RouteLayout MakeRouteLayout(const PlaceLayout& places, const BeliefViewOptions& options);
 
 // Marker sizes in metres, each a fixed fraction of layout.scale_m (the bar width also
 // follows the spacing of the places, within bounds).

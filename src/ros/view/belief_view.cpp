@@ -130,12 +130,12 @@ sensor_msgs::ImageConstPtr BeliefView::QueryImage(const ros::Time& stamp) const 
 }
 
 cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
-                                   const PlaceLayout& map, std::string* note) {
+                                   const PlaceLayout& layout, std::string* note) {
   if (r.closest_set < 0) {
     *note = "no set the method used covers place " + std::to_string(belief.match);
     return cv::Mat();
   }
-  const SetLayout& set = map.set(r.closest_set);
+  const SetLayout& set = layout.set(r.closest_set);
   const auto& ids = set.place_ids;
   const auto row = std::find(ids.begin(), ids.end(), belief.match) - ids.begin();
   if (row == static_cast<long>(ids.size())) {
@@ -182,12 +182,12 @@ cv::Mat BeliefView::ReferenceImage(const Belief& belief, const Recognition& r,
 }
 
 void BeliefView::PublishMatchImage(const Belief& belief, const Recognition& r,
-                                   const PlaceLayout& map, const std::vector<int>& truth,
+                                   const PlaceLayout& layout, const std::vector<int>& truth,
                                    bool probabilistic) {
   PendingImage next;
   next.header = belief.header;
   MatchImageContent& content = next.content;
-  content.reference = ReferenceImage(belief, r, map, &content.reference_note);
+  content.reference = ReferenceImage(belief, r, layout, &content.reference_note);
   content.label_lines = BeliefLabelLines(belief, probabilistic);
   content.accepted = belief.accepted;
   content.num_places = belief.num_places;

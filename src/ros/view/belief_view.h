@@ -73,10 +73,10 @@ class BeliefView {
   // The image of the matched place in the set that supplied it, or empty with `note` saying
   // why; `note` names the set and place otherwise. Read within options_' limits, through
   // reference_images_.
-  cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
+  cv::Mat ReferenceImage(const Belief& belief, const Recognition& r, const PlaceLayout& layout,
                          std::string* note);
   // `probabilistic`: the belief's confidence is a log-odds (BeliefLabelLines).
-  void PublishMatchImage(const Belief& belief, const Recognition& r, const PlaceLayout& map,
+  void PublishMatchImage(const Belief& belief, const Recognition& r, const PlaceLayout& layout,
                          const std::vector<int>& truth, bool probabilistic);
 
   BeliefViewOptions options_;

@@ -62,8 +62,25 @@ using V8 = hn::Vec<D8>;
 constexpr int kW8 = static_cast<int>(hn::MaxLanes(D8()));
 constexpr int kVecs8 = kLanes / kW8;
 
+// One block of eight lanes: the rows' elements at rp[k], the queries' at qp[j]. Inlined into
+// its tile, so that the sums stay in registers.
 template <class T, int NQ, int NR>
-void TileRows(const TileArgs& a, const T* r, int r_stride) {
+HWY_INLINE void RowsBlock(const T* const* rp, const float* const* qp, V8 (&acc)[NQ][NR][kVecs8]) {
+  const D8 d;
+  for (int v = 0; v < kVecs8; ++v) {
+    V8 rv[NR];
+    for (int k = 0; k < NR; ++k) rv[k] = LoadFloats(d, rp[k] + v * kW8);
+    for (int j = 0; j < NQ; ++j) {
+      const V8 qv = hn::LoadU(d, qp[j] + v * kW8);
+      for (int k = 0; k < NR; ++k) acc[j][k][v] = LaneMulAdd(qv, rv[k], acc[j][k][v]);
+    }
+  }
+}
+
+// A tile is a function of its own (as each was when written per instruction set): inlined into
+// the driver, GCC kept its sums in memory, half the speed.
+template <class T, int NQ, int NR>
+HWY_NOINLINE void TileRows(const TileArgs& a, const T* r, int r_stride) {
   const D8 d;
   V8 acc[NQ][NR][kVecs8];
   for (int j = 0; j < NQ; ++j) {
@@ -74,22 +91,13 @@ void TileRows(const TileArgs& a, const T* r, int r_stride) {
       }
     }
   }
-  // One block of eight lanes: the rows' elements at rp[k] + v * kW8, the queries' at qp(j).
-  const auto block = [&](const auto& rp, const auto& qp) {
-    for (int v = 0; v < kVecs8; ++v) {
-      V8 rv[NR];
-      for (int k = 0; k < NR; ++k) rv[k] = LoadFloats(d, rp[k] + v * kW8);
-      for (int j = 0; j < NQ; ++j) {
-        const V8 qv = hn::LoadU(d, qp(j) + v * kW8);
-        for (int k = 0; k < NR; ++k) acc[j][k][v] = LaneMulAdd(qv, rv[k], acc[j][k][v]);
-      }
-    }
-  };
+  const T* rp[NR];
+  const float* qp[NQ];
   int i = a.i0;
   for (; i + kLanes <= a.i1; i += kLanes) {
-    const T* rp[NR];
     for (int k = 0; k < NR; ++k) rp[k] = r + k * r_stride + i;
-    block(rp, [&](int j) { return a.q + j * a.q_stride + i; });
+    for (int j = 0; j < NQ; ++j) qp[j] = a.q + j * a.q_stride + i;
+    RowsBlock<T, NQ, NR>(rp, qp, acc);
   }
   if (a.i1 < a.d) {
     for (int j = 0; j < NQ; ++j) {
@@ -103,13 +111,16 @@ void TileRows(const TileArgs& a, const T* r, int r_stride) {
   }
   if (i < a.d) {  // the last block, zero-padded
     HWY_ALIGN float rpad[NR][kLanes], qpad[NQ][kLanes];
-    const float* rp[NR];
+    const float* rpf[NR];
     for (int k = 0; k < NR; ++k) {
       PadTail(r + k * r_stride, i, a.d, rpad[k]);
-      rp[k] = rpad[k];
+      rpf[k] = rpad[k];
     }
-    for (int j = 0; j < NQ; ++j) PadTail(a.q + j * a.q_stride, i, a.d, qpad[j]);
-    block(rp, [&](int j) { return static_cast<const float*>(qpad[j]); });
+    for (int j = 0; j < NQ; ++j) {
+      PadTail(a.q + j * a.q_stride, i, a.d, qpad[j]);
+      qp[j] = qpad[j];
+    }
+    RowsBlock<float, NQ, NR>(rpf, qp, acc);
   }
   HWY_ALIGN float lanes[kLanes];
   for (int j = 0; j < NQ; ++j) {
@@ -162,7 +173,7 @@ BSF_VPR_VNNI HWY_INLINE V32 MulAccumulatePairs(V16 a, V16 b, V32 sum0, V32& sum1
 }
 
 template <int NQ, int NR>
-BSF_VPR_VNNI void TileInt8(const TileArgs& a, const int8_t* r, int r_stride) {
+BSF_VPR_VNNI HWY_NOINLINE void TileInt8(const TileArgs& a, const int8_t* r, int r_stride) {
   const D32 d32;
   const D16 d16;
   const hn::Rebind<int8_t, D16> d8;
@@ -226,8 +237,23 @@ HWY_INLINE VP PairRow(const T* p, int u) {
   return LoadFloats(dp, p + (u * kWP) % kLanes);
 }
 
+// One block: the rows' elements at rp[k], the pairs' at offset `at` (padded already).
 template <int NP, int NR>
-void TilePairs(const TileArgs& a, const float* r, int r_stride) {
+HWY_INLINE void PairsBlock(const TileArgs& a, const float* const* rp, int at,
+                           VP (&acc)[NP][NR][kVecsP]) {
+  const DP dp;
+  for (int u = 0; u < kVecsP; ++u) {
+    VP qv[NP];
+    for (int p = 0; p < NP; ++p) qv[p] = hn::LoadU(dp, a.pairs + p * a.pairs_stride + at + u * kWP);
+    for (int k = 0; k < NR; ++k) {
+      const VP rv = PairRow(rp[k], u);
+      for (int p = 0; p < NP; ++p) acc[p][k][u] = LaneMulAdd(qv[p], rv, acc[p][k][u]);
+    }
+  }
+}
+
+template <int NP, int NR>
+HWY_NOINLINE void TilePairs(const TileArgs& a, const float* r, int r_stride) {
   const DP dp;
   VP acc[NP][NR][kVecsP];
   for (int p = 0; p < NP; ++p) {
@@ -238,23 +264,11 @@ void TilePairs(const TileArgs& a, const float* r, int r_stride) {
       }
     }
   }
-  // One block: the rows' elements at rp[k], the pairs' at offset `at` (padded already).
-  const auto block = [&](const float* const* rp, int at) {
-    for (int u = 0; u < kVecsP; ++u) {
-      VP qv[NP];
-      for (int p = 0; p < NP; ++p)
-        qv[p] = hn::LoadU(dp, a.pairs + p * a.pairs_stride + at + u * kWP);
-      for (int k = 0; k < NR; ++k) {
-        const VP rv = PairRow(rp[k], u);
-        for (int p = 0; p < NP; ++p) acc[p][k][u] = LaneMulAdd(qv[p], rv, acc[p][k][u]);
-      }
-    }
-  };
   const int full = a.i1 - (a.i1 - a.i0) % kLanes;  // a pass ends on a block unless at d
   const float* rp[NR];
   for (int i = a.i0; i < full; i += kLanes) {
     for (int k = 0; k < NR; ++k) rp[k] = r + k * r_stride + i;
-    block(rp, 2 * i);
+    PairsBlock<NP, NR>(a, rp, 2 * i, acc);
   }
   if (a.i1 == a.d && full < a.d) {  // the zero-padded tail
     HWY_ALIGN float pad[NR][kLanes];
@@ -262,7 +276,7 @@ void TilePairs(const TileArgs& a, const float* r, int r_stride) {
       PadTail(r + k * r_stride, full, a.d, pad[k]);
       rp[k] = pad[k];
     }
-    block(rp, 2 * full);
+    PairsBlock<NP, NR>(a, rp, 2 * full, acc);
   }
   HWY_ALIGN float lanes[2 * kLanes];
   for (int p = 0; p < NP; ++p) {

@@ -105,8 +105,8 @@ class ScopedDistanceKernel {
 
 TEST(ApproximateIndex, RerankingEveryRowGivesExactSearchBitForBit) {
   const ScopedDistanceKernel kernel;
-  for (const std::string name : {"portable", "avx2", "avx512", "avx512_vnni"}) {
-    if (!kernel.Set(name)) continue;  // not on this CPU
+  for (const std::string& name : testing::AvailableKernels()) {
+    ASSERT_TRUE(kernel.Set(name)) << name;
     for (StoragePrecision precision : kPrecisions) {
       const ReferenceMap map = ThreeSets(precision);
       // rerank = 150 is the largest set's size: every row of every set is re-ranked.

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <tuple>
@@ -104,19 +106,16 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
   }
 }
 
-// AVX-512 does float32 batches two queries to a register, and float32 and float16 batches by
-// lane from 32 queries, in AVX2's order: the same bits, on batches that take every tile shape,
-// any thread count and both metrics.
-TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
-  const std::vector<std::string> kernels = testing::AvailableKernels();
-  if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
-    GTEST_SKIP() << "this CPU has no AVX-512";
-  }
-  // 19 and 20 queries: a tile of 8 with pairs and one query left over, or pairs only. 32 and
-  // more: by lane (kPackQueries), in panels of 12 queries (37: three and one of 1; 36: three
-  // whole; 100: eight and one of 4) and of 32 rows, whole and partial (the rows are split
-  // between the threads only for a large enough batch), with elements past d in the last step
-  // (d = 5, 13, 1029, 1031, 2051).
+// The SIMD kernels (AVX-512 VNNI, AVX-512, AVX2, NEON: all multiply-add with FMA) give the same
+// distances, on batches that take every layout by default (19 and 20 queries: pairs on AVX-512
+// and one query left over or none; 32 and more: lanes there, in panels of 12 queries (37, 36,
+// 100) and 32 rows, whole and partial, elements past d in the last step), for any thread count
+// and both metrics. Skipped on a CPU with one SIMD kernel: the layouts themselves are compared
+// on every kernel below.
+TEST(DescriptorStore, SimdKernelsGiveTheSameBits) {
+  std::vector<std::string> simd = testing::AvailableKernels();
+  simd.erase(std::find(simd.begin(), simd.end(), "portable"));
+  if (simd.size() < 2) GTEST_SKIP() << "this CPU runs one SIMD kernel";
   for (auto [nq, d, rows] :
        {std::tuple{19, 8, 197}, std::tuple{20, 517, 197}, std::tuple{19, 1029, 197},
         std::tuple{20, 1029, 197}, std::tuple{16, 4096, 197}, std::tuple{37, 13, 197},
@@ -129,60 +128,89 @@ TEST(DescriptorStore, Avx512AndAvx2KernelsGiveTheSameBits) {
       map.Add(MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9)));
       for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
         const testing::ScopedDistanceThreads threads(2);
-        SetDistanceKernel("avx2");
-        const RowMatrixXf avx2 = ComputeDistances(m, q, map.set(0));
-        SetDistanceKernel("avx512");
-        const RowMatrixXf avx512 = ComputeDistances(m, q, map.set(0));
-        SetDistanceKernel("auto");
-        EXPECT_TRUE((avx2.array() == avx512.array()).all())
-            << nq << " queries, d=" << d << " " << ToString(m) << " " << ToString(p);
+        SetDistanceKernel(simd.back());
+        const RowMatrixXf last = ComputeDistances(m, q, map.set(0));
+        for (const std::string& kernel : simd) {
+          SetDistanceKernel(kernel);
+          const RowMatrixXf other = ComputeDistances(m, q, map.set(0));
+          EXPECT_TRUE((other.array() == last.array()).all())
+              << kernel << " vs " << simd.back() << ", " << nq << " queries, d=" << d << " "
+              << ToString(m) << " " << ToString(p);
+        }
       }
     }
   }
+  SetDistanceKernel("auto");
 }
 
-// The lane tiles' inner products themselves (not only the distances made from them, which
-// can absorb a last-bit difference): bit for bit the AVX2 kernel's, float32 and float16 rows,
-// for panels of queries whole and partial (32, 37, 100), panels of rows whole, partial, of
-// exactly 16 and under 16 (1, 16, 17, 33, 48, 70), rows shorter than a block and with a tail
-// (d = 1, 5, 8, 13, 1031), and queries prepared on one kernel and run on the other.
-TEST(DescriptorStore, LaneTilesGiveTheAvx2KernelsInnerProducts) {
+// The pair and lane tiles (QueryLayout::kPairs, kLanes: chosen on AVX-512 only, where they pay)
+// give the row tiles' inner products bit for bit on every kernel this CPU runs, so that their
+// algorithm is tested where AVX-512 is not at hand: float32 and float16 rows (pairs float32
+// only; float16 falls back to rows), panels of queries whole and partial (19: pairs and one
+// left over; 32, 37, 100), panels of rows whole, partial, of exactly 16 and under 16 (1, 16, 17,
+// 33, 48, 70), rows shorter than a block, with a tail and in passes of 1024 (d = 1, 5, 8, 13,
+// 1031, 2051), raw and made distances; and queries prepared by default on one kernel and run on
+// another. Across the SIMD kernels the row tiles agree too (FMA everywhere).
+TEST(DescriptorStore, PairAndLaneTilesGiveTheRowTilesBitsOnEveryKernel) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
-  if (std::find(kernels.begin(), kernels.end(), "avx512") == kernels.end()) {
-    GTEST_SKIP() << "this CPU has no AVX-512";
-  }
-  for (const int d : {1, 5, 8, 13, 1031}) {
+  for (const int d : {1, 5, 8, 13, 1031, 2051}) {
     const RowMatrixXf q = testing::RandomMatrix(100, d, 41);
     const RowMatrixXf rows = testing::RandomMatrix(70, d, 42);
     std::vector<uint16_t> halves(static_cast<size_t>(rows.size()));
     for (Eigen::Index k = 0; k < rows.size(); ++k) {
       halves[static_cast<size_t>(k)] = FloatToHalf(rows.data()[k]);
     }
+    std::vector<float> q_norms(100), r_norms(70);
+    for (int k = 0; k < 100; ++k) q_norms[k] = q.row(k).squaredNorm();
+    for (int k = 0; k < 70; ++k) r_norms[k] = rows.row(k).squaredNorm();
+    kernels::ToDistancesArgs finish;
+    finish.query_squared_norms = q_norms.data();
+    finish.row_squared_norms = r_norms.data();
     for (const StoragePrecision p : {StoragePrecision::kFloat32, StoragePrecision::kFloat16}) {
       kernels::RefRows refs;
       refs.precision = p;
       refs.data = p == StoragePrecision::kFloat32 ? static_cast<const void*>(rows.data())
                                                   : static_cast<const void*>(halves.data());
       refs.cols = d;
-      for (const int nq : {32, 37, 100}) {
+      for (const int nq : {19, 32, 37, 100}) {
         for (const int count : {1, 16, 17, 33, 48, 70}) {
-          const auto dots = [&](const std::string& prepare_on, const std::string& run_on) {
+          if (d > 1031 && count != 70) continue;  // the passes need no more shapes
+          const auto dots = [&](const std::string& prepare_on, const std::string& run_on,
+                                kernels::QueryLayout layout, bool distances) {
             SetDistanceKernel(prepare_on);
-            const kernels::Queries prepared = kernels::PrepareQueries(q.data(), nq, d, d, false);
+            const kernels::Queries prepared =
+                kernels::PrepareQueries(q.data(), nq, d, d, false, layout);
             SetDistanceKernel(run_on);
             std::vector<float> out(static_cast<size_t>(nq) * count, -1.0f);
-            kernels::Dots(refs, 0, count, prepared, out.data(), count);
+            kernels::Dots(refs, 0, count, prepared, out.data(), count,
+                          distances ? &finish : nullptr);
             return out;
           };
-          const std::vector<float> avx2 = dots("avx2", "avx2");
           const std::string at = ToString(p) + " d=" + std::to_string(d) +
                                  " Q=" + std::to_string(nq) + " rows=" + std::to_string(count);
-          for (const auto& [prepare_on, run_on] :
-               {std::pair{"avx512", "avx512"}, std::pair{"avx512", "avx2"},
-                std::pair{"avx2", "avx512"}}) {
-            const std::vector<float> other = dots(prepare_on, run_on);
-            ASSERT_EQ(std::memcmp(other.data(), avx2.data(), avx2.size() * sizeof(float)), 0)
-                << at << ", prepared on " << prepare_on << ", run on " << run_on;
+          std::vector<float> simd_rows;
+          for (const std::string& kernel : kernels) {
+            using kernels::QueryLayout;
+            for (const bool distances : {false, true}) {
+              const std::vector<float> by_rows =
+                  dots(kernel, kernel, QueryLayout::kRows, distances);
+              for (const QueryLayout layout : {QueryLayout::kPairs, QueryLayout::kLanes}) {
+                const std::vector<float> other = dots(kernel, kernel, layout, distances);
+                ASSERT_EQ(std::memcmp(other.data(), by_rows.data(), by_rows.size() * 4), 0)
+                    << at << " on " << kernel << ", layout " << static_cast<int>(layout)
+                    << (distances ? ", distances" : "");
+              }
+              if (distances || kernel == "portable") continue;
+              if (simd_rows.empty()) simd_rows = by_rows;
+              ASSERT_EQ(std::memcmp(simd_rows.data(), by_rows.data(), by_rows.size() * 4), 0)
+                  << at << " on " << kernel << " vs " << kernels.front();
+              for (const std::string& prepare_on : kernels) {
+                const std::vector<float> other =
+                    dots(prepare_on, kernel, QueryLayout::kAuto, false);
+                ASSERT_EQ(std::memcmp(other.data(), by_rows.data(), by_rows.size() * 4), 0)
+                    << at << ", prepared on " << prepare_on << ", run on " << kernel;
+              }
+            }
           }
         }
       }
@@ -191,7 +219,7 @@ TEST(DescriptorStore, LaneTilesGiveTheAvx2KernelsInnerProducts) {
   SetDistanceKernel("auto");
 }
 
-// Every kernel (AVX2 and AVX-512 where the CPU has them, and the portable one), every storage and
+// Every kernel (the SIMD ones the CPU runs, and the portable one), every storage and
 // every tile shape: a query alone gets bitwise what it gets in a batch, for any thread count.
 TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
@@ -222,10 +250,33 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
   EXPECT_THROW(SetDistanceKernel("sse9"), std::invalid_argument);
 }
 
+// Every kernel name: the ones this CPU runs are taken and reported back, the others refused
+// with std::invalid_argument (not compiled for this architecture, or not run by this CPU).
+// With BSF_EXPECT_KERNEL set (scripts/cross_arm64: neon under qemu's Cortex-A72), the kernel
+// chosen by CPU must be that one: an ARM build that fell back to the portable path fails here.
+TEST(DescriptorStore, KernelsAreChosenByNameAndByCpu) {
+  const std::vector<std::string> available = testing::AvailableKernels();
+  for (const std::string name : {"avx512_vnni", "avx512", "avx2", "neon", "portable"}) {
+    if (std::find(available.begin(), available.end(), name) != available.end()) {
+      SetDistanceKernel(name);
+      EXPECT_EQ(DistanceKernel(), name);
+    } else {
+      EXPECT_THROW(SetDistanceKernel(name), std::invalid_argument) << name;
+    }
+  }
+  SetDistanceKernel("auto");
+  EXPECT_EQ(DistanceKernel(), available.front());
+  std::printf("distance kernel by CPU: %s\n", DistanceKernel().c_str());
+  if (const char* expected = std::getenv("BSF_EXPECT_KERNEL")) {
+    EXPECT_EQ(DistanceKernel(), expected) << "BSF_EXPECT_KERNEL";
+  }
+}
+
 // int8 rows are summed exactly in integers: every kernel the CPU has (VNNI's 32 products an
-// instruction, AVX2's 16, the portable loop) gives the same inner products, bit for bit, for
-// every tile shape and row length (whole 32-element steps or a tail); the distances too on
-// the vector kernels (the portable one rounds the query's float norm in another order).
+// instruction, AVX-512's and AVX2's madd, NEON's widening multiply-adds, the portable loop) gives
+// the same inner products, bit for bit, for every tile shape and row length (whole 32-element steps
+// or a tail); the distances too on the vector kernels (the portable one rounds the query's float
+// norm in another order).
 TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
   const std::vector<std::string> kernels = testing::AvailableKernels();
   for (const int d : {8, 31, 32, 33, 256, 1029, 4096}) {
@@ -265,26 +316,25 @@ TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
   SetDistanceKernel("auto");
 }
 
-TEST(DescriptorStore, AvxAndPortableKernelsAgreeToRounding) {
-  const std::vector<std::string> kernels = testing::AvailableKernels();
-  if (std::find(kernels.begin(), kernels.end(), "avx2") == kernels.end()) {
-    GTEST_SKIP() << "this CPU has no AVX2";
-  }
+// The best SIMD kernel (FMA) and the portable one (multiply, then add) agree to rounding.
+TEST(DescriptorStore, SimdAndPortableKernelsAgreeToRounding) {
+  const std::string simd = testing::AvailableKernels().front();
+  if (simd == "portable") GTEST_SKIP() << "this CPU runs no SIMD kernel";
   const RowMatrixXf q = testing::RandomMatrix(6, 517, 6);
   const ReferenceSet set = MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7));
   SetDistanceKernel("portable");
   const RowMatrixXf portable = ComputeDistances(DistanceMetric::kEuclidean, q, set);
-  SetDistanceKernel("avx2");
-  const RowMatrixXf avx2 = ComputeDistances(DistanceMetric::kEuclidean, q, set);
+  SetDistanceKernel(simd);
+  const RowMatrixXf vector = ComputeDistances(DistanceMetric::kEuclidean, q, set);
   SetDistanceKernel("auto");
-  EXPECT_LT((portable - avx2).cwiseAbs().maxCoeff(), 1e-4f * portable.cwiseAbs().maxCoeff());
+  EXPECT_LT((portable - vector).cwiseAbs().maxCoeff(), 1e-4f * portable.cwiseAbs().maxCoeff());
   // int8 rows are summed exactly in integers: the two kernels agree to the bit.
   ReferenceMap map;
   map.SetStoragePrecision(StoragePrecision::kInt8);
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7)));
   SetDistanceKernel("portable");
   const RowMatrixXf portable8 = ComputeDistances(DistanceMetric::kCosine, q, map.set(0));
-  SetDistanceKernel("avx2");
+  SetDistanceKernel(simd);
   const RowMatrixXf avx8 = ComputeDistances(DistanceMetric::kCosine, q, map.set(0));
   SetDistanceKernel("auto");
   EXPECT_TRUE((portable8.array() == avx8.array()).all());

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -16,21 +17,24 @@
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/types.h"
 #include "bsf_vpr/evaluation/synthetic.h"
+#include "src/core/internal/distance_kernels.h"
 
 namespace bsf_vpr {
 namespace testing {
 
-// The portable kernel, and AVX2, AVX-512 and AVX-512 VNNI where the CPU has them.
+// Every kernel compiled in that this CPU runs (simd_targets.h: AVX-512 VNNI, AVX-512, AVX2 or
+// NEON, and the portable one always), best first; the first call prints them, so that a test
+// log says which kernels the bit tests compared.
 inline std::vector<std::string> AvailableKernels() {
-  std::vector<std::string> out = {"portable"};
-  for (const std::string k : {"avx2", "avx512", "avx512_vnni"}) {
-    try {
-      SetDistanceKernel(k);
-      out.push_back(k);
-    } catch (const std::invalid_argument&) {
-    }
-  }
-  SetDistanceKernel("auto");
+  const std::vector<std::string> out = kernels::Available();
+  static const bool printed = [&out] {
+    std::string names;
+    for (const std::string& k : out) names += " " + k;
+    std::printf("distance kernels run by the tests:%s (auto: %s)\n", names.c_str(),
+                DistanceKernel().c_str());
+    return true;
+  }();
+  (void)printed;
   return out;
 }
 

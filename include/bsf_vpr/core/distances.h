@@ -47,16 +47,16 @@ struct SetDistances {
 void SetDistanceThreads(int n);
 int DistanceThreads();
 
-// The inner-product kernel in use: "avx512_vnni" (AVX-512 VNNI and BW besides "avx512": the
-// int8 rows' integer products 32 an instruction), "avx512" (AVX-512 F + DQ besides AVX2),
-// "avx2" (AVX2 + FMA + F16C), each chosen when the CPU has it, or "portable".
-// SetDistanceKernel("portable" | "avx2" | "avx512" | "avx512_vnni" | "auto") overrides the
-// choice for the process (tests, benchmarks); throws std::invalid_argument if the CPU cannot
-// run it. "avx512_vnni", "avx512" and "avx2" give the same bits (the same order and FMA;
+// The inner-product kernel in use, one source compiled for each instruction set (Google
+// Highway) and chosen at run time as the best the CPU runs: "avx512_vnni" (Highway's AVX3_DL:
+// AVX-512 with VNNI, the int8 rows' integer products 32 an instruction), "avx512" (AVX3:
+// AVX-512 F, VL, DQ, BW), "avx2" (AVX2 + FMA + F16C), "neon" (aarch64), or "portable".
+// SetDistanceKernel(one of them | "auto") overrides the choice for the process (tests,
+// benchmarks); throws std::invalid_argument for an unknown name or if the CPU cannot run it.
+// "avx512_vnni", "avx512", "avx2" and "neon" give the same bits (the same order and FMA;
 // AVX-512 batches two queries to a register, or from 32 queries one lane at a time);
-// "portable" differs from them in the last bits of
-// float32 and float16 rows. int8 rows are summed exactly in integers: the same bits on
-// every kernel.
+// "portable" differs from them in the last bits of float32 and float16 rows. int8 rows are
+// summed exactly in integers: the same bits on every kernel.
 std::string DistanceKernel();
 void SetDistanceKernel(const std::string& name);
 

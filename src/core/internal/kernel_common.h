@@ -1,7 +1,7 @@
-// The parts every distance kernel shares (distance_kernels.cpp, kernels_*.h): the eight
-// lanes and their fixed reduction tree, the tile's arguments, the int8 rules. Included by
-// distance_kernels.cpp alone, which dispatches among the kernels: the whole of them is one
-// translation unit, compiled with -ffp-contract=off.
+// The scalar parts every distance kernel shares (distance_kernels.cpp and the tiles of
+// distance_tiles-inl.h, compiled once per target): the eight lanes and their fixed reduction
+// tree, the tile's arguments, the int8 rules. Included by the kernels' translation units
+// alone, which are compiled with -ffp-contract=off.
 #pragma once
 
 #include <algorithm>
@@ -11,15 +11,6 @@
 #include <stdexcept>
 #include <type_traits>
 #include <vector>
-#if defined(__x86_64__) || defined(__i386__)
-#include <cpuid.h>
-#include <immintrin.h>
-#define BSF_VPR_HAVE_AVX2_KERNEL 1
-#define BSF_VPR_AVX2 __attribute__((target("avx2,fma,f16c")))
-#define BSF_VPR_AVX512 __attribute__((target("avx512f,avx512dq,avx2,fma,f16c")))
-#define BSF_VPR_AVX512_VNNI \
-  __attribute__((target("avx512f,avx512dq,avx512bw,avx512vnni,avx2,fma,f16c")))
-#endif
 
 #include "src/core/internal/distance_kernels.h"
 
@@ -28,6 +19,21 @@ namespace kernels {
 namespace {
 
 constexpr int kLanes = 8;
+// Queries from which a tile gains by passes over L1-sized pieces of the rows (and by an
+// aligned copy of the queries), from which pairs of queries pay, and from which lane-major
+// panels do (the rows' packing is paid back by the panels of queries that pass over them).
+constexpr int kBatchQueries = 8;
+constexpr int kPackQueries = 32;
+// The lane-major tiles: panels of 12 queries x 32 rows (distance_lanes-inl.h).
+constexpr int kLaneQueries = 12;
+constexpr int kLaneRows = 32;
+
+// `buffer` sized for `count` floats starting on a 64-byte boundary; returns that start.
+inline float* On64Bytes(size_t count, std::vector<float>* buffer) {
+  buffer->resize(count + 16);
+  float* p = buffer->data();
+  return p + (16 - (reinterpret_cast<uintptr_t>(p) / sizeof(float)) % 16) % 16;
+}
 
 // The fixed reduction tree of the eight lanes.
 inline float ReduceLanes(const float* l) {
@@ -62,7 +68,7 @@ struct TileArgs {
   float scale = 1.0f;
   const int16_t* q16 = nullptr;
   const float* q_scales = nullptr;
-  // AVX-512 pair tiles only: queries 2p and 2p + 1 interleaved in blocks of eight elements
+  // Pair tiles only: queries 2p and 2p + 1 interleaved in blocks of eight elements
   // (pair p at pairs + p * pairs_stride; see Queries::pairs).
   const float* pairs = nullptr;
   int pairs_stride = 0;
@@ -71,7 +77,7 @@ struct TileArgs {
 // ---- int8 rows: integer inner products -----------------------------------------------
 // The query is rounded to int16 with its own scale and each pair's products are summed
 // exactly in integers (int32 lanes that cannot overflow, see QueryLevels), so the value
-// does not depend on any order: both kernels and every tile give the same bits.
+// does not depend on any order: every kernel and every tile give the same bits.
 
 inline float Int8Result(int64_t sum, float row_scale, float query_scale) {
   return static_cast<float>(static_cast<double>(sum) *
@@ -90,7 +96,7 @@ inline float Int8Finish(const int32_t* lanes, int count, const int16_t* q, const
 
 // Largest |int16 level| of a query such that an int32 lane (d / 8 products of at most
 // 127 x level) cannot overflow.
-int QueryLevels(int d) {
+inline int QueryLevels(int d) {
   const int64_t bound = (int64_t{2147483647} * 8) / (int64_t{127} * std::max(d, 8));
   return static_cast<int>(std::min<int64_t>(32767, bound));
 }

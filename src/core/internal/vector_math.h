@@ -1,8 +1,9 @@
 // Vector math over arrays of doubles, for the likelihoods, the fusion and the filter: exp,
 // its sum, log, the filter's step sums and weighted sums of columns. Each is one algorithm, its
-// multiplies and adds rounded one by one in a fixed order, run 8 lanes at a time with AVX-512, 4
-// with AVX2 and one at a time otherwise, so every kernel gives the same bits. Dispatched with the
-// distance kernels (kernels::Active(), kernels::Force()).
+// multiplies and adds rounded one by one in a fixed order, written once over Google Highway
+// (vector_math.cpp) and run 8 lanes at a time with AVX-512, 4 with AVX2, 2 with NEON and one at a
+// time on the portable kernel, so every kernel gives the same bits. Dispatched with the distance
+// kernels (kernels::Active(), kernels::Force()).
 //
 // exp: Cody-Waite reduction by ln 2, a degree-13 Taylor polynomial in Horner form, scaling by
 // two powers of two. Within 2 ulp of the exact value for results in the normal range; 0 below

@@ -1,0 +1,149 @@
+// The lane-major tiles of the distance kernels (QueryLayout::kLanes), written once over
+// Google Highway and compiled once per target with distance_tiles-inl.h. Included by
+// distance_kernels.cpp alone.
+//
+// Lane j of a pair (query, row) is the sum, from zero, of one multiply-add per element
+// i = j (mod 8) in increasing i: for each lane, a matrix product of the queries' and the rows'
+// elements of that lane, each output accumulated in order. So a tile of 12 queries x 32 rows
+// runs as a matrix product's micro-kernel does: per element, one query element broadcast
+// against the 32 rows' elements in registers. The eight lanes run one after another and are
+// added in ReduceLanes's tree: the same bits as the other tiles. With 16 floats a register
+// (AVX-512) that is 24 registers of sums and two of rows, about a third of the pair tiles'
+// load traffic per FMA (measured on Zen 5 at 93-99% of OpenBLAS sgemm's throughput); with 8
+// (AVX2) the 48 sums would not fit in 16 registers, so PrepareQueries takes lanes on
+// 16-float targets only, and the other targets run these tiles in the tests.
+
+#if defined(BSF_VPR_DISTANCE_LANES_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef BSF_VPR_DISTANCE_LANES_INL_H_
+#undef BSF_VPR_DISTANCE_LANES_INL_H_
+#else
+#define BSF_VPR_DISTANCE_LANES_INL_H_
+#endif
+
+#include <hwy/highway.h>
+
+#include "src/core/internal/distance_tiles-inl.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace bsf_vpr {
+namespace kernels {
+namespace HWY_NAMESPACE {
+
+using DL = hn::CappedTag<float, kLaneRows>;
+using VL = hn::Vec<DL>;
+constexpr int kWL = static_cast<int>(hn::MaxLanes(DL()));
+constexpr int kVecsL = kLaneRows / kWL;
+using LaneSums = VL[kLaneQueries][kVecsL];
+
+// Rows [b0, b0 + count) (count <= 32; d float32 or float16 values each) packed as floats:
+// lane j's step t (element 8 t + j of each row; zero past d and past count) at
+// packed + (j * steps + t) * 32, steps = ceil(d / 8). `packed` on 64 bytes. Each row's block
+// of eight elements is decoded with vectors, then written lane by lane.
+template <class T>
+void PackRowLanes(const T* rows, int d, int b0, int count, float* packed) {
+  const D8 d8;
+  const int steps = (d + kLanes - 1) / kLanes, full = d / kLanes;
+  for (int t = 0; t < steps; ++t) {
+    HWY_ALIGN float block[kLaneRows][kLanes];
+    for (int k = 0; k < kLaneRows; ++k) {
+      const T* row = k < count ? rows + static_cast<size_t>(b0 + k) * d : nullptr;
+      if (row == nullptr) {
+        std::fill(block[k], block[k] + kLanes, 0.0f);
+      } else if (t < full) {
+        for (int v = 0; v < kVecs8; ++v) {
+          hn::Store(LoadFloats(d8, row + t * kLanes + v * kW8), d8, block[k] + v * kW8);
+        }
+      } else {
+        PadTail(row, t * kLanes, d, block[k]);
+      }
+    }
+    for (int j = 0; j < kLanes; ++j) {
+      float* to = packed + (static_cast<size_t>(j) * steps + t) * kLaneRows;
+      for (int k = 0; k < kLaneRows; ++k) to[k] = block[k][j];
+    }
+  }
+}
+
+// One lane of a tile: acc[q][h] = sum over the steps, from zero, of a[q] * b[h * kWL ..],
+// a stepping by kLaneQueries and b by 32.
+HWY_INLINE void LanePass(const float* a, const float* b, int steps, LaneSums& acc) {
+  const DL dl;
+  for (int q = 0; q < kLaneQueries; ++q) {
+    for (int h = 0; h < kVecsL; ++h) acc[q][h] = hn::Zero(dl);
+  }
+  for (int t = 0; t < steps; ++t, a += kLaneQueries, b += kLaneRows) {
+    VL rv[kVecsL];
+    for (int h = 0; h < kVecsL; ++h) rv[h] = hn::Load(dl, b + h * kWL);
+    for (int q = 0; q < kLaneQueries; ++q) {
+      const VL x = hn::Set(dl, a[q]);
+      for (int h = 0; h < kVecsL; ++h) acc[q][h] = LaneMulAdd(x, rv[h], acc[q][h]);
+    }
+  }
+}
+HWY_INLINE void KeepLanes(const LaneSums& acc, float* keep) {
+  for (int q = 0; q < kLaneQueries; ++q) {
+    for (int h = 0; h < kVecsL; ++h) hn::Store(acc[q][h], DL(), keep + q * kLaneRows + h * kWL);
+  }
+}
+// acc = keep + acc (a float sum's operands commute: the bits of acc + keep).
+HWY_INLINE void AddKeptLanes(const float* keep, LaneSums& acc) {
+  for (int q = 0; q < kLaneQueries; ++q) {
+    for (int h = 0; h < kVecsL; ++h) {
+      acc[q][h] = hn::Add(hn::Load(DL(), keep + q * kLaneRows + h * kWL), acc[q][h]);
+    }
+  }
+}
+
+// Lanes j and j + 4 of a tile (lane j's step t at a + (j * steps + t) * kLaneQueries, and at
+// b + (j * steps + t) * 32): acc = l_j + l_{j+4}, lane j kept in `scratch` meanwhile.
+HWY_INLINE void LanePair(const float* a, const float* b, int steps, int j, float* scratch,
+                         LaneSums& acc) {
+  const auto lane_a = [a, steps](int k) {
+    return a + static_cast<size_t>(k) * steps * kLaneQueries;
+  };
+  const auto lane_b = [b, steps](int k) { return b + static_cast<size_t>(k) * steps * kLaneRows; };
+  LanePass(lane_a(j), lane_b(j), steps, acc);
+  KeepLanes(acc, scratch);
+  LanePass(lane_a(j + 4), lane_b(j + 4), steps, acc);
+  AddKeptLanes(scratch, acc);
+}
+
+// The inner products of a panel of queries (packed: lane j's step t at
+// a + (j * steps + t) * kLaneQueries) with a panel of rows (PackRowLanes) into
+// out[q * out_stride + r] for q < queries, r < rows: lanes in pairs (0 4, 1 5, 2 6, 3 7),
+// added as ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)).
+void TileLanes(const float* a, const float* b, int steps, float* out, int out_stride, int queries,
+               int rows) {
+  LaneSums acc;
+  HWY_ALIGN float keep[3][kLaneQueries * kLaneRows];  // two partial sums and a scratch
+  LanePair(a, b, steps, 0, keep[2], acc);             // l0 + l4
+  KeepLanes(acc, keep[0]);
+  LanePair(a, b, steps, 1, keep[2], acc);  // l1 + l5
+  AddKeptLanes(keep[0], acc);              // (l0 + l4) + (l1 + l5)
+  KeepLanes(acc, keep[0]);
+  LanePair(a, b, steps, 2, keep[2], acc);  // l2 + l6
+  KeepLanes(acc, keep[1]);
+  LanePair(a, b, steps, 3, keep[2], acc);  // l3 + l7
+  AddKeptLanes(keep[1], acc);              // (l2 + l6) + (l3 + l7)
+  AddKeptLanes(keep[0], acc);              // the whole tree
+  if (rows == kLaneRows) {
+    for (int q = 0; q < queries; ++q) {
+      for (int h = 0; h < kVecsL; ++h) {
+        hn::StoreU(acc[q][h], DL(), out + static_cast<size_t>(q) * out_stride + h * kWL);
+      }
+    }
+    return;
+  }
+  KeepLanes(acc, keep[0]);  // a partial panel: its rows alone
+  for (int q = 0; q < queries; ++q) {
+    std::copy(keep[0] + q * kLaneRows, keep[0] + q * kLaneRows + rows,
+              out + static_cast<size_t>(q) * out_stride);
+  }
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace kernels
+}  // namespace bsf_vpr
+HWY_AFTER_NAMESPACE();
+
+#endif  // BSF_VPR_DISTANCE_LANES_INL_H_

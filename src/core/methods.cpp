@@ -151,6 +151,17 @@ Method ParseMethod(const std::string& full_name, const std::vector<std::string>&
   return m;
 }
 
+namespace {
+
+// A method of `kind` with every other field at its default.
+Method MethodOfKind(MethodKind kind) {
+  Method m;
+  m.kind = kind;
+  return m;
+}
+
+}  // namespace
+
 std::vector<Method> AllMethods(const std::vector<std::string>& set_names, bool joint_methods) {
   std::vector<Method> out;
   for (const auto& [kind, name] : MethodKindNames().entries()) {
@@ -158,7 +169,7 @@ std::vector<Method> AllMethods(const std::vector<std::string>& set_names, bool j
       for (const std::string& s : set_names) {
         out.push_back(ParseMethod(std::string(name) + ":" + s, set_names));
       }
-    } else if (joint_methods || !Method{kind}.NeedsSharedPlaces()) {
+    } else if (joint_methods || !MethodOfKind(kind).NeedsSharedPlaces()) {
       out.push_back(ParseMethod(name, set_names));
     }
   }

@@ -126,8 +126,8 @@ TEST(Methods, EveryMethodNameRoundTripsThroughTheOneTable) {
   const std::vector<Method> all = AllMethods(kNames, /*joint_methods=*/true);
   EXPECT_EQ(all.size(), MethodKindNames().entries().size() - 2 + 2 * kNames.size());
   for (const auto& [kind, name] : MethodKindNames().entries()) {
-    EXPECT_TRUE(std::any_of(all.begin(), all.end(), [&](const Method& m) {
-      return m.kind == kind;
+    EXPECT_TRUE(std::any_of(all.begin(), all.end(), [&wanted = kind](const Method& m) {
+      return m.kind == wanted;
     })) << name;
   }
   for (const Method& m : all) {

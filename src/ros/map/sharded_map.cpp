@@ -512,11 +512,12 @@ void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
 void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
   for (Join::Decision& d : decisions) {
     std::vector<const ShardDistances*> answers;
-    QueryHeader header;
+    const ShardDistances* last = nullptr;  // the header comes from the last shard answering
     for (const ShardDistances::ConstPtr& a : d.answers) {
       answers.push_back(a.get());
-      if (a) header = ToQueryHeader(a->header);
+      if (a) last = a.get();
     }
+    const QueryHeader header = last ? ToQueryHeader(last->header) : QueryHeader();
     try {
       Query query = Assemble(header, d.query_norm, answers);
       ++decided_;

@@ -87,9 +87,9 @@ struct Split {
 
 // out[q * out_stride + r] = <query q, row r> for the rows [0, rows), on the worker pool.
 void ParallelDots(const kernels::RefRows& refs, int rows, const kernels::Queries& queries,
-                  float* out, int out_stride) {
+                  float* out, int out_stride, int threads) {
   const Split split(rows, 256);
-  RunParallel(split.parts, DistanceThreads(), [&](int t) {
+  RunParallel(split.parts, threads, [&](int t) {
     const int r0 = split.Begin(t), r1 = split.Begin(t + 1);
     kernels::Dots(refs, r0, r1, queries, out + r0, out_stride);
   });
@@ -133,15 +133,16 @@ std::vector<int64_t> SampleIndices(int64_t total, int64_t count, uint64_t seed) 
   return out;
 }
 
-// The rows of `map` at the given global indices (sets in order, rows in order), decoded.
-RowMatrixXf DecodeRows(const ReferenceMap& map, const std::vector<int64_t>& indices) {
-  RowMatrixXf x(static_cast<Eigen::Index>(indices.size()), map.dimension());
-  int u = 0;
+// The rows of `sets` at the given global indices (sets in order, rows in order), decoded.
+RowMatrixXf DecodeRows(const std::vector<StoredReferenceSet>& sets,
+                       const std::vector<int64_t>& indices) {
+  RowMatrixXf x(static_cast<Eigen::Index>(indices.size()), sets.front().dimension());
+  size_t u = 0;
   int64_t first = 0;  // global index of set u's row 0
   for (size_t i = 0; i < indices.size(); ++i) {
-    while (indices[i] >= first + map.set(u).size()) first += map.set(u++).size();
-    map.set(u).DecodeRow(static_cast<int>(indices[i] - first),
-                         x.row(static_cast<Eigen::Index>(i)).data());
+    while (indices[i] >= first + sets[u].size()) first += sets[u++].size();
+    sets[u].DecodeRow(static_cast<int>(indices[i] - first),
+                      x.row(static_cast<Eigen::Index>(i)).data());
   }
   return x;
 }
@@ -171,26 +172,54 @@ void SmallestRows(const float* values, int n, int k, std::vector<int>* rows) {
 }  // namespace
 
 ApproximateIndex::ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options)
-    : options_(options) {
+    : ApproximateIndex(map.sets(), options, DistanceThreads()) {}
+
+ApproximateIndex::ApproximateIndex(const std::vector<StoredReferenceSet>& sets,
+                                   const ApproximateOptions& options, int threads)
+    : options_(options), threads_(std::max(1, threads)) {
   options_.Validate();
-  if (map.num_sets() == 0) throw std::invalid_argument("ApproximateIndex: the map holds no sets");
-  dimension_ = map.dimension();
-  FitBasis(map);
-  sets_.reserve(static_cast<size_t>(map.num_sets()));
-  for (const StoredReferenceSet& set : map.sets()) sets_.push_back(ProjectSet(set));
+  if (sets.empty()) throw std::invalid_argument("ApproximateIndex: the map holds no sets");
+  dimension_ = sets.front().dimension();
+  FitBasis(sets);
+  sets_.reserve(sets.size());
+  for (const StoredReferenceSet& set : sets) {
+    sets_.push_back(std::make_shared<const SetCodes>(ProjectSet(set)));
+  }
+}
+
+ApproximateIndex::ApproximateIndex(const ApproximateIndex& base,
+                                   const std::vector<StoredReferenceSet>& sets, int threads)
+    : options_(base.options_),
+      threads_(std::max(1, threads)),
+      dimension_(base.dimension_),
+      dimensions_(base.dimensions_),
+      sample_rows_(base.sample_rows_),
+      basis_(base.basis_) {
+  sets_.reserve(sets.size());
+  for (const StoredReferenceSet& set : sets) {
+    if (set.dimension() != dimension_) {
+      throw std::invalid_argument("ApproximateIndex: set '" + set.name() + "' has dimension " +
+                                  std::to_string(set.dimension()) + ", the basis " +
+                                  std::to_string(dimension_));
+    }
+    const SetCodes* held = base.CodesOf(set);
+    const auto same = std::find_if(base.sets_.begin(), base.sets_.end(),
+                                   [held](const auto& codes) { return codes.get() == held; });
+    sets_.push_back(held ? *same : std::make_shared<const SetCodes>(ProjectSet(set)));
+  }
 }
 
 // Uncentred PCA of the sample X (S x D) through its Gram matrix G = X X^T (S x S): an
 // eigenpair (lambda, v) of G gives the right singular vector X^T v / sqrt(lambda) of X.
-void ApproximateIndex::FitBasis(const ReferenceMap& map) {
+void ApproximateIndex::FitBasis(const std::vector<StoredReferenceSet>& sets) {
   int64_t total = 0;
-  for (const StoredReferenceSet& set : map.sets()) total += set.size();
-  const RowMatrixXf x = DecodeRows(map, SampleIndices(total, options_.sample_rows, options_.seed));
+  for (const StoredReferenceSet& set : sets) total += set.size();
+  const RowMatrixXf x = DecodeRows(sets, SampleIndices(total, options_.sample_rows, options_.seed));
   const int s = static_cast<int>(x.rows()), d = dimension_;
   sample_rows_ = s;
   RowMatrixXf gram(s, s);
   ParallelDots(FloatRows(x.data(), d), s, kernels::PrepareQueries(x.data(), s, d, d, false),
-               gram.data(), s);
+               gram.data(), s, threads_);
   // Single precision: the Gram matrix is summed in float anyway, and double takes 3x longer
   // (8.7 s for 2048 rows on the project's machine).
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXf> solver(gram);
@@ -211,7 +240,8 @@ void ApproximateIndex::FitBasis(const ReferenceMap& map) {
   const RowMatrixXf xt = x.transpose();
   basis_.resize(dimensions_, d);
   ParallelDots(FloatRows(xt.data(), s), d,
-               kernels::PrepareQueries(weights.data(), dimensions_, s, s, false), basis_.data(), d);
+               kernels::PrepareQueries(weights.data(), dimensions_, s, s, false), basis_.data(), d,
+               threads_);
 }
 
 ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet& set) const {
@@ -228,7 +258,7 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
   const kernels::RefRows rows = StoredRows(set);
   const Split split(n, kProjectRows);
   std::vector<double> part_energy(static_cast<size_t>(split.parts), 0.0);
-  RunParallel(split.parts, DistanceThreads(), [&](int t) {
+  RunParallel(split.parts, threads_, [&](int t) {
     const int r0 = split.Begin(t), r1 = split.Begin(t + 1), m = r1 - r0;
     std::vector<float> coords(static_cast<size_t>(dp) *
                               m);  // coordinate j of row r0 + i at j m + i
@@ -263,41 +293,45 @@ ApproximateIndex::SetCodes ApproximateIndex::ProjectSet(const StoredReferenceSet
 
 int64_t ApproximateIndex::rows() const {
   int64_t n = 0;
-  for (const SetCodes& c : sets_) n += c.rows;
+  for (const auto& c : sets_) n += c->rows;
   return n;
 }
 
 double ApproximateIndex::RetainedEnergy() const {
   double projected = 0, energy = 0;
-  for (const SetCodes& c : sets_) {
-    projected += c.projected_energy;
-    energy += c.energy;
+  for (const auto& c : sets_) {
+    projected += c->projected_energy;
+    energy += c->energy;
   }
   return energy > 0 ? std::min(1.0, projected / energy) : 1.0;
 }
 
-void ApproximateIndex::CheckSameMap(const ReferenceMap& map) const {
-  const auto refuse = [](const std::string& why) {
-    throw std::invalid_argument(
-        "ApproximateIndex: the map is not the one the index was built from (" + why +
-        "); build the index again");
-  };
-  if (map.num_sets() != static_cast<int>(sets_.size())) {
-    refuse("it holds " + std::to_string(map.num_sets()) + " sets, the index " +
-           std::to_string(sets_.size()));
-  }
-  for (size_t u = 0; u < sets_.size(); ++u) {
-    const StoredReferenceSet& set = map.set(static_cast<int>(u));
-    const SetCodes& codes = sets_[u];
-    if (set.name() != codes.name)
-      refuse("set " + std::to_string(u) + " is '" + set.name() + "', was '" + codes.name + "'");
-    if (set.size() != codes.rows || set.precision() != codes.precision ||
-        set.dimension() != dimension_ || Fingerprint(set) != codes.fingerprint) {
-      refuse("set '" + set.name() + "' changed: " + std::to_string(set.size()) + " rows at " +
-             ToString(set.precision()) + ", was " + std::to_string(codes.rows) + " at " +
-             ToString(codes.precision));
+double ApproximateIndex::RetainedEnergyOf(const StoredReferenceSet& set) const {
+  const SetCodes* c = CodesOf(set);
+  if (!c) return -1;
+  return c->energy > 0 ? std::min(1.0, c->projected_energy / c->energy) : 1.0;
+}
+
+const ApproximateIndex::SetCodes* ApproximateIndex::CodesOf(const StoredReferenceSet& set) const {
+  for (const auto& c : sets_) {
+    if (c->name == set.name() && c->rows == set.size() && c->precision == set.precision() &&
+        set.dimension() == dimension_ && c->fingerprint == Fingerprint(set)) {
+      return c.get();
     }
   }
+  return nullptr;
+}
+
+std::string ApproximateIndex::Missing(const StoredReferenceSet& set) const {
+  std::string why = "set '" + set.name() + "' is not in the index";
+  for (const auto& c : sets_) {
+    if (c->name != set.name()) continue;
+    why = "set '" + set.name() + "' changed: " + std::to_string(set.size()) + " rows at " +
+          ToString(set.precision()) + ", was " + std::to_string(c->rows) + " at " +
+          ToString(c->precision);
+  }
+  return "ApproximateIndex: the map is not the one the index was built from (" + why +
+         "); build the index again, or extend it";
 }
 
 RowMatrixXf ApproximateIndex::ProjectQueries(const RowMatrixXf& queries) const {
@@ -305,56 +339,70 @@ RowMatrixXf ApproximateIndex::ProjectQueries(const RowMatrixXf& queries) const {
   RowMatrixXf out(nq, dimensions_);
   ParallelDots(FloatRows(basis_.data(), dimension_), dimensions_,
                kernels::PrepareQueries(queries.data(), nq, dimension_, dimension_, false),
-               out.data(), dimensions_);
+               out.data(), dimensions_, DistanceThreads());
   return out;
 }
 
 std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
                                                      const RowMatrixXf& queries,
-                                                     const ReferenceMap& map,
-                                                     StageTimes* times) const {
+                                                     const ReferenceMap& map, StageTimes* times,
+                                                     std::vector<bool>* covered) const {
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::time_point from) {
     return std::chrono::duration<double, std::milli>(Clock::now() - from).count();
   };
-  CheckSameMap(map);
+  const int num_sets = map.num_sets();
+  std::vector<const SetCodes*> codes(static_cast<size_t>(num_sets));
+  if (covered) covered->assign(static_cast<size_t>(num_sets), false);
+  for (int u = 0; u < num_sets; ++u) {
+    codes[static_cast<size_t>(u)] = CodesOf(map.set(u));
+    if (!codes[static_cast<size_t>(u)] && !covered) {
+      throw std::invalid_argument(Missing(map.set(u)));
+    }
+    if (covered) (*covered)[static_cast<size_t>(u)] = codes[static_cast<size_t>(u)] != nullptr;
+  }
   if (queries.cols() != dimension_) {
-    throw std::invalid_argument(
-        "query descriptors have dimension " + std::to_string(queries.cols()) + ", reference set '" +
-        sets_.front().name + "' has dimension " + std::to_string(dimension_));
+    throw std::invalid_argument("query descriptors have dimension " +
+                                std::to_string(queries.cols()) + ", reference set '" +
+                                (num_sets ? map.set(0).name() : sets_.front()->name) +
+                                "' has dimension " + std::to_string(dimension_));
   }
   CheckQueryDescriptors(queries);
   const int nq = static_cast<int>(queries.rows());
   Eigen::VectorXf qn(nq);  // squared norms, as ComputeDistances computes them
   for (int q = 0; q < nq; ++q) qn(q) = kernels::SelfDot(queries.row(q).data(), dimension_);
-  std::vector<RowMatrixXf> out(sets_.size());
-  for (size_t u = 0; u < sets_.size(); ++u) out[u].resize(nq, sets_[u].rows);
+  std::vector<RowMatrixXf> out(static_cast<size_t>(num_sets));
+  for (int u = 0; u < num_sets; ++u) {
+    if (codes[static_cast<size_t>(u)]) out[static_cast<size_t>(u)].resize(nq, map.set(u).size());
+  }
   const auto start = Clock::now();
-  ApproximateStage(metric, queries, qn, map, &out);
+  ApproximateStage(metric, queries, qn, map, codes, &out);
   const double approximate_ms = ms(start);
   const auto rerank = Clock::now();
-  if (options_.rerank > 0) ExactStage(metric, queries, qn, map, &out);
+  if (options_.rerank > 0) ExactStage(metric, queries, qn, map, codes, &out);
   if (times != nullptr) *times = {approximate_ms, ms(rerank)};
   return out;
 }
 
 void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
                                         const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                        const std::vector<const SetCodes*>& codes_of,
                                         std::vector<RowMatrixXf>* out) const {
   const int nq = static_cast<int>(queries.rows());
   const RowMatrixXf projected = ProjectQueries(queries);
   const kernels::Queries prepared =
       kernels::PrepareQueries(projected.data(), nq, dimensions_, dimensions_, true);
-  // Parts of every set's rows as the tasks of one parallel run.
+  // Parts of every answered set's rows as the tasks of one parallel run.
   std::vector<Split> splits;
   std::vector<std::pair<size_t, int>> tasks;  // (set, part)
-  for (size_t u = 0; u < sets_.size(); ++u) {
-    splits.emplace_back(sets_[u].rows, kStageRows);
+  for (size_t u = 0; u < codes_of.size(); ++u) {
+    splits.emplace_back(codes_of[u] ? codes_of[u]->rows : 0, kStageRows);
+    if (!codes_of[u]) continue;
     for (int t = 0; t < splits.back().parts; ++t) tasks.emplace_back(u, t);
   }
   RunParallel(static_cast<int>(tasks.size()), DistanceThreads(), [&](int i) {
     const auto [u, t] = tasks[static_cast<size_t>(i)];
-    const SetCodes& set = sets_[u];
+    const SetCodes& set = *codes_of[u];
     const int r0 = splits[u].Begin(t), r1 = splits[u].Begin(t + 1);
     kernels::RefRows codes;
     codes.precision = StoragePrecision::kInt8;
@@ -375,11 +423,16 @@ void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf
 // alone gives the bits it has in a batch (distance_kernels.h).
 void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& queries,
                                   const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                  const std::vector<const SetCodes*>& codes_of,
                                   std::vector<RowMatrixXf>* out) const {
   const int nq = static_cast<int>(queries.rows());
   bool int8_rows = false;
   for (const StoredReferenceSet& set : map.sets()) {
     int8_rows = int8_rows || set.precision() == StoragePrecision::kInt8;
+  }
+  std::vector<int> answered;  // the sets with codes
+  for (size_t u = 0; u < codes_of.size(); ++u) {
+    if (codes_of[u]) answered.push_back(static_cast<int>(u));
   }
   std::vector<kernels::Queries> prepared;
   prepared.reserve(static_cast<size_t>(nq));
@@ -387,9 +440,9 @@ void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& quer
     prepared.push_back(
         kernels::PrepareQueries(queries.row(q).data(), 1, dimension_, dimension_, int8_rows));
   }
-  const int num_sets = static_cast<int>(sets_.size());
+  const int num_sets = static_cast<int>(answered.size());
   RunParallel(num_sets * nq, DistanceThreads(), [&](int i) {
-    const int u = i % num_sets, q = i / num_sets;
+    const int u = answered[static_cast<size_t>(i % num_sets)], q = i / num_sets;
     const StoredReferenceSet& set = map.set(u);
     const kernels::RefRows rows = StoredRows(set);
     float* row = (*out)[static_cast<size_t>(u)].row(q).data();
@@ -414,9 +467,9 @@ void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& quer
 
 size_t ApproximateIndex::MemoryBytes() const {
   size_t bytes = sizeof(*this) + sizeof(float) * basis_.size();
-  for (const SetCodes& set : sets_) {
-    bytes += sizeof(SetCodes) + set.name.capacity() + set.codes.capacity() +
-             sizeof(float) * set.row_scales.capacity();
+  for (const auto& set : sets_) {
+    bytes += sizeof(SetCodes) + set->name.capacity() + set->codes.capacity() +
+             sizeof(float) * set->row_scales.capacity();
   }
   return bytes;
 }

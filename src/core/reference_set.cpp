@@ -12,18 +12,24 @@ namespace bsf_vpr {
 void ReferenceSet::Validate() const {
   const std::string who = "reference set '" + name + "'";
   if (name.empty()) throw std::invalid_argument("a reference set needs a non-empty name");
-  if (descriptors.rows() == 0 || descriptors.cols() == 0) {
-    throw std::invalid_argument(who + " is empty (" + std::to_string(descriptors.rows()) + " x " +
-                                std::to_string(descriptors.cols()) + " descriptors)");
+  if (encoded && descriptors.size() != 0) {
+    throw std::invalid_argument(who + " has both encoded rows and float32 descriptors");
   }
-  if (place_ids.size() != static_cast<size_t>(descriptors.rows())) {
-    throw std::invalid_argument(who + " has " + std::to_string(descriptors.rows()) +
-                                " descriptors but " + std::to_string(place_ids.size()) +
-                                " place ids");
+  if (encoded && (encoded->rows > kMaxPlaces || !encoded->data)) {
+    throw std::invalid_argument(who + ": its encoded rows (" + encoded->source +
+                                ") are too many or missing");
+  }
+  if (size() == 0 || dimension() == 0) {
+    throw std::invalid_argument(who + " is empty (" + std::to_string(size()) + " x " +
+                                std::to_string(dimension()) + " descriptors)");
+  }
+  if (place_ids.size() != static_cast<size_t>(size())) {
+    throw std::invalid_argument(who + " has " + std::to_string(size()) + " descriptors but " +
+                                std::to_string(place_ids.size()) + " place ids");
   }
   CheckPlaceRows(who, place_ids, poses, images, image_files);
-  if (descriptors.cols() > kMaxDimension) {
-    throw std::invalid_argument(who + " has dimension " + std::to_string(descriptors.cols()) +
+  if (dimension() > kMaxDimension) {
+    throw std::invalid_argument(who + " has dimension " + std::to_string(dimension()) +
                                 ", more than " + std::to_string(kMaxDimension));
   }
   for (Eigen::Index r = 0; r < descriptors.rows(); ++r) {

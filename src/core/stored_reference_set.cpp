@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 #include "bsf_vpr/core/reference_set.h"
 #include "src/core/internal/distance_kernels.h"
@@ -20,6 +21,10 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
       image_files_(std::move(set.image_files)),
       dimension_(set.dimension()),
       precision_(precision) {
+  if (set.encoded) {
+    HoldEncoded(std::move(*set.encoded));
+    return;
+  }
   const RowMatrixXf& x = set.descriptors;
   const size_t n = static_cast<size_t>(x.size());
   if (precision == StoragePrecision::kFloat16) {
@@ -53,8 +58,56 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
   }
 }
 
+void StoredReferenceSet::HoldEncoded(EncodedRows rows) {
+  const std::string who = "reference set '" + name_ + "'";
+  if (rows.precision != precision_) {
+    throw std::invalid_argument(who + " is held at " + ToString(rows.precision) + " by " +
+                                rows.source + ", but the map stores " + ToString(precision_) +
+                                ": write the set at " + ToString(precision_) +
+                                " (bsf_store_set) or load it without memory_map");
+  }
+  scale_ = rows.scale;
+  if (precision_ == StoragePrecision::kInt8 && !(scale_ > 0 && std::isfinite(scale_))) {
+    throw std::invalid_argument(who + ": its int8 rows need a positive scale, got " +
+                                std::to_string(scale_));
+  }
+  rows_ = std::make_shared<const Rows>(std::move(rows));
+  // The norms as the resident encodings give them (decoded, then the kernels' SelfDot), so
+  // a mapped set's distances are bitwise those of the same set read and encoded. Reading
+  // them is the one pass over the rows a mapped load makes.
+  const int n = size();
+  squared_norms_.resize(n);
+  std::vector<float> row(static_cast<size_t>(dimension_));
+  for (int r = 0; r < n; ++r) {
+    DecodeRow(r, row.data());
+    const float norm = kernels::SelfDot(row.data(), dimension_);
+    if (!std::isfinite(norm) || norm > kMaxDescriptorSquaredNorm) {
+      throw std::invalid_argument(who + ": descriptor row " + std::to_string(r) + " of " +
+                                  std::get<EncodedRows>(*rows_).source +
+                                  " is not finite or too large (squared norm " +
+                                  std::to_string(norm) + ")");
+    }
+    squared_norms_(r) = norm;
+  }
+}
+
+bool StoredReferenceSet::mapped() const { return std::holds_alternative<EncodedRows>(*rows_); }
+
+std::string StoredReferenceSet::rows_source() const {
+  const auto* encoded = std::get_if<EncodedRows>(rows_.get());
+  return encoded ? encoded->source : "";
+}
+
 const void* StoredReferenceSet::data() const {
-  return std::visit([](const auto& rows) -> const void* { return rows.data(); }, *rows_);
+  return std::visit(
+      [](const auto& rows) -> const void* {
+        if constexpr (std::is_same_v<std::decay_t<decltype(rows)>, EncodedRows>) {
+          return rows.data;
+        } else {
+          return rows.data();
+        }
+      },
+      *rows_);
 }
 
 size_t StoredReferenceSet::data_bytes() const {
@@ -64,12 +117,15 @@ size_t StoredReferenceSet::data_bytes() const {
 
 void StoredReferenceSet::DecodeRow(int r, float* out) const {
   const size_t base = static_cast<size_t>(r) * static_cast<size_t>(dimension_);
-  if (const auto* half = std::get_if<std::vector<uint16_t>>(rows_.get())) {
-    for (int k = 0; k < dimension_; ++k) out[k] = HalfToFloat((*half)[base + k]);
-  } else if (const auto* levels = std::get_if<std::vector<int8_t>>(rows_.get())) {
-    for (int k = 0; k < dimension_; ++k) out[k] = scale_ * static_cast<float>((*levels)[base + k]);
+  const void* rows = data();
+  if (precision_ == StoragePrecision::kFloat16) {
+    const uint16_t* half = static_cast<const uint16_t*>(rows) + base;
+    for (int k = 0; k < dimension_; ++k) out[k] = HalfToFloat(half[k]);
+  } else if (precision_ == StoragePrecision::kInt8) {
+    const int8_t* levels = static_cast<const int8_t*>(rows) + base;
+    for (int k = 0; k < dimension_; ++k) out[k] = scale_ * static_cast<float>(levels[k]);
   } else {
-    const float* row = std::get<RowMatrixXf>(*rows_).data() + base;
+    const float* row = static_cast<const float*>(rows) + base;
     std::copy(row, row + dimension_, out);
   }
 }
@@ -83,6 +139,14 @@ size_t StoredReferenceSet::MemoryBytes() const {
 
 ReferenceSet StoredReferenceSet::ToReferenceSet() const {
   const RowMatrixXf* descriptors = std::get_if<RowMatrixXf>(rows_.get());
+  RowMatrixXf mapped_rows;
+  if (const auto* encoded = std::get_if<EncodedRows>(rows_.get());
+      encoded && precision_ == StoragePrecision::kFloat32) {
+    // float32 rows mapped from a file: their values are all there.
+    mapped_rows =
+        Eigen::Map<const RowMatrixXf>(static_cast<const float*>(encoded->data), size(), dimension_);
+    descriptors = &mapped_rows;
+  }
   if (!descriptors) {
     throw std::invalid_argument("reference set '" + name_ + "' is held at " + ToString(precision_) +
                                 " precision only; save it from its float32 source");

@@ -209,6 +209,21 @@ std::string DataDirectory::Read(const std::string& relative, uint64_t max_bytes)
   return ReadRegularFile(file.get(), relative, max_bytes);
 }
 
+std::shared_ptr<const MappedFile> DataDirectory::Map(const std::string& relative) const {
+  const std::vector<std::string> parts = Split(Relative(relative));
+  const Fd root(OpenRoot());
+  const Fd dir = OpenParent(root.get(), parts, relative, false);
+  const Fd file(openat(dir.get(), parts.back().c_str(),
+                       O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+  if (file.get() < 0) {
+    const int err = errno;
+    throw std::runtime_error(
+        SystemError("open", relative, err) +
+        (err == ELOOP ? " (links are not followed below the data directory)" : ""));
+  }
+  return MapRegularFile(file.get(), relative);
+}
+
 std::vector<std::string> DataDirectory::ListFiles(const std::string& relative_folder) const {
   const std::vector<std::string> parts = Split(Relative(relative_folder));
   const Fd root(OpenRoot());

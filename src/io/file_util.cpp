@@ -1,6 +1,7 @@
 #include "bsf_vpr/io/file_util.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -82,6 +83,38 @@ std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes)
   }
   bytes.resize(got);
   return bytes;
+}
+
+std::shared_ptr<const MappedFile> MapRegularFile(int fd, const std::string& name) {
+  struct stat st;
+  if (fstat(fd, &st) != 0) {
+    throw std::runtime_error("cannot inspect " + QuotedForMessage(name) + ": " +
+                             std::strerror(errno));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    throw std::runtime_error(QuotedForMessage(name) +
+                             " is not a regular file (a folder, FIFO, socket or device)");
+  }
+  const size_t size = static_cast<size_t>(st.st_size);
+  if (size == 0) return std::make_shared<const MappedFile>();
+  void* at = mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+  if (at == MAP_FAILED) {
+    throw std::runtime_error("cannot map " + QuotedForMessage(name) +
+                             " into memory: " + std::strerror(errno));
+  }
+  auto* file = new MappedFile{static_cast<const char*>(at), size};
+  return std::shared_ptr<const MappedFile>(file, [](const MappedFile* f) {
+    munmap(const_cast<char*>(f->data), f->size);
+    delete f;
+  });
+}
+
+std::shared_ptr<const MappedFile> MapFile(const std::string& path) {
+  const Fd fd(open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+  if (fd.get() < 0) {
+    throw std::runtime_error("cannot open '" + path + "': " + std::strerror(errno));
+  }
+  return MapRegularFile(fd.get(), path);
 }
 
 std::string ReadFile(const std::string& path, uint64_t max_bytes) {

@@ -193,7 +193,7 @@ const char* NpyDtypeName(NpyDtype dtype) { return Info(dtype).name; }
 
 const char* NpyDtypeDescr(NpyDtype dtype) { return Info(dtype).descr; }
 
-NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
+NpyHeader ParseNpyHeader(std::string_view bytes, const std::string& path) {
   if (bytes.size() < 10 || std::memcmp(bytes.data(), kMagic, kMagicSize) != 0) {
     Fail(path, "missing the \\x93NUMPY magic string");
   }
@@ -214,7 +214,7 @@ NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path) {
     Fail(path, "format version " + std::to_string(major) + " is not supported");
   }
   if (header_start + header_len > bytes.size()) Fail(path, "truncated header");
-  const std::string header = bytes.substr(header_start, header_len);
+  const std::string header(bytes.substr(header_start, header_len));
 
   NpyHeader result;
   result.dtype = ParseDescr(ValueAfterKey(header, "descr", path), path);
@@ -336,14 +336,13 @@ RowMatrixXb DecodeNpyBoolMatrix(const std::string& bytes, const std::string& pat
   return truth.cast<bool>();
 }
 
-std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
-  if (!IsFloatDtype(dtype)) {
-    throw std::invalid_argument(std::string("EncodeNpyMatrix writes float dtypes only, not ") +
-                                NpyDtypeName(dtype));
-  }
+namespace {
+
+// A version 1.0 header for a C-order matrix of `rows` x `cols` elements of `dtype`.
+std::string NpyHeaderBytes(int64_t rows, int64_t cols, NpyDtype dtype) {
   std::string dict = std::string("{'descr': '") + NpyDtypeDescr(dtype) +
-                     "', 'fortran_order': False, 'shape': (" + std::to_string(matrix.rows()) +
-                     ", " + std::to_string(matrix.cols()) + "), }";
+                     "', 'fortran_order': False, 'shape': (" + std::to_string(rows) + ", " +
+                     std::to_string(cols) + "), }";
   // Pad with spaces so that the data starts at a multiple of 64 bytes, ending with '\n'.
   const size_t unpadded = 10 + dict.size() + 1;
   dict.append((64 - unpadded % 64) % 64, ' ');
@@ -354,6 +353,24 @@ std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
   out.push_back(static_cast<char>(dict.size() & 0xff));
   out.push_back(static_cast<char>((dict.size() >> 8) & 0xff));
   out += dict;
+  return out;
+}
+
+}  // namespace
+
+std::string EncodeNpyBytes(const void* data, int64_t rows, int64_t cols, NpyDtype dtype) {
+  std::string out = NpyHeaderBytes(rows, cols, dtype);
+  const size_t bytes = static_cast<size_t>(rows * cols) * NpyDtypeBytes(dtype);
+  if (bytes > 0) out.append(static_cast<const char*>(data), bytes);
+  return out;
+}
+
+std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype) {
+  if (!IsFloatDtype(dtype)) {
+    throw std::invalid_argument(std::string("EncodeNpyMatrix writes float dtypes only, not ") +
+                                NpyDtypeName(dtype));
+  }
+  std::string out = NpyHeaderBytes(matrix.rows(), matrix.cols(), dtype);
   const int64_t n = matrix.size();
   const size_t start = out.size();
   if (n == 0) return out;

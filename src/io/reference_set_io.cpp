@@ -3,11 +3,15 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <numeric>
+#include <optional>
 #include <set>
 #include <stdexcept>
+#include <string_view>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/io/data_directory.h"
@@ -52,6 +56,7 @@ struct FileAccess {
   // `yaml_path`.
   std::function<std::string(const std::string& yaml_path, const std::string& field)> resolve;
   std::function<std::string(const std::string& path)> read;
+  std::function<std::shared_ptr<const MappedFile>(const std::string& path)> map;
   // The names of the regular files in the folder at `path` (from resolve), sorted.
   std::function<std::vector<std::string>(const std::string& path)> list;
   // The folder at `path` (from resolve) as the absolute path ReferenceSet::images holds.
@@ -71,6 +76,7 @@ FileAccess Unconfined() {
             return ResolvePath(DirName(yaml), field);
           },
           [](const std::string& path) { return ReadFile(path); },
+          [](const std::string& path) { return MapFile(path); },
           [](const std::string& path) { return ListFileNames(path); },
           [](const std::string& path) { return AbsoluteFolder(path); }};
 }
@@ -83,6 +89,7 @@ FileAccess Below(const DataDirectory& dir) {
                                                                   : DirName(yaml) + "/" + field);
           },
           [&dir](const std::string& path) { return dir.Read(path); },
+          [&dir](const std::string& path) { return dir.Map(path); },
           [&dir](const std::string& path) { return dir.ListFiles(path); },
           [&dir](const std::string& path) {
             return (dir.path() == "/" ? "" : dir.path()) + "/" + path;
@@ -90,11 +97,8 @@ FileAccess Below(const DataDirectory& dir) {
           /*confined=*/true};
 }
 
-// The descriptors of a set, refused before anything is allocated for them if empty or too
-// many rows for an int place index.
-RowMatrixXf ReadDescriptors(const FileAccess& files, const std::string& npy_path) {
-  const std::string bytes = files.read(npy_path);
-  const NpyHeader h = ParseNpyHeader(bytes, npy_path);
+// Refuses a header of no descriptors, or of too many rows for an int place index.
+void CheckDescriptorShape(const NpyHeader& h, const std::string& npy_path) {
   if (h.rows == 0 || h.cols == 0) {
     throw std::runtime_error("'" + npy_path + "' holds no descriptors (shape " +
                              std::to_string(h.rows) + " x " + std::to_string(h.cols) + ")");
@@ -105,7 +109,87 @@ RowMatrixXf ReadDescriptors(const FileAccess& files, const std::string& npy_path
                              " rows (places) and " + std::to_string(kMaxDimension) +
                              " columns (dimension) are accepted");
   }
-  return DecodeNpyMatrix(bytes, npy_path);
+}
+
+// The storage precision an .npy's dtype holds rows at, if any.
+std::optional<StoragePrecision> PrecisionOf(NpyDtype dtype) {
+  switch (dtype) {
+    case NpyDtype::kFloat32:
+      return StoragePrecision::kFloat32;
+    case NpyDtype::kFloat16:
+      return StoragePrecision::kFloat16;
+    case NpyDtype::kInt8:
+      return StoragePrecision::kInt8;
+    default:
+      return std::nullopt;
+  }
+}
+
+// A set's descriptors: read into memory, or memory-mapped where options.memory_map asks for
+// them at the precision the file holds them at. `scale` is the YAML's descriptor_scale, which
+// an int8 file needs (its elements stand for scale x value).
+struct Descriptors {
+  RowMatrixXf matrix;
+  std::optional<EncodedRows> encoded;
+};
+
+Descriptors ReadDescriptors(const FileAccess& files, const std::string& npy_path,
+                            const ReadSetOptions& options, std::optional<float> scale) {
+  Descriptors out;
+  if (options.memory_map) {
+    std::shared_ptr<const MappedFile> file = files.map(npy_path);
+    const NpyHeader h = ParseNpyHeader(std::string_view(file->data, file->size), npy_path);
+    CheckDescriptorShape(h, npy_path);
+    if (PrecisionOf(h.dtype) == options.memory_map && !h.fortran_order) {
+      if (h.dtype == NpyDtype::kInt8 && !scale) {
+        throw std::runtime_error("'" + npy_path +
+                                 "' holds int8 descriptors but the set gives no descriptor_scale");
+      }
+      EncodedRows rows;
+      rows.precision = *options.memory_map;
+      rows.rows = h.rows;
+      rows.cols = h.cols;
+      rows.scale = h.dtype == NpyDtype::kInt8 ? *scale : 1.0f;
+      rows.data = file->data + h.data_offset;
+      rows.source = QuotedForMessage(npy_path) + ", memory-mapped";
+      rows.owner = std::move(file);
+      out.encoded = std::move(rows);
+      return out;
+    }
+    // Not at the precision asked for (or in Fortran order): read as below.
+  }
+  const std::string bytes = files.read(npy_path);
+  const NpyHeader h = ParseNpyHeader(bytes, npy_path);
+  CheckDescriptorShape(h, npy_path);
+  if (h.dtype == NpyDtype::kInt8) {
+    if (!scale) {
+      throw std::runtime_error("'" + npy_path +
+                               "' holds int8 descriptors: only a set's YAML that gives their "
+                               "descriptor_scale can load it");
+    }
+    // Decoded as a map holding them at int8 decodes them: scale x value.
+    const int8_t* levels = reinterpret_cast<const int8_t*>(bytes.data() + h.data_offset);
+    out.matrix.resize(h.rows, h.cols);
+    for (int64_t r = 0; r < h.rows; ++r) {
+      for (int64_t c = 0; c < h.cols; ++c) {
+        const int64_t at = h.fortran_order ? c * h.rows + r : r * h.cols + c;
+        out.matrix(r, c) = *scale * static_cast<float>(levels[at]);
+      }
+    }
+    return out;
+  }
+  out.matrix = DecodeNpyMatrix(bytes, npy_path);
+  return out;
+}
+
+// A set of `descriptors` whose row k is place k.
+ReferenceSet MakeSetOf(const std::string& name, Descriptors descriptors) {
+  if (!descriptors.encoded) return MakeReferenceSet(name, std::move(descriptors.matrix));
+  ReferenceSet set = MakeReferenceSet(name, RowMatrixXf());
+  set.place_ids.resize(static_cast<size_t>(descriptors.encoded->rows));
+  std::iota(set.place_ids.begin(), set.place_ids.end(), 0);
+  set.encoded = std::move(descriptors.encoded);
+  return set;
 }
 
 // Refuses the first of `names` (paths relative to the folder at `folder`, from
@@ -196,11 +280,11 @@ void ParseImages(const YAML::Node& root, const std::string& yaml_path, const Fil
 }
 
 ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
-                          const FileAccess& files) {
+                          const FileAccess& files, const ReadSetOptions& options) {
   if (!root.IsMap()) throw std::runtime_error("is not a YAML mapping");
   static const std::set<std::string> kKnown = {
-      "name",        "condition", "descriptor_type", "dimension", "distance",
-      "descriptors", "place_ids", "poses",           "images",    "image_files"};
+      "name",      "condition", "descriptor_type", "dimension",   "distance",        "descriptors",
+      "place_ids", "poses",     "images",          "image_files", "descriptor_scale"};
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (!kKnown.count(key)) throw std::runtime_error("unknown key " + QuotedForMessage(key));
@@ -209,7 +293,16 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
   if (!root["descriptors"]) throw std::runtime_error("missing required key 'descriptors'");
   const std::string npy = files.resolve(yaml_path, root["descriptors"].as<std::string>());
   CheckName(root["name"].as<std::string>());
-  ReferenceSet set = MakeReferenceSet(root["name"].as<std::string>(), ReadDescriptors(files, npy));
+  std::optional<float> scale;
+  if (root["descriptor_scale"]) {
+    scale = root["descriptor_scale"].as<float>();
+    if (!(*scale > 0) || !std::isfinite(*scale)) {
+      throw std::runtime_error("'descriptor_scale' must be a positive number, got " +
+                               root["descriptor_scale"].as<std::string>());
+    }
+  }
+  ReferenceSet set =
+      MakeSetOf(root["name"].as<std::string>(), ReadDescriptors(files, npy, options, scale));
   if (root["condition"]) set.condition = root["condition"].as<std::string>();
   if (root["descriptor_type"]) set.descriptor_type = root["descriptor_type"].as<std::string>();
   if (root["distance"]) {
@@ -247,19 +340,20 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
   return set;
 }
 
-ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path) {
+ReferenceSet LoadYaml(const FileAccess& files, const std::string& yaml_path,
+                      const ReadSetOptions& options) {
   const std::string text = files.read(yaml_path);  // names the file when it fails
   try {
-    return ParseSidecar(YAML::Load(text), yaml_path, files);
+    return ParseSidecar(YAML::Load(text), yaml_path, files, options);
   } catch (const std::exception& e) {
     throw std::runtime_error("reference set file '" + yaml_path + "': " + e.what());
   }
 }
 
-ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
-                     const std::string& name) {
+ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path, const std::string& name,
+                     const ReadSetOptions& options) {
   CheckGivenName(name, npy_path);
-  ReferenceSet set = MakeReferenceSet(name, ReadDescriptors(files, npy_path));
+  ReferenceSet set = MakeSetOf(name, ReadDescriptors(files, npy_path, options, std::nullopt));
   try {
     set.Validate();
   } catch (const std::exception& e) {
@@ -268,14 +362,15 @@ ReferenceSet LoadNpy(const FileAccess& files, const std::string& npy_path,
   return set;
 }
 
-ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name) {
+ReferenceSet LoadFile(const FileAccess& files, const std::string& path, const std::string& name,
+                      const ReadSetOptions& options) {
   if (EndsWith(path, ".yaml") || EndsWith(path, ".yml")) {
     if (!name.empty()) CheckGivenName(name, path);
-    ReferenceSet set = LoadYaml(files, path);
+    ReferenceSet set = LoadYaml(files, path, options);
     if (!name.empty()) set.name = name;
     return set;
   }
-  if (EndsWith(path, ".npy")) return LoadNpy(files, path, name);
+  if (EndsWith(path, ".npy")) return LoadNpy(files, path, name, options);
   files.read(path);  // a missing file is reported as missing
   throw std::runtime_error(QuotedForMessage(path) +
                            " is neither a reference-set .yaml (.yml) nor a descriptor .npy");
@@ -308,6 +403,11 @@ std::string SidecarText(const ReferenceSet& set, const std::string& npy_name,
   out << YAML::Key << "dimension" << YAML::Value << set.dimension();
   if (!set.distance.empty()) out << YAML::Key << "distance" << YAML::Value << set.distance;
   out << YAML::Key << "descriptors" << YAML::Value << npy_name;
+  if (set.encoded && set.encoded->precision == StoragePrecision::kInt8) {
+    // Exactly the float the elements are multiplied by (9 significant digits round-trip).
+    out << YAML::Key << "descriptor_scale" << YAML::Value << YAML::Precision(9)
+        << set.encoded->scale;
+  }
   out << YAML::Key << "place_ids" << YAML::Value << YAML::Flow << set.place_ids;
   if (!set.poses.empty()) {
     out << YAML::Key << "poses" << YAML::Value << YAML::BeginSeq;
@@ -435,20 +535,51 @@ std::string SetNameProblem(const std::string& name) {
 }
 
 ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path) {
-  return LoadYaml(Unconfined(), yaml_path);
+  return LoadYaml(Unconfined(), yaml_path, {});
 }
 
 ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name) {
-  return LoadNpy(Unconfined(), npy_path, name);
+  return LoadNpy(Unconfined(), npy_path, name, {});
 }
 
-ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name) {
-  return LoadFile(Unconfined(), path, name);
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name,
+                                  const ReadSetOptions& options) {
+  return LoadFile(Unconfined(), path, name, options);
 }
 
 ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
-                                  const std::string& name) {
-  return LoadFile(Below(dir), dir.Relative(request), name);
+                                  const std::string& name, const ReadSetOptions& options) {
+  return LoadFile(Below(dir), dir.Relative(request), name, options);
+}
+
+void SaveStoredReferenceSet(const StoredReferenceSet& stored, const std::string& yaml_path) {
+  if (!EndsWith(yaml_path, ".yaml")) {
+    throw std::invalid_argument("a reference set is saved as a .yaml, got " +
+                                QuotedForMessage(yaml_path));
+  }
+  const std::string stem = yaml_path.substr(0, yaml_path.size() - 5);
+  const std::string npy = stem + "." + ToString(stored.precision()) + ".npy";
+  static const NpyDtype kDtypes[] = {NpyDtype::kFloat32, NpyDtype::kFloat16, NpyDtype::kInt8};
+  WriteFileAtomically(npy, EncodeNpyBytes(stored.data(), stored.size(), stored.dimension(),
+                                          kDtypes[static_cast<int>(stored.precision())]));
+  // The sidecar of the set's metadata, naming the encoded rows just written.
+  ReferenceSet meta;
+  meta.name = stored.name();
+  meta.condition = stored.condition();
+  meta.descriptor_type = stored.descriptor_type();
+  meta.distance = stored.distance();
+  meta.place_ids = stored.place_ids();
+  meta.poses = stored.poses();
+  EncodedRows rows;
+  rows.precision = stored.precision();
+  rows.rows = stored.size();
+  rows.cols = stored.dimension();
+  rows.scale = stored.scale();
+  rows.data = stored.data();
+  meta.encoded = rows;
+  const std::string folder = AbsoluteFolder(DirName(yaml_path));
+  WriteFileAtomically(
+      yaml_path, SidecarText(meta, BaseName(npy), folder, stored.images(), stored.image_files()));
 }
 
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {
@@ -468,6 +599,10 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   const std::string name_problem = SetNameProblem(set.name);
   if (!name_problem.empty()) throw std::invalid_argument(name_problem);
   set.Validate();
+  if (set.encoded) {
+    throw std::invalid_argument("reference set " + QuotedForMessage(set.name) + " is held by " +
+                                set.encoded->source + ": its file is the set; copy that");
+  }
   const std::string yaml = dir.Relative(yaml_request);
   if (!EndsWith(yaml, ".yaml")) {
     throw std::invalid_argument("a reference set is saved as a .yaml, got " +

@@ -25,6 +25,13 @@ std::string Printed(const char* format, double value) {
   return out;
 }
 
+// How the map's sets are brought in (memory_map).
+ReadSetOptions ReadOptionsOf(const LocalMapOptions& options) {
+  ReadSetOptions out;
+  if (options.memory_map) out.memory_map = options.storage;
+  return out;
+}
+
 }  // namespace
 
 LocalMap::LocalMap(LocalMapOptions options, const DataDirectory* data_dir, std::string shard)
@@ -46,7 +53,7 @@ void LocalMap::Log(LogLevel level, const std::string& message) const {
 void LocalMap::LoadConfigured(const std::vector<ConfiguredSet>& configured) {
   std::vector<std::pair<ReferenceSet, std::string>> sets;  // and the file each came from
   for (const ConfiguredSet& e : configured) {
-    ReferenceSet set = LoadReferenceSetFile(e.path, e.name);
+    ReferenceSet set = LoadReferenceSetFile(e.path, e.name, ReadOptionsOf(options_));
     if (!e.condition.empty()) set.condition = e.condition;
     sets.emplace_back(std::move(set), e.path);
   }
@@ -72,7 +79,8 @@ void LocalMap::LoadConfigured(const std::vector<ConfiguredSet>& configured) {
     if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(s));
     Log(LogLevel::kInfo, "loaded reference set '" + s.name() + "' (" + std::to_string(s.size()) +
                              " places, dimension " + std::to_string(s.dimension()) + ", " +
-                             ToString(s.precision()) + ")");
+                             ToString(s.precision()) +
+                             (s.mapped() ? ", memory-mapped from " + s.rows_source() : "") + ")");
   }
   Changed();
 }
@@ -100,7 +108,7 @@ MapBackend::Query LocalMap::Ask(const QueryDescriptor& descriptor) {
   MutexLock lock(&mutex_);
   const RowMatrixXf row = QueryRow(descriptor);
   query.layout = layout_;
-  query.distances = QueryDistances::AllPresent(stage_.Distances(metric_, row, map_));
+  query.distances = DistancesOf(row);
   if (joint_ && joint_->num_places() == map_.num_places()) {
     query.distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
   }
@@ -113,7 +121,7 @@ std::string LocalMap::Load(const LoadRequest& request, const SetCheck& check) {
     throw std::invalid_argument("shard " + QuotedForMessage(request.shard) +
                                 " given, but this node fuses no shards (parameter shards)");
   }
-  ReferenceSet set = ReadRequestedSet(data_dir_, request);  // without the lock
+  ReferenceSet set = ReadRequestedSet(data_dir_, request, ReadOptionsOf(options_));  // unlocked
   if (check) check(set.name);
   MutexLock lock(&mutex_);
   return AddLocked(std::move(set), data_dir_->Relative(request.path));
@@ -162,25 +170,107 @@ std::string LocalMap::Unload(const std::string& name) {
 void LocalMap::Changed() {
   layout_ = std::make_shared<NumberedLayout>(map_.layout(), ++generations_);
   RequestJoint();
-  stage_.Invalidate();
-  if (stage_.kind() == FirstStageKind::kExact || map_.num_sets() == 0) return;
-  const auto start = std::chrono::steady_clock::now();
-  try {
-    stage_.Prepare(map_);
-  } catch (const std::exception& e) {
+  if (map_.num_sets() == 0) {
+    index_.reset();  // nothing to answer for; the next set starts a new basis
+    index_status_ = "none built yet";
+    return;
+  }
+  if (stage_.kind() == FirstStageKind::kPca) RequestIndex();
+}
+
+QueryDistances LocalMap::DistancesOf(const RowMatrixXf& row) {
+  if (stage_.kind() == FirstStageKind::kExact) {
+    return QueryDistances::AllPresent(stage_.Distances(metric_, row, map_));
+  }
+  if (!index_) {
+    throw std::invalid_argument("the first stage's index is being built (" + index_status_ +
+                                "): no set answers until it is ready");
+  }
+  std::vector<bool> covered;
+  std::vector<RowMatrixXf> distances = index_->Distances(metric_, row, map_, nullptr, &covered);
+  QueryDistances out(map_.num_sets());
+  for (int u = 0; u < map_.num_sets(); ++u) {
+    if (covered[static_cast<size_t>(u)]) out.Set(u, std::move(distances[static_cast<size_t>(u)]));
+  }
+  return out;
+}
+
+void LocalMap::RequestIndex() {
+  auto sets = std::make_shared<const std::vector<StoredReferenceSet>>(map_.sets());
+  std::shared_ptr<const ApproximateIndex> base = index_;
+  const uint64_t generation = layout_->generation;
+  const ApproximateOptions options = stage_.options().approximate;
+  int64_t rows = 0;
+  for (const StoredReferenceSet& set : *sets) rows += set.size();
+  index_status_ = "building the index of " + std::to_string(sets->size()) + " sets (" +
+                  std::to_string(rows) + " rows)" +
+                  (base ? "; the previous index answers for the sets it holds meanwhile" : "");
+  index_job_.Ask([this, sets, base, generation, options] {
+    IndexResult result;
+    result.generation = generation;
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      // One thread, the job's own: the worker pool stays the queries'.
+      std::shared_ptr<const ApproximateIndex> built;
+      int kept = 0, projected = 0;
+      bool refit = !base;
+      if (base) {
+        for (const StoredReferenceSet& set : *sets) (base->Covers(set) ? kept : projected)++;
+        built = std::make_shared<const ApproximateIndex>(*base, *sets, /*threads=*/1);
+        for (const StoredReferenceSet& set : *sets) {
+          // A basis fitted without the new set may miss its directions: fit one to all.
+          if (!base->Covers(set) && built->RetainedEnergyOf(set) < kFirstStageEnergyWarning) {
+            refit = true;
+          }
+        }
+        result.how = std::to_string(kept) + " sets kept, " + std::to_string(projected) +
+                     " projected onto the basis";
+      }
+      if (refit) {
+        built = std::make_shared<const ApproximateIndex>(*sets, options, /*threads=*/1);
+        result.how = base ? "a new basis (the old one kept under " +
+                                Printed("%.0f%%", 100 * kFirstStageEnergyWarning) +
+                                " of a new set's energy)"
+                          : "a new basis";
+      }
+      result.index = std::move(built);
+    } catch (const std::exception& e) {
+      result.error = e.what();
+    }
+    result.seconds = SecondsSince(start);
+    IndexBuilt(std::move(result));
+  });
+}
+
+void LocalMap::IndexBuilt(IndexResult result) {
+  MutexLock lock(&mutex_);
+  if (stage_.kind() != FirstStageKind::kPca) return;
+  if (!result.index) {
     // The sets stay as they are; exact search answers until the node is restarted, rather
-    // than every descriptor trying the build again.
+    // than every change trying the build again.
     FirstStageOptions exact = stage_.options();
     exact.kind = ToString(FirstStageKind::kExact);
     stage_.SetOptions(exact);
-    first_stage_error_ = e.what();
-    Log(LogLevel::kError, std::string("the pca first stage could not be built (") + e.what() +
-                              "): exact search from now on");
+    first_stage_error_ = result.error;
+    index_.reset();
+    Log(LogLevel::kError,
+        "the pca first stage could not be built (" + result.error + "): exact search from now on");
     return;
   }
-  Log(LogLevel::kInfo,
-      "first stage " + stage_.Summary() + ", built in " + Printed("%.2f s", SecondsSince(start)));
-  const double energy = stage_.index()->RetainedEnergy();
+  if (map_.num_sets() == 0 || result.generation < index_generation_) return;  // superseded
+  index_ = std::move(result.index);
+  index_generation_ = result.generation;
+  const bool current = result.generation == layout_->generation;
+  index_status_ = "pca: " + std::to_string(index_->dimensions()) + " dimensions keeping " +
+                  Printed("%.1f%%", 100.0 * index_->RetainedEnergy()) + " of the energy of " +
+                  std::to_string(index_->rows()) + " rows, " +
+                  std::to_string(index_->options().rerank) + " re-ranked per set, " +
+                  Printed("%.1f MB", index_->MemoryBytes() / 1e6) +
+                  (current ? "" : " (a newer build follows)");
+  Log(LogLevel::kInfo, "first stage " + index_status_ + ", built in " +
+                           Printed("%.2f s", result.seconds) +
+                           (result.how.empty() ? "" : " (" + result.how + ")"));
+  const double energy = index_->RetainedEnergy();
   if (energy < kFirstStageEnergyWarning) {
     // On the real data, bases keeping under 99% lost 2 points of R@1 and more.
     Log(LogLevel::kWarn,
@@ -273,9 +363,13 @@ std::string LocalMap::Problem() const {
 
 StatusValues LocalMap::Diagnose() const {
   MutexLock lock(&mutex_);
-  return {{"joint representation", joint_status_},
-          {"first stage", first_stage_error_.empty() ? stage_.Summary()
-                                                     : "exact: pca failed: " + first_stage_error_}};
+  std::string first_stage = stage_.Summary();
+  if (!first_stage_error_.empty()) {
+    first_stage = "exact: pca failed: " + first_stage_error_;
+  } else if (stage_.kind() == FirstStageKind::kPca) {
+    first_stage = index_job_.busy() ? index_status_ + " (building a new index)" : index_status_;
+  }
+  return {{"joint representation", joint_status_}, {"first stage", first_stage}};
 }
 
 ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
@@ -284,8 +378,11 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
   if (map_.num_sets() == 0) return out;  // a shard without sets answers with none
   try {
     const RowMatrixXf row = QueryRow(descriptor);
-    out.distances = stage_.Distances(metric_, row, map_);
+    QueryDistances distances = DistancesOf(row);
+    // A set whose codes are being built is left out: the combiner takes it for absent.
     for (int u = 0; u < map_.num_sets(); ++u) {
+      if (!distances.present(u)) continue;
+      out.distances.push_back(distances.of(u));
       out.set_names.push_back(map_.set(u).name());
       out.fingerprints.push_back(options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u))
                                                        : 0);

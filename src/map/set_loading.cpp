@@ -13,11 +13,12 @@ void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std:
   }
 }
 
-ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req) {
+ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req,
+                              const ReadSetOptions& options) {
   if (!dir) {
     throw std::invalid_argument("no data directory is configured (parameter data_directory)");
   }
-  ReferenceSet set = LoadReferenceSetFile(*dir, req.path, req.name);
+  ReferenceSet set = LoadReferenceSetFile(*dir, req.path, req.name, options);
   if (!req.condition.empty()) set.condition = req.condition;
   return set;
 }
@@ -41,7 +42,7 @@ SetSummary Summarize(const StoredReferenceSet& set) {
   s.num_places = set.size();
   s.dimension = set.dimension();
   s.memory_bytes = set.MemoryBytes();
-  s.storage = ToString(set.precision());
+  s.storage = ToString(set.precision()) + (set.mapped() ? " (memory-mapped)" : "");
   return s;
 }
 

@@ -208,7 +208,7 @@ TEST(ApproximateIndex, ResultsDoNotDependOnTheThreadCount) {
   }
 }
 
-TEST(ApproximateIndex, RefusesAMapThatChangedSinceItWasBuilt) {
+TEST(ApproximateIndex, RefusesASetItHoldsNoCodesOf) {
   ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
   const ApproximateIndex index(map, Options(4, 10));
   const RowMatrixXf queries = LowRankRows(1, 40, 101);
@@ -221,13 +221,19 @@ TEST(ApproximateIndex, RefusesAMapThatChangedSinceItWasBuilt) {
 
   ReferenceMap added = map;
   added.Add(MakeReferenceSet("d", LowRankRows(10, 40, 111)));
-  EXPECT_NE(query(added).find("holds 4 sets, the index 3"), std::string::npos) << query(added);
+  EXPECT_NE(query(added).find("set 'd' is not in the index"), std::string::npos) << query(added);
 
   ReferenceMap replaced = map;  // set "b" replaced by other rows of the same size
   ASSERT_TRUE(replaced.Remove("b"));
   replaced.Add(MakeReferenceSet("b", LowRankRows(90, 40, 121)));
   EXPECT_NE(query(replaced).find("not the one the index was built from"), std::string::npos);
-  EXPECT_NE(query(replaced).find("set 1 is 'c'"), std::string::npos) << query(replaced);
+  EXPECT_NE(query(replaced).find("set 'b' changed"), std::string::npos) << query(replaced);
+
+  // Fewer sets, in another order: the index holds codes of each, so it answers.
+  ReferenceMap fewer;
+  fewer.Add(map.set(2).ToReferenceSet());
+  fewer.Add(map.set(0).ToReferenceSet());
+  EXPECT_EQ(query(fewer), "(nothing thrown)");
 
   ReferenceMap swapped = map;  // same names, order and sizes; one set's rows differ
   ASSERT_TRUE(swapped.Remove("c"));
@@ -397,6 +403,59 @@ TEST(ApproximateIndex, RetainedEnergyIsTheShareOfTheRowsNormsTheBasisKeeps) {
   EXPECT_NEAR(previous, 1.0, 1e-5);  // 40 dimensions: the rows' whole space
   // Six directions carry the rows (plus noise of 0.05): nearly all their energy.
   EXPECT_GT(ApproximateIndex(map, Options(6, 0)).RetainedEnergy(), 0.98);
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+// An index extended by a set (a recording, a load) answers as the base index for the sets
+// it held, and for the new set as a projection onto the same basis; a set it lacks is left
+// out when the caller asks which are covered.
+TEST(ApproximateIndex, ExtendedIndexKeepsTheBasisAndProjectsOnlyTheNewSet) {
+  for (const StoragePrecision precision : kPrecisions) {
+    const ReferenceMap two = [&] {
+      ReferenceMap m = ThreeSets(precision);
+      m.Remove("c");
+      return m;
+    }();
+    const ReferenceMap three = ThreeSets(precision);
+    const ApproximateIndex base(two, Options(4, 7));
+    const RowMatrixXf queries = LowRankRows(3, 40, 141);
+    for (const DistanceMetric metric : kMetrics) {
+      std::vector<bool> covered;
+      const std::vector<RowMatrixXf> partial =
+          base.Distances(metric, queries, three, nullptr, &covered);
+      EXPECT_EQ(covered, (std::vector<bool>{true, true, false}));
+      EXPECT_EQ(partial[2].size(), 0);
+
+      const ApproximateIndex extended(base, three.sets(), /*threads=*/1);
+      EXPECT_TRUE(extended.Covers(three.set(2)));
+      EXPECT_EQ(extended.dimensions(), base.dimensions());
+      const std::vector<RowMatrixXf> all = extended.Distances(metric, queries, three);
+      ExpectBitwiseEqual({all[0], all[1]}, base.Distances(metric, queries, two),
+                         "the sets the base held");
+      // The new set's codes are its projection onto the base's basis: a map of it alone,
+      // extended from the base, gives the same bits.
+      ReferenceMap c_alone;
+      c_alone.SetStoragePrecision(precision);
+      c_alone.Add(MakeReferenceSet("c", LowRankRows(33, 40, 31)));
+      const ApproximateIndex only_c(base, c_alone.sets(), 1);
+      ExpectBitwiseEqual({all[2]}, only_c.Distances(metric, queries, c_alone), "the new set");
+      EXPECT_FALSE(only_c.Covers(three.set(0)));  // codes of sets not asked for are dropped
+    }
+  }
+}
+
+TEST(ApproximateIndex, ABuildOnOneThreadGivesTheBitsOfAParallelOne) {
+  const ReferenceMap map = ThreeSets(StoragePrecision::kInt8);
+  const RowMatrixXf queries = LowRankRows(4, 40, 151);
+  const ApproximateIndex pooled(map, Options(5, 9));
+  const ApproximateIndex alone(map.sets(), Options(5, 9), /*threads=*/1);
+  ExpectBitwiseEqual(alone.Distances(DistanceMetric::kEuclidean, queries, map),
+                     pooled.Distances(DistanceMetric::kEuclidean, queries, map), "one thread");
 }
 
 }  // namespace

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <memory>
+#include <vector>
 
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/stored_reference_set.h"
@@ -127,6 +130,101 @@ TEST(StoredReferenceSet, CountsTheImageNamesInItsBytes) {
   const size_t names = 12 + 104 + 5 + 5;  // the folder and the files' characters
   EXPECT_GE(map.set(1).MemoryBytes(), map.set(0).MemoryBytes() + names);
   EXPECT_LE(map.set(1).MemoryBytes(), map.set(0).MemoryBytes() + names + 3 * sizeof(std::string));
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+// Rows held elsewhere (a memory-mapped file, here a buffer the test keeps): the set holds
+// them as they are, with the norms, distances and decoded rows of the same set encoded by
+// the map, and keeps them alive through its copies.
+TEST(StoredReferenceSet, HoldsEncodedRowsAsTheMapEncodesThem) {
+  const RowMatrixXf x = testing::RandomMatrix(6, 21, 17);
+  for (StoragePrecision p :
+       {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    ReferenceMap resident;
+    resident.SetStoragePrecision(p);
+    resident.Add(MakeReferenceSet("a", x));
+    const StoredReferenceSet& r = resident.set(0);
+    auto buffer = std::make_shared<std::vector<char>>(
+        static_cast<const char*>(r.data()), static_cast<const char*>(r.data()) + r.data_bytes());
+    ReferenceSet in = MakeReferenceSet("a", RowMatrixXf());
+    in.place_ids = {0, 1, 2, 3, 4, 5};
+    EncodedRows rows;
+    rows.precision = p;
+    rows.rows = 6;
+    rows.cols = 21;
+    rows.scale = r.scale();
+    rows.data = buffer->data();
+    rows.owner = buffer;
+    rows.source = "'a.npy', memory-mapped";
+    in.encoded = rows;
+    buffer.reset();  // the set's copy of `owner` keeps it
+    ReferenceMap mapped;
+    mapped.SetStoragePrecision(p);
+    mapped.Add(in);
+    const StoredReferenceSet& m = mapped.set(0);
+    EXPECT_TRUE(m.mapped());
+    EXPECT_FALSE(r.mapped());
+    EXPECT_EQ(m.rows_source(), "'a.npy', memory-mapped");
+    EXPECT_EQ(m.size(), 6);
+    EXPECT_EQ(m.dimension(), 21);
+    EXPECT_EQ(m.scale(), r.scale());
+    ASSERT_EQ(m.data_bytes(), r.data_bytes());
+    EXPECT_EQ(std::memcmp(m.data(), r.data(), r.data_bytes()), 0);
+    EXPECT_EQ(std::memcmp(m.squared_norms().data(), r.squared_norms().data(), 6 * sizeof(float)), 0)
+        << ToString(p);
+    const RowMatrixXf q = testing::RandomMatrix(2, 21, 19);
+    const auto a = ComputeDistances(DistanceMetric::kEuclidean, q, resident);
+    const auto b = ComputeDistances(DistanceMetric::kEuclidean, q, mapped);
+    EXPECT_EQ(std::memcmp(a[0].data(), b[0].data(), sizeof(float) * a[0].size()), 0);
+    const ReferenceMap copy = mapped;  // shares the rows
+    mapped.Remove("a");
+    EXPECT_EQ(std::memcmp(copy.set(0).data(), r.data(), r.data_bytes()), 0);
+    if (p == StoragePrecision::kFloat32) {
+      EXPECT_TRUE(copy.set(0).ToReferenceSet().descriptors.isApprox(x, 0));
+    }
+  }
+}
+
+TEST(StoredReferenceSet, RefusesEncodedRowsAtAnotherPrecisionOrNotFinite) {
+  std::vector<float> values(12, 1.0f);
+  values[7] = NAN;
+  auto buffer = std::make_shared<std::vector<float>>(values);
+  ReferenceSet in = MakeReferenceSet("b", RowMatrixXf());
+  in.place_ids = {0, 1, 2};
+  EncodedRows rows;
+  rows.precision = StoragePrecision::kFloat32;
+  rows.rows = 3;
+  rows.cols = 4;
+  rows.data = buffer->data();
+  rows.owner = buffer;
+  rows.source = "'b.npy', memory-mapped";
+  in.encoded = rows;
+  ReferenceMap int8;
+  int8.SetStoragePrecision(StoragePrecision::kInt8);
+  try {
+    int8.Add(in);
+    ADD_FAILURE() << "an int8 map took float32 rows";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("is held at float32 by 'b.npy', memory-mapped, but the "
+                                         "map stores int8"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(int8.num_sets(), 0);
+  ReferenceMap f32;
+  try {
+    f32.Add(in);
+    ADD_FAILURE() << "a NaN row was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("descriptor row 1 of 'b.npy'"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(f32.num_sets(), 0);
 }
 
 }  // namespace

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
+#include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/npy.h"
 #include "bsf_vpr/io/reference_set_io.h"
@@ -336,6 +338,131 @@ TEST_F(ReferenceSetIo, SavedImagesRoundTripRelativeBelowTheYamlElseAbsolute) {
   s.image_files.pop_back();
   EXPECT_THROW(SaveReferenceSet(s, Path("sets/bad.yaml")), std::invalid_argument);
   EXPECT_FALSE(fs::exists(Path("sets/bad.yaml")));
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+class MappedSets : public testing::TempDirTest {};
+
+// A set written as a map holds it (SaveStoredReferenceSet) is mapped, not read, by a loader
+// asking for its precision; its rows, scale and distances are those of the set encoded from
+// float32, and it outlives its file being replaced (a rename) or removed.
+TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
+  ReferenceSet s = MakeReferenceSet("winter", testing::RandomMatrix(7, 19, 5));
+  s.condition = "snow";
+  s.poses.assign(7, PlacePose{1, 2, 0, 0});
+  for (const StoragePrecision p :
+       {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
+    const std::string what = ToString(p);
+    ReferenceMap resident;
+    resident.SetStoragePrecision(p);
+    resident.Add(s);
+    const std::string yaml = Path("stored_" + what + ".yaml");
+    SaveStoredReferenceSet(resident.set(0), yaml);
+    EXPECT_TRUE(fs::exists(Path("stored_" + what + "." + what + ".npy"))) << what;
+
+    ReadSetOptions options;
+    options.memory_map = p;
+    ReferenceSet loaded = LoadReferenceSetFile(yaml, "", options);
+    ASSERT_TRUE(loaded.encoded.has_value()) << what;
+    EXPECT_EQ(loaded.descriptors.size(), 0);
+    EXPECT_EQ(loaded.size(), 7);
+    EXPECT_EQ(loaded.dimension(), 19);
+    EXPECT_EQ(loaded.condition, "snow");
+    EXPECT_EQ(loaded.poses.size(), 7u);
+    EXPECT_NE(loaded.encoded->source.find("memory-mapped"), std::string::npos);
+    ReferenceMap mapped;
+    mapped.SetStoragePrecision(p);
+    mapped.Add(std::move(loaded));
+    ASSERT_TRUE(mapped.set(0).mapped());
+    EXPECT_EQ(mapped.set(0).scale(), resident.set(0).scale()) << what;
+    ASSERT_EQ(
+        std::memcmp(mapped.set(0).data(), resident.set(0).data(), resident.set(0).data_bytes()), 0)
+        << what;
+
+    // Replaced by another set (written to a new file, renamed over it), then removed: the
+    // mapped set keeps the rows it was loaded with.
+    const RowMatrixXf q = testing::RandomMatrix(3, 19, 9);
+    const auto before = ComputeDistances(DistanceMetric::kCosine, q, mapped);
+    ReferenceMap other;
+    other.SetStoragePrecision(p);
+    other.Add(MakeReferenceSet("winter", testing::RandomMatrix(7, 19, 77)));
+    SaveStoredReferenceSet(other.set(0), yaml);
+    const auto after = ComputeDistances(DistanceMetric::kCosine, q, mapped);
+    EXPECT_EQ(std::memcmp(before[0].data(), after[0].data(), sizeof(float) * before[0].size()), 0);
+    fs::remove(Path("stored_" + what + "." + what + ".npy"));
+    EXPECT_EQ(std::memcmp(before[0].data(),
+                          ComputeDistances(DistanceMetric::kCosine, q, mapped)[0].data(),
+                          sizeof(float) * before[0].size()),
+              0);
+  }
+
+  // At another precision than the file's, the rows are read (int8 decoded by its scale).
+  ReferenceMap int8;
+  int8.SetStoragePrecision(StoragePrecision::kInt8);
+  int8.Add(s);
+  SaveStoredReferenceSet(int8.set(0), Path("w8.yaml"));
+  ReadSetOptions f32;
+  f32.memory_map = StoragePrecision::kFloat32;
+  const ReferenceSet read = LoadReferenceSetFile(Path("w8.yaml"), "", f32);
+  EXPECT_FALSE(read.encoded.has_value());
+  RowMatrixXf decoded(7, 19);
+  for (int r = 0; r < 7; ++r) int8.set(0).DecodeRow(r, decoded.row(r).data());
+  EXPECT_TRUE(read.descriptors.isApprox(decoded, 0));
+  EXPECT_TRUE(LoadReferenceSetFile(Path("w8.yaml"), "").descriptors.isApprox(decoded, 0));
+
+  // A set read from a float32 file into an int8 map, and the same set mapped from its int8
+  // file, answer with the same bits.
+  ReadSetOptions i8;
+  i8.memory_map = StoragePrecision::kInt8;
+  ReferenceMap a, b;
+  a.SetStoragePrecision(StoragePrecision::kInt8);
+  b.SetStoragePrecision(StoragePrecision::kInt8);
+  a.Add(s);
+  b.Add(LoadReferenceSetFile(Path("w8.yaml"), "", i8));
+  const RowMatrixXf q = testing::RandomMatrix(2, 19, 3);
+  const auto da = ComputeDistances(DistanceMetric::kEuclidean, q, a);
+  const auto db = ComputeDistances(DistanceMetric::kEuclidean, q, b);
+  EXPECT_EQ(std::memcmp(da[0].data(), db[0].data(), sizeof(float) * da[0].size()), 0);
+}
+
+TEST_F(MappedSets, RefusesAnInt8FileWithoutItsScaleAndMapsOnlyBelowTheDataDirectory) {
+  const int8_t levels[6] = {1, -2, 3, 4, 5, -127};
+  WriteFileAtomically(Path("raw.npy"), EncodeNpyBytes(levels, 2, 3, NpyDtype::kInt8));
+  ReadSetOptions i8;
+  i8.memory_map = StoragePrecision::kInt8;
+  for (const ReadSetOptions& options : {ReadSetOptions(), i8}) {
+    try {
+      LoadReferenceSetFile(Path("raw.npy"), "raw", options);
+      ADD_FAILURE() << "an int8 .npy without a scale was taken";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("int8"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("descriptor_scale"), std::string::npos) << e.what();
+    }
+  }
+  std::ofstream(Path("bad_scale.yaml")) << "name: b\ndescriptors: raw.npy\ndescriptor_scale: -1\n";
+  try {
+    LoadReferenceSetFile(Path("bad_scale.yaml"), "", i8);
+    ADD_FAILURE() << "a negative scale was taken";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'descriptor_scale' must be a positive number"),
+              std::string::npos)
+        << e.what();
+  }
+  std::ofstream(Path("ok.yaml")) << "name: ok\ndescriptors: raw.npy\ndescriptor_scale: 0.5\n";
+  const DataDirectory dir(dir_);
+  const ReferenceSet below = LoadReferenceSetFile(dir, "ok.yaml", "", i8);
+  ASSERT_TRUE(below.encoded.has_value());
+  EXPECT_EQ(below.encoded->scale, 0.5f);
+  // A link below the data directory is not followed, mapped or not.
+  fs::create_symlink(Path("raw.npy"), Path("link.npy"));
+  std::ofstream(Path("linked.yaml")) << "name: l\ndescriptors: link.npy\ndescriptor_scale: 1\n";
+  EXPECT_THROW(LoadReferenceSetFile(dir, "linked.yaml", "", i8), std::runtime_error);
+  EXPECT_THROW(LoadReferenceSetFile(dir, "../outside.yaml", "", i8), std::exception);
 }
 
 }  // namespace

@@ -7,8 +7,10 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <random>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "bsf_vpr/io/reference_set_io.h"
@@ -191,6 +193,116 @@ TEST_F(MapFixture, AskingWhileSetsLoadAndUnloadGivesEachQueryTheLayoutItWasCompu
   }
   stop = true;
   changer.join();
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+// `n` rows of dimension 256 near a 6-dimensional subspace chosen by `subspace` (plus a
+// little noise): sets of different subspaces are fitted poorly by each other's bases.
+RowMatrixXf SubspaceRows(int n, int subspace, uint64_t seed) {
+  std::mt19937 rng(static_cast<uint32_t>(seed));
+  std::normal_distribution<float> g;
+  const auto random = [&](int r, int c, float scale) {
+    RowMatrixXf m(r, c);
+    for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = scale * g(rng);
+    return m;
+  };
+  std::mt19937 basis_rng(static_cast<uint32_t>(1000 + subspace));
+  RowMatrixXf factors(6, 256);
+  for (Eigen::Index i = 0; i < factors.size(); ++i) factors.data()[i] = g(basis_rng);
+  return random(n, 6, 1.0f) * factors + random(n, 256, 0.02f);
+}
+
+// Sets memory-mapped at int8 with the pca first stage built in the background: a query goes
+// on with the index it has while a load's build runs (the new set absent from it), and the
+// new index takes over when built; an unload answers at once with the codes held.
+TEST_F(MapFixture, TheFirstStageIsBuiltInTheBackgroundWhileQueriesGoOn) {
+  for (const auto& [name, rows, subspace] :
+       {std::tuple{"near", 500, 1}, std::tuple{"far", 6000, 2}}) {
+    ReferenceMap encoder;
+    encoder.SetStoragePrecision(StoragePrecision::kInt8);
+    encoder.Add(MakeReferenceSet(name, SubspaceRows(rows, subspace, 7)));
+    SaveStoredReferenceSet(encoder.set(0), (root / (std::string(name) + ".yaml")).string());
+  }
+  LocalMapOptions options;
+  options.storage = StoragePrecision::kInt8;
+  options.memory_map = true;
+  options.first_stage.kind = "pca";
+  options.first_stage.approximate.dimensions = 16;
+  options.first_stage.approximate.rerank = 5;
+  options.log = [this](LogLevel, const std::string& m) { log.push_back(m); };
+  LocalMap m(options, dir.get());
+  const std::vector<float> d = [] {
+    const RowMatrixXf q = SubspaceRows(1, 1, 99);
+    return std::vector<float>(q.data(), q.data() + q.size());
+  }();
+  QueryDescriptor q;
+  q.values = d.data();
+  q.size = static_cast<Eigen::Index>(d.size());
+
+  EXPECT_EQ(m.Load({"near.yaml", "", "", ""}, nullptr), "loaded 'near' (500 places)");
+  EXPECT_NE(m.List().sets.at(0).storage.find("memory-mapped"), std::string::npos);
+  m.WaitForIndex();
+  MapBackend::Query first = m.Ask(q);
+  ASSERT_EQ(first.distances.num_sets(), 1);
+  EXPECT_TRUE(first.distances.present(0));
+
+  // "far" lies in another subspace: the basis of "near" keeps little of it, so the build
+  // fits a new basis to both (seconds), during which "near" answers alone.
+  EXPECT_EQ(m.Load({"far.yaml", "", "", ""}, nullptr), "loaded 'far' (6000 places)");
+  const MapBackend::Query during = m.Ask(q);
+  const std::string status = m.Diagnose().at(1).second;
+  ASSERT_NE(status.find("building"), std::string::npos)
+      << "the build ended before the query: " << status;
+  ASSERT_EQ(during.distances.num_sets(), 2);
+  EXPECT_TRUE(during.distances.present(0));
+  EXPECT_FALSE(during.distances.present(1));
+  EXPECT_EQ(during.layout->num_sets(), 2);
+  m.WaitForIndex();
+  const MapBackend::Query after = m.Ask(q);
+  EXPECT_TRUE(after.distances.present(0));
+  EXPECT_TRUE(after.distances.present(1));
+  EXPECT_EQ(after.distances.of(1).cols(), 6000);
+  EXPECT_NE(m.Diagnose().at(1).second.find("of 6500 rows"), std::string::npos)
+      << m.Diagnose().at(1).second;
+  bool refit = false;
+  for (const std::string& line : log)
+    refit = refit || line.find("a new basis (") != std::string::npos;
+  EXPECT_TRUE(refit) << "the build kept a basis that fits 'far' poorly";
+
+  // An unload needs no projection: the remaining set answers at once.
+  EXPECT_EQ(m.Unload("near"), "unloaded 'near'");
+  const MapBackend::Query unloaded = m.Ask(q);
+  ASSERT_EQ(unloaded.distances.num_sets(), 1);
+  EXPECT_TRUE(unloaded.distances.present(0));
+  m.WaitForIndex();
+  EXPECT_NE(m.Diagnose().at(1).second.find("of 6000 rows"), std::string::npos);
+}
+
+// With no index yet, a query is refused with the reason, not answered wrongly or waited on.
+TEST_F(MapFixture, AQueryBeforeTheFirstIndexIsRefusedNamingTheBuild) {
+  LocalMapOptions options;
+  options.first_stage.kind = "pca";
+  LocalMap m(options, dir.get());
+  EXPECT_THROW(m.Ask(QueryDescriptor()), std::invalid_argument);  // no set: the usual refusal
+  m.LoadConfigured({{(root / "summer.yaml").string(), "", ""}});
+  const std::vector<float> d = {1.0f, 1.0f, 0.0f, 0.0f};
+  QueryDescriptor q;
+  q.values = d.data();
+  q.size = 4;
+  try {
+    m.Ask(q);  // the first build may already be done: then it answers
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("the first stage's index is being built"),
+              std::string::npos)
+        << e.what();
+  }
+  m.WaitForIndex();
+  EXPECT_TRUE(m.Ask(q).distances.present(0));
 }
 
 }  // namespace

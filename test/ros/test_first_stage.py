@@ -43,9 +43,10 @@ class FirstStage(unittest.TestCase):
             out.append(r.belief.match)
         return out
 
-    def index_rows_after(self, stamp):
-        """The rows of the index in the first diagnostics published after `stamp`; fails the
-        test if they report no index (the node did not build it when the map changed)."""
+    def index_rows_after(self, stamp, rows):
+        """Waits for diagnostics published after `stamp` to report an index of `rows` rows
+        (it is built in the background after each change of sets; meanwhile they say it is
+        building) and checks what they say of it; fails the test if none does within 20 s."""
         found = []
 
         def reported():
@@ -54,11 +55,11 @@ class FirstStage(unittest.TestCase):
                     continue
                 for status in array.status:
                     for kv in status.values:
-                        if kv.key == "first stage":
+                        if kv.key == "first stage" and " of %d rows" % rows in kv.value:
                             found.append(kv.value)
                             return True
             return False
-        wait_for(reported, 20, "diagnostics after %s" % stamp.to_sec())
+        wait_for(reported, 20, "diagnostics reporting an index of %d rows" % rows)
         m = re.match(r"pca: 64 dimensions keeping (\d+\.\d)% of the energy of (\d+) rows, "
                      r"20 re-ranked per set, [\d.]+ MB", found[0])
         self.assertIsNotNone(m, found[0])
@@ -68,8 +69,8 @@ class FirstStage(unittest.TestCase):
     def test_matches_are_exact_searchs_through_loads_and_unloads(self):
         r = self.load(path="day.yaml", name="", condition="")
         self.assertTrue(r.success, r.message)
-        # Built at the load, before any descriptor: the diagnostics report it at once.
-        self.assertEqual(self.index_rows_after(rospy.Time.now()), 200)
+        # Built after the load in the background, before any descriptor asks for it.
+        self.assertEqual(self.index_rows_after(rospy.Time.now(), 200), 200)
         # One set: bsf matches the nearest place by cosine distance, which the 20 re-ranked
         # candidates make exact whenever the nearest is among them.
         day = self.day / np.linalg.norm(self.day, axis=1, keepdims=True)
@@ -79,14 +80,14 @@ class FirstStage(unittest.TestCase):
         got = self.matches(queries)
         same = sum(a == b for a, b in zip(got, nearest))
         self.assertGreaterEqual(same, len(queries) - 1, list(zip(queries, got, nearest)))
-        # The map changes: the index follows it at once, before any descriptor asks for it.
+        # The map changes: the index follows it (the new set's codes added to it).
         r = self.load(path="day.npy", name="again", condition="")
         self.assertTrue(r.success, r.message)
-        self.assertEqual(self.index_rows_after(rospy.Time.now()), 400)
+        self.assertEqual(self.index_rows_after(rospy.Time.now(), 400), 400)
         self.assertEqual(len(self.matches(queries[:5])), 5)
         r = self.unload(name="day")
         self.assertTrue(r.success, r.message)
-        self.assertEqual(self.index_rows_after(rospy.Time.now()), 200)
+        self.assertEqual(self.index_rows_after(rospy.Time.now(), 200), 200)
         got = self.matches(queries)
         self.assertGreaterEqual(sum(a == b for a, b in zip(got, nearest)), len(queries) - 1)
 

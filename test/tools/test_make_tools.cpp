@@ -332,3 +332,45 @@ TEST_F(MakeTools, MakeViewsCoversTheLens) {
 
 }  // namespace
 }  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+// bsf_store_set writes Gardens Point's day set (real HDC-DELF) as an int8 map holds it;
+// bsf_evaluate then gives the same table whether it maps the stored set or reads and encodes
+// the original (the rows and scale are bitwise the same).
+TEST_F(MakeTools, StoreSetWritesInt8SetsThatEvaluateMapsToTheSameResults) {
+  const std::string tool = BSF_STORE_SET_PATH;
+  for (const std::string set : {"day_left"}) {
+    const Result r = RunCommand(tool + " --set " + kGardens + set + ".npy --out " + dir_ + "/" +
+                                set + ".yaml --storage int8");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("int8"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(dir_ + "/" + set + ".int8.npy"));
+    EXPECT_EQ(fs::file_size(dir_ + "/" + set + ".int8.npy"), 128u + 200u * 4096u);
+  }
+  const std::string common =
+      " --query " + kGardens + "night_right.npy --tolerance 2 --storage int8";
+  const Result read = Evaluate("--reference day=" + kGardens + "day_left.npy" + common + " --out " +
+                               dir_ + "/read");
+  ASSERT_EQ(read.exit_code, 0) << read.output;
+  const Result mapped = Evaluate("--reference day=" + dir_ + "/day_left.yaml" + common +
+                                 " --memory-map true --out " + dir_ + "/mapped");
+  ASSERT_EQ(mapped.exit_code, 0) << mapped.output;
+  EXPECT_EQ(Lines(dir_ + "/read/summary.csv"), Lines(dir_ + "/mapped/summary.csv"));
+
+  ExpectOneLineRefusal(RunCommand(tool + " --set " + kGardens + "day_left.npy --out " + dir_ +
+                                  "/x.yaml --storage int4"),
+                       "int4", "a bad storage");
+  ExpectOneLineRefusal(
+      RunCommand(tool + " --set " + dir_ + "/missing.yaml --out " + dir_ + "/x.yaml"),
+      "missing.yaml", "a missing set");
+  ExpectOneLineRefusal(RunCommand(tool + " --out " + dir_ + "/x.yaml"), "--set and --out",
+                       "no set");
+  ExpectOneLineRefusal(
+      Evaluate("--reference day=" + dir_ + "/day_left.yaml" + common + " --memory-map yes"),
+      "--memory-map takes true or false", "a bad --memory-map");
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -54,16 +55,28 @@ struct ApproximateOptions {
 // FirstStageOptionsTable, first_stage.h); seed is not an option.
 const OptionTable<ApproximateOptions>& ApproximateOptionsTable();
 
-// The first stage's data for one ReferenceMap: the basis and every row's projection. Built
-// once for a map (see the constructor for its cost) and valid for that map as long as it
-// does not change: Distances refuses a map whose sets differ from those it was built from.
-// Immutable once built; Distances may be called from several threads at once.
+// The first stage's data for a map's sets: the basis and every row's projection (a set's
+// codes). Built once for a map (see the constructor for its cost); it answers for any map
+// whose sets it holds codes of (by name, size, precision and fingerprint: a set replaced
+// under the same name is another set). A map that gained a set is answered by an index
+// extended with that set's codes (the extending constructor: the basis kept, only the new
+// rows projected). Immutable once built; Distances may be called from several threads.
 class ApproximateIndex {
  public:
   // Fits the basis to a sample of `map`'s rows (decoded as stored) and projects every row
   // of every set. Threads: DistanceThreads(). Throws std::invalid_argument if the options
   // are invalid or the map holds no sets. `map` is not referenced after it returns.
   ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options = {});
+  // The same for `sets` (one dimension), on `threads` threads: 1 runs on the caller's
+  // thread alone, without the worker pool that queries use (a build in the background).
+  ApproximateIndex(const std::vector<StoredReferenceSet>& sets, const ApproximateOptions& options,
+                   int threads);
+  // `base` for `sets`: its basis and options, its codes of the sets it holds, and the
+  // projections of the others (an incremental build: a recorded or loaded set costs its own
+  // rows). Codes of sets not in `sets` are dropped. Throws std::invalid_argument if the
+  // dimension differs from the basis'.
+  ApproximateIndex(const ApproximateIndex& base, const std::vector<StoredReferenceSet>& sets,
+                   int threads);
 
   // Distances from each of the Q queries (rows of `queries`, Q x D) to every row of every
   // set of `map`: element u is Q x N_u, as ComputeDistances(metric, queries, map) gives
@@ -71,14 +84,22 @@ class ApproximateIndex {
   // the lower row) are replaced by exact ones, bitwise those ComputeDistances computes; the
   // rest are approximate. Results do not depend on the thread count.
   // Throws std::invalid_argument if the dimensions differ, a query holds NaN/infinity, or
-  // `map` is not the map the index was built from (sets added, removed or replaced since).
+  // a set of `map` has no codes here (added, or replaced, since the index was built) and
+  // `covered` is null. With `covered`, such a set is left out instead: its element is empty
+  // and (*covered)[u] false (true for the sets answered).
   // `times`, if given, receives the wall time of each stage.
   struct StageTimes {
     double approximate_ms = 0;  // the projections' distances to every row
     double rerank_ms = 0;       // the candidates' exact distances
   };
   std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
-                                     const ReferenceMap& map, StageTimes* times = nullptr) const;
+                                     const ReferenceMap& map, StageTimes* times = nullptr,
+                                     std::vector<bool>* covered = nullptr) const;
+  // Whether the index holds codes of `set` (Distances answers for it).
+  bool Covers(const StoredReferenceSet& set) const { return CodesOf(set) != nullptr; }
+  // The share of `set`'s rows' energy the basis keeps (as RetainedEnergy), if it holds its
+  // codes; -1 otherwise.
+  double RetainedEnergyOf(const StoredReferenceSet& set) const;
 
   const ApproximateOptions& options() const { return options_; }
   int dimensions() const { return dimensions_; }    // d' in use (options' capped at the rank)
@@ -110,25 +131,33 @@ class ApproximateIndex {
     double energy = 0;            // sum over the rows of ||r||^2
   };
 
-  void FitBasis(const ReferenceMap& map);
+  void FitBasis(const std::vector<StoredReferenceSet>& sets);
   SetCodes ProjectSet(const StoredReferenceSet& set) const;
-  void CheckSameMap(const ReferenceMap& map) const;
+  // The codes of `set`, or null.
+  const SetCodes* CodesOf(const StoredReferenceSet& set) const;
+  // Why the index has no codes of `set` (for Distances' refusal).
+  std::string Missing(const StoredReferenceSet& set) const;
   // Projections of the queries onto the basis: Q x d'.
   RowMatrixXf ProjectQueries(const RowMatrixXf& queries) const;
   // ApproximateStage fills `out` (Q x N_u per set) with approximate distances, ExactStage
   // then overwrites each set's `rerank` smallest per query. `qn`: the queries' squared norms.
+  // `codes[u]` is set u's codes (null: set u is left out).
   void ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
                         const Eigen::VectorXf& qn, const ReferenceMap& map,
+                        const std::vector<const SetCodes*>& codes,
                         std::vector<RowMatrixXf>* out) const;
   void ExactStage(DistanceMetric metric, const RowMatrixXf& queries, const Eigen::VectorXf& qn,
-                  const ReferenceMap& map, std::vector<RowMatrixXf>* out) const;
+                  const ReferenceMap& map, const std::vector<const SetCodes*>& codes,
+                  std::vector<RowMatrixXf>* out) const;
 
   ApproximateOptions options_;
+  int threads_ = 1;     // of a build (Distances uses DistanceThreads())
   int dimension_ = 0;   // D
   int dimensions_ = 0;  // d'
   int sample_rows_ = 0;
   RowMatrixXf basis_;  // d' x D, orthonormal rows (the top right singular vectors)
-  std::vector<SetCodes> sets_;
+  // Shared with the indexes extended from this one (they are immutable).
+  std::vector<std::shared_ptr<const SetCodes>> sets_;
 };
 
 }  // namespace bsf_vpr

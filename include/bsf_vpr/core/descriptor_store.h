@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "bsf_vpr/core/enum_names.h"
@@ -21,6 +22,28 @@ StoragePrecision ParseStoragePrecision(const std::string& name);
 std::string ToString(StoragePrecision precision);
 // Bytes per descriptor element: 4, 2 or 1.
 int BytesPerElement(StoragePrecision precision);
+
+// Rows already encoded at a storage precision, held by someone else: a reference set's .npy
+// memory-mapped (io/reference_set_io.h, ReadSetOptions::memory_map), so that a map holds the
+// set without reading its bytes. `owner` keeps `data` valid (the mapping is undone when the
+// last copy goes). The bytes must not change while any copy lives: the loaders map files
+// that a save never rewrites in place (a save writes new files and renames, so a mapped
+// file's pages stay those of the old file).
+struct EncodedRows {
+  StoragePrecision precision = StoragePrecision::kFloat32;
+  int64_t rows = 0;
+  int64_t cols = 0;
+  // int8: an element stands for scale x its value; 1 for the other precisions.
+  float scale = 1.0f;
+  const void* data = nullptr;  // rows x cols elements of `precision`, row-major
+  std::shared_ptr<const void> owner;
+  std::string source;  // where the rows are, for messages ("'winter.npy', memory-mapped")
+
+  size_t bytes() const {
+    return static_cast<size_t>(rows) * static_cast<size_t>(cols) *
+           static_cast<size_t>(BytesPerElement(precision));
+  }
+};
 
 // IEEE 754 binary16 conversions, rounding to nearest even; NaN stays a (quiet) NaN and
 // infinity infinity. bsf_vpr's one float16 implementation: the stores, the portable distance

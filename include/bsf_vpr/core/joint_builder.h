@@ -8,18 +8,14 @@
 // Thread-safe. `done` runs on the builder's thread, one result at a time, in request order.
 #pragma once
 
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <mutex>
-#include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "bsf_vpr/core/joint_representation.h"
-#include "bsf_vpr/core/mutex.h"
+#include "bsf_vpr/core/latest_job.h"
 #include "bsf_vpr/core/stored_reference_set.h"
 
 namespace bsf_vpr {
@@ -34,9 +30,9 @@ class JointBuilder {
     double seconds = 0;                                // the build's wall time
   };
 
-  explicit JointBuilder(std::function<void(Result)> done);
-  ~JointBuilder();  // lets a running build finish (its result still goes to done); drops a waiting
-                    // one
+  explicit JointBuilder(std::function<void(Result)> done) : done_(std::move(done)) {}
+  // Lets a running build finish (its result still goes to done); drops a waiting one.
+  ~JointBuilder() = default;
   JointBuilder(const JointBuilder&) = delete;
   JointBuilder& operator=(const JointBuilder&) = delete;
 
@@ -45,27 +41,13 @@ class JointBuilder {
   void Request(JointKind kind, std::vector<StoredReferenceSet> sets, int num_places,
                JointOptions options, uint64_t generation);
   // Whether a build runs or waits.
-  bool busy() const;
+  bool busy() const { return job_.busy(); }
   // Blocks until no build runs or waits (tests, orderly shutdown).
-  void Wait() const;
+  void Wait() const { job_.Wait(); }
 
  private:
-  struct Request_ {
-    JointKind kind;
-    std::vector<StoredReferenceSet> sets;
-    int num_places = 0;
-    JointOptions options;
-    uint64_t generation = 0;
-  };
-  void Run();
-
   const std::function<void(Result)> done_;
-  mutable Mutex mutex_;
-  mutable std::condition_variable changed_;
-  std::optional<Request_> waiting_ GUARDED_BY(mutex_);
-  bool running_ GUARDED_BY(mutex_) = false;
-  bool stop_ GUARDED_BY(mutex_) = false;
-  std::thread thread_;               // last member: starts once the others exist
+  LatestJob job_;  // last member: its thread ends before done_ goes
 };
 
 }  // namespace bsf_vpr

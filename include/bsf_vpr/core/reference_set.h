@@ -37,6 +37,10 @@ struct ReferenceSet {
   std::string descriptor_type;   // optional, e.g. "patchnorm_64x32_p8", "netvlad_4096"
   std::string distance;          // optional, the distance the descriptors are meant for
   RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
+  // Or the N_u x D rows already encoded (a memory-mapped .npy: EncodedRows), in which case
+  // `descriptors` is empty. ReferenceMap::Add holds them as they are when they are at the
+  // map's storage precision, and refuses them otherwise; nothing else reads them.
+  std::optional<EncodedRows> encoded;
   std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
   std::vector<PlacePose> poses;  // empty, or N_u poses (poses[k] is the pose of row k)
   // The images the rows were described from, for showing a match: row k's image is
@@ -45,8 +49,8 @@ struct ReferenceSet {
   std::string images;
   std::vector<std::string> image_files;
 
-  int size() const { return static_cast<int>(descriptors.rows()); }
-  int dimension() const { return static_cast<int>(descriptors.cols()); }
+  int size() const { return static_cast<int>(encoded ? encoded->rows : descriptors.rows()); }
+  int dimension() const { return static_cast<int>(encoded ? encoded->cols : descriptors.cols()); }
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
   // duplicated, negative or >= kMaxPlaces, poses of the wrong count or one that PoseProblem

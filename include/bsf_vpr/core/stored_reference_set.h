@@ -52,7 +52,11 @@ class StoredReferenceSet {
   // given, float16 exactly, int8 as scale() x value.
   void DecodeRow(int r, float* out) const;
   // Bytes held: the encoded rows, their norms, place ids, poses and image file names.
+  // Memory-mapped rows count as held (they are the set's bytes, resident or not).
   size_t MemoryBytes() const;
+  // Whether the rows are memory-mapped (ReferenceSet::encoded), and where from ("" if not).
+  bool mapped() const;
+  std::string rows_source() const;
 
   // The ReferenceSet this set was made from, for saving it. Only a set held at float32 has
   // it: at reduced precision the float32 values are gone, and this throws
@@ -63,8 +67,13 @@ class StoredReferenceSet {
   friend class ReferenceMap;
   // Made by ReferenceMap::Add from a set it has validated (ReferenceSet::Validate). Throws
   // std::invalid_argument for values float16 cannot hold (std::bad_alloc when memory is
-  // short); a float32 set keeps the given matrix without copying it.
+  // short); a float32 set keeps the given matrix without copying it. A set of encoded rows
+  // (ReferenceSet::encoded) is held as it is, without reading more than its norms need; it
+  // must be at `precision` and its rows finite and within kMaxDescriptorSquaredNorm
+  // (std::invalid_argument naming the row otherwise).
   StoredReferenceSet(ReferenceSet set, StoragePrecision precision);
+  // Holds encoded rows and reads their norms (the constructor's part for them).
+  void HoldEncoded(EncodedRows rows);
 
   std::string name_, condition_, descriptor_type_, distance_;
   std::vector<int> place_ids_;
@@ -73,9 +82,9 @@ class StoredReferenceSet {
   std::vector<std::string> image_files_;
   int dimension_ = 0;
   StoragePrecision precision_ = StoragePrecision::kFloat32;
-  // The one encoding of precision_: float32 as given, binary16 or int8 (row-major), shared
-  // by the copies of this set.
-  using Rows = std::variant<RowMatrixXf, std::vector<uint16_t>, std::vector<int8_t>>;
+  // The one encoding of precision_: float32 as given, binary16 or int8 (row-major), or rows
+  // encoded elsewhere (a memory-mapped file: EncodedRows), shared by the copies of this set.
+  using Rows = std::variant<RowMatrixXf, std::vector<uint16_t>, std::vector<int8_t>, EncodedRows>;
   std::shared_ptr<const Rows> rows_;
   float scale_ = 1.0f;
   Eigen::VectorXf squared_norms_;

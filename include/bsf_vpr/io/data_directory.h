@@ -16,9 +16,12 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "bsf_vpr/io/file_util.h"
 
 namespace bsf_vpr {
 
@@ -46,6 +49,10 @@ class DataDirectory {
   // std::invalid_argument if `relative` is not a valid relative path.
   std::string Read(const std::string& relative,
                    uint64_t max_bytes = std::numeric_limits<uint64_t>::max()) const;
+
+  // The regular file at `relative`, memory-mapped (MapFile, file_util.h), reached as Read
+  // reaches it. Throws as Read does.
+  std::shared_ptr<const MappedFile> Map(const std::string& relative) const;
 
   // The names of the regular files in the folder at `relative` (a path from Relative), sorted;
   // links (and folders, FIFOs...) are left out. The folder is reached like Read's files, one

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,21 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes);
 // larger than `max_bytes` (checked before anything is read).
 std::string ReadFile(const std::string& path,
                      uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
+
+// A regular file mapped read-only into memory: `size` bytes at `data`, unmapped when the
+// last pointer to it goes. The pages are read from the file when first touched and may be
+// dropped again by the kernel under memory pressure (the page cache holds them). A file
+// replaced by a rename (as every writer of bsf_vpr replaces files) keeps its old pages for
+// the mapping; a file truncated in place by another program would fault on access (SIGBUS):
+// the data directory's files are never rewritten in place.
+struct MappedFile {
+  const char* data = nullptr;
+  size_t size = 0;
+};
+
+// Maps the regular file at `path`. Throws std::runtime_error naming it if it cannot be
+// opened or mapped, or is not a regular file.
+std::shared_ptr<const MappedFile> MapFile(const std::string& path);
 
 // Creates `dir` and its missing parents (mode 0755). Throws std::runtime_error naming the
 // folder on failure, or when `dir` exists and is not a folder.

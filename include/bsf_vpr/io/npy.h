@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "bsf_vpr/core/types.h"
 
@@ -57,7 +58,7 @@ struct NpyHeader {
 
 // Parses and validates the header of an .npy file held in `bytes` (`path` is only used in
 // messages). Also checks that `bytes` holds all the data the header announces.
-NpyHeader ParseNpyHeader(const std::string& bytes, const std::string& path);
+NpyHeader ParseNpyHeader(std::string_view bytes, const std::string& path);
 
 // Reads a 2-D float .npy matrix ('<f2', '<f4' or '<f8'; C or Fortran order) and converts
 // it to float32. Other dtypes are refused. Throws std::runtime_error.
@@ -78,6 +79,11 @@ RowMatrixXb DecodeNpyBoolMatrix(const std::string& bytes, const std::string& pat
 // Serialises `matrix` as a version 1.0 .npy file (C order) in the given float dtype; throws
 // std::invalid_argument for a dtype that is not a float.
 std::string EncodeNpyMatrix(const RowMatrixXf& matrix, NpyDtype dtype = NpyDtype::kFloat32);
+
+// Serialises rows already encoded (`rows` x `cols` elements of `dtype`, row-major, at
+// `data`) as a version 1.0 .npy file (C order): an int8 or float16 set as it is held, so
+// that it can be memory-mapped.
+std::string EncodeNpyBytes(const void* data, int64_t rows, int64_t cols, NpyDtype dtype);
 
 // Writes `matrix` to `path` atomically (temporary file + rename). Throws std::runtime_error
 // (std::invalid_argument for a dtype that is not a float).

@@ -7,7 +7,10 @@
 //   dimension: 2048                   # optional; checked against the .npy when given
 //   distance: euclidean               # optional: euclidean | cosine
 //   descriptors: winter.npy           # required; relative paths are relative to this file
-//                                     # (saving names it winter.<content hash>.npy)
+//                                     # (saving names it winter.<content hash>.npy); float
+//                                     # (float16/32/64) or int8 with descriptor_scale
+//   descriptor_scale: 0.0021          # only for an int8 .npy: element = scale x value (as
+//                                     # bsf_store_set writes a set held at int8)
 //   place_ids: [0, 1, 2]              # optional; default 0 .. N_u-1
 //   poses: [[x, y, z, yaw], ...]      # optional; one per row, metres and radians, finite,
 //                                     # |x|, |y|, |z| <= kMaxPoseCoordinateM (place_layout.h)
@@ -28,9 +31,10 @@
 #pragma once
 
 #include <cstddef>
-#include <set>
 #include <cstdint>
 #include <limits>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -63,9 +67,20 @@ ReferenceSet LoadReferenceSetYaml(const std::string& yaml_path);
 // SetNameProblem: std::runtime_error naming the file otherwise.
 ReferenceSet LoadReferenceSetNpy(const std::string& npy_path, const std::string& name);
 
+// How a set's descriptors are brought in.
+struct ReadSetOptions {
+  // Memory-map the descriptor .npy instead of reading it when it holds them row-major (C
+  // order) at this precision (float32 '<f4', float16 '<f2', or int8 '|i1' with the YAML's
+  // descriptor_scale): the set (ReferenceSet::encoded) then costs its place ids and norms, not
+  // its bytes, and the page cache holds what is read of it. A file at another precision, or
+  // in Fortran order, is read as without it. nullopt: always read.
+  std::optional<StoragePrecision> memory_map;
+};
+
 // Dispatches on the extension: .yaml/.yml sidecar, or .npy (named `name`). Throws
 // std::runtime_error for other paths (saying so, or that the file is missing).
-ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name);
+ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& name,
+                                  const ReadSetOptions& options = {});
 
 // The same, for a request (relative, or absolute below dir.path()) from the outside world:
 // the YAML, the .npy and the images folder it names are read through `dir`
@@ -73,7 +88,7 @@ ReferenceSet LoadReferenceSetFile(const std::string& path, const std::string& na
 // or be anything but a regular file (a folder for images); links among the images are not
 // listed. The set's `images` is then dir.path() + "/" + the folder's relative path.
 ReferenceSet LoadReferenceSetFile(const DataDirectory& dir, const std::string& request,
-                                  const std::string& name);
+                                  const std::string& name, const ReadSetOptions& options = {});
 
 // The bytes of the image file of row `row` of `set` (images() + "/" + image_files()[row]):
 // read through dir->Read when `dir` is given and the file lies below dir->path() (so a link
@@ -100,6 +115,14 @@ std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirector
 // saved from StoredReferenceSet::ToReferenceSet(), which refuses one held at reduced
 // precision only.
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
+
+// Writes a set as a map holds it (`set.precision()`: float32, float16, or int8 with its
+// descriptor_scale), for memory-mapping (ReadSetOptions::memory_map): `<stem>.<precision>.npy`
+// beside `yaml_path`, then the YAML naming it, each atomically (a reader sees an old file or
+// the new one). For the command line (bsf_store_set); the node's saves go through
+// SaveReferenceSet. Throws std::invalid_argument for a path not ending in .yaml,
+// std::runtime_error naming the file when writing fails.
+void SaveStoredReferenceSet(const StoredReferenceSet& set, const std::string& yaml_path);
 
 struct SaveOptions {
   // Whether an existing YAML is replaced (never, when false).

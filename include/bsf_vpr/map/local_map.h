@@ -15,7 +15,9 @@
 
 #include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/joint_builder.h"
+#include "bsf_vpr/core/latest_job.h"
 #include "bsf_vpr/core/mutex.h"
+#include "bsf_vpr/core/query_distances.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/map/map_backend.h"
@@ -28,6 +30,10 @@ struct LocalMapOptions {
   StoragePrecision storage = StoragePrecision::kFloat32;
   double place_pose_tolerance_m = 25;
   FirstStageOptions first_stage;
+  // Map each set's descriptor .npy instead of reading it, where the file holds the rows at
+  // `storage` (ReadSetOptions::memory_map; bsf_store_set writes them so): a set then costs its
+  // norms and, with first_stage pca, its codes, not its bytes.
+  bool memory_map = false;
   bool fingerprints = false;  // keep each set's SetFingerprint (a shard's answers carry them)
   MapLog log;                 // what the map reports (may be empty: nothing reported)
 };
@@ -77,6 +83,8 @@ class LocalMap : public MapBackend {
   std::string DescriptorTypeMismatch(const std::string& type) const;
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
   void WaitForJoint() const override { joint_builder_.Wait(); }
+  // Blocks until no build of the first stage's index runs or waits (tests, benchmarks).
+  void WaitForIndex() const { index_job_.Wait(); }
   std::string Problem() const override;
   StatusValues Diagnose() const override;
 
@@ -95,10 +103,26 @@ class LocalMap : public MapBackend {
   std::string AddLocked(ReferenceSet set, const std::string& where) REQUIRES(mutex_);
   // The descriptor as a 1 x D query, checked against the sets. Throws std::invalid_argument.
   RowMatrixXf QueryRow(const QueryDescriptor& descriptor) const REQUIRES(mutex_);
-  // After every change of sets, with mutex_ held: a new layout, and the first stage's index
-  // for the new sets (first_stage pca), logged; a failed build falls back to exact search.
-  // The joint representation is asked of the builder (RequestJoint).
+  // After every change of sets, with mutex_ held: a new layout; the first stage's index
+  // (first_stage pca) and the joint representation are asked of their builders
+  // (RequestIndex, RequestJoint).
   void Changed() REQUIRES(mutex_);
+  // The distances of `row` to the sets: exact, or through the first stage's index, where
+  // a set it holds no codes of yet is absent (its codes are being built).
+  QueryDistances DistancesOf(const RowMatrixXf& row) REQUIRES(mutex_);
+  // Asks for the first stage's index of the sets now, on index_job_'s thread: the current
+  // index extended by the new sets' codes (those it holds are kept), or a new basis for all
+  // when there is none or the basis fits a new set poorly. The current index answers for
+  // its sets meanwhile; the new one takes over between two queries (IndexBuilt).
+  void RequestIndex() REQUIRES(mutex_);
+  struct IndexResult {
+    uint64_t generation = 0;                        // of the layout it was asked for
+    std::shared_ptr<const ApproximateIndex> index;  // null when the build failed
+    std::string error;
+    std::string how;  // "new basis" or "2 sets kept, 1 projected"
+    double seconds = 0;
+  };
+  void IndexBuilt(IndexResult result) EXCLUDES(mutex_);
   // With mutex_ held: asks for the joint representation of the sets now (if one is wanted
   // and they can make one), and drops the current one if it no longer fits the places.
   void RequestJoint() REQUIRES(mutex_);
@@ -118,6 +142,11 @@ class LocalMap : public MapBackend {
   uint64_t generations_ GUARDED_BY(mutex_) = 0;  // layouts made
   // Why the pca first stage fell back to exact, if it did.
   std::string first_stage_error_ GUARDED_BY(mutex_);
+  // The first stage's index (pca): the one answering (null: none built yet), the layout
+  // generation it was asked for, and what the last build said.
+  std::shared_ptr<const ApproximateIndex> index_ GUARDED_BY(mutex_);
+  uint64_t index_generation_ GUARDED_BY(mutex_) = 0;
+  std::string index_status_ GUARDED_BY(mutex_) = "none built yet";
   // The joint representation: the kind wanted, the one answering (null: none), the build
   // it came from (numbered), and what the last build said.
   std::optional<JointKind> joint_kind_ GUARDED_BY(mutex_);
@@ -128,6 +157,7 @@ class LocalMap : public MapBackend {
   std::string joint_status_ GUARDED_BY(mutex_) = "none asked for";
   // Last: destroyed first, so that no build calls back into a map being destroyed.
   JointBuilder joint_builder_{[this](JointBuilder::Result r) { JointBuilt(std::move(r)); }};
+  LatestJob index_job_;
 };
 
 }  // namespace bsf_vpr

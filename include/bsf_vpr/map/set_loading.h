@@ -8,14 +8,16 @@
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/io/data_directory.h"
+#include "bsf_vpr/io/reference_set_io.h"
 #include "bsf_vpr/map/map_backend.h"
 
 namespace bsf_vpr {
 
 // load_reference_set's file: `req`'s path read below `dir` (no lock needed), its name and
-// condition overridden by the request's. Throws std::invalid_argument when there is no data
-// directory (null) or the file cannot be a set.
-ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req);
+// condition overridden by the request's, memory-mapped as `options` say. Throws
+// std::invalid_argument when there is no data directory (null) or the file cannot be a set.
+ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req,
+                              const ReadSetOptions& options = {});
 
 // Throws std::invalid_argument when `set` (from `where`) declares a distance other than
 // `metric`.

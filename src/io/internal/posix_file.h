@@ -7,6 +7,8 @@
 #include <limits>
 #include <string>
 
+#include "bsf_vpr/io/file_util.h"
+
 namespace bsf_vpr {
 
 // Closes a descriptor when it goes out of scope.
@@ -53,5 +55,8 @@ std::string RandomChars(size_t n);
 // cannot be read.
 std::string ReadRegularFile(int fd, const std::string& name,
                             uint64_t max_bytes = std::numeric_limits<uint64_t>::max());
+
+// Maps the regular file open at `fd` read-only (MapFile's rules; `name` in messages).
+std::shared_ptr<const MappedFile> MapRegularFile(int fd, const std::string& name);
 
 }  // namespace bsf_vpr

@@ -27,6 +27,7 @@ LocalMapOptions ToLocalMapOptions(const MapParams& params, const FirstStageOptio
   LocalMapOptions o;
   o.metric = params.distance;
   o.storage = params.storage;
+  o.memory_map = params.memory_map;
   o.place_pose_tolerance_m = params.place_pose_tolerance_m;
   o.first_stage = first_stage;
   o.log = RosMapLog();

@@ -101,6 +101,13 @@ const OptionTable<MapParams>& MapParamsTable() {
               "scale per set) quarters the bytes and the time per query",
               StoragePrecisionNames())
           .Add(
+              "memory_map", [](auto& p) -> auto& { return p.memory_map; },
+              "map each reference set's descriptor .npy into memory instead of reading it, "
+              "where the file holds the rows at storage (bsf_store_set writes a set so; "
+              "other files are read as before): a set then costs its norms and, with "
+              "first_stage pca, its codes, not its bytes, and the page cache keeps what is "
+              "read of it (docs/performance.md, maps larger than memory)")
+          .Add(
               "place_pose_tolerance_m", [](auto& p) -> auto& { return p.place_pose_tolerance_m; },
               "a reference set (loaded or recorded) that puts a place farther than this from "
               "where the loaded sets have it is refused: its place ids belong to another map",

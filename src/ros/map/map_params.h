@@ -28,6 +28,7 @@ struct MapParams {
   // declare, or the first set loaded into an empty map.
   std::optional<DistanceMetric> distance;
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
+  bool memory_map = false;             // map .npy files held at `storage` instead of reading them
   double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
 
   bool distance_given() const { return distance.has_value(); }

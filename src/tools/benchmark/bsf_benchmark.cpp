@@ -23,6 +23,7 @@
 #include "src/tools/benchmark/benchmark_evaluate.h"
 #include "src/tools/benchmark/benchmark_joint.h"
 #include "src/tools/benchmark/benchmark_large.h"
+#include "src/tools/benchmark/benchmark_mapped.h"
 #include "src/tools/benchmark/benchmark_off_map.h"
 #include "src/tools/benchmark/benchmark_util.h"
 #include "src/tools/benchmark/cpu_baseline.h"
@@ -42,7 +43,7 @@ using tools::TimeMs;
 const char kUsage[] =
     R"(usage: bsf_benchmark [--sections LIST] [--repeats R] [--storage P] [--evaluate-dir DIR]
                      [--images DIR] [--first-stage-dimensions D] [--rerank-candidates K]
-                     [--first-stage-sample-rows S] [--quick]
+                     [--first-stage-sample-rows S] [--mapped-dir DIR] [--quick]
 
 Baselines use as many threads as bsf_vpr does (the machine's cores): the streaming probe
 and the GEMM probe (OpenBLAS sgemm). The first line names the CPU, its vector extensions and
@@ -85,6 +86,13 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
            built at M=10, N=100,000, D=4096 int8 (minutes; skipped without the memory)
   offmap   the hypothesis "no place of the map": a query of bsf and of bsf+filter with
            off_map (the default) vs without, M=3, N=3000, D=4096, timed in turn
+  mapped   sets memory-mapped (int8 .npy as bsf_store_set writes them; M=11 sets of
+           N=100,000 x 4096 random rows written once to --mapped-dir DIR, default
+           /tmp/bsf_benchmark_mapped, 4.5 GB): opening one set mapped vs read into memory
+           (from the disk, its pages evicted, and from the page cache); the map of 10 sets
+           through the fusion node's map with the pca first stage: its index built in the
+           background, a query's time, resident memory; then the 11th set loaded while
+           queries stream back to back, and every query's delay meanwhile
 The large and scaling sections take the pca first stage's options as bsf_evaluate and the
 fusion node do (defaults: d' = 256, 1000 re-ranked per set, basis from 2048 rows):
   --first-stage-dimensions D, --rerank-candidates K, --first-stage-sample-rows S
@@ -444,7 +452,8 @@ void Scaling(int repeats, int scale, StoragePrecision storage, const FirstStageO
 }
 
 int Run(int argc, char** argv) {
-  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling,joint,offmap";
+  std::string sections = "fusion,query,batch,evaluate,large,describe,scaling,joint,offmap,mapped";
+  std::string mapped_dir = "/tmp/bsf_benchmark_mapped";
   std::string evaluate_dir = "/tmp/bsf_benchmark_evaluate";
   std::string images = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/256x144/summer";
   int repeats = 7, scale = 1;
@@ -473,6 +482,8 @@ int Run(int argc, char** argv) {
       evaluate_dir = v;
     else if (f == "--images")
       images = v;
+    else if (f == "--mapped-dir")
+      mapped_dir = v;
     else if (f != "--first-stage" && FirstStageOptionsTable().SetFromFlag(f, v, &first_stage))
       continue;  // --first-stage-dimensions, --rerank-candidates, --first-stage-sample-rows
     else
@@ -501,10 +512,13 @@ int Run(int argc, char** argv) {
       tools::BenchmarkJoint(repeats, scale);
     else if (s == "offmap")
       tools::BenchmarkOffMap(repeats, scale);
+    else if (s == "mapped")
+      tools::BenchmarkMapped(repeats, scale == 1 ? 1 : 100, first_stage,
+                             mapped_dir + (scale == 1 ? "" : "_quick"));
     else
       throw std::invalid_argument(
           "unknown section '" + s +
-          "' (fusion, query, batch, evaluate, large, describe, scaling, joint, offmap)");
+          "' (fusion, query, batch, evaluate, large, describe, scaling, joint, offmap, mapped)");
   }
   return 0;
 }

@@ -32,6 +32,9 @@ Inputs (either descriptors, or precomputed per-source matrices):
                           that declare another distance than this are refused)
   --storage float32|float16|int8  precision the reference descriptors are held at
                           (default float32; float16 halves and int8 quarters their bytes)
+  --memory-map true       map each reference .npy into memory instead of reading it where it
+                          holds the rows at --storage (bsf_store_set writes sets so; other
+                          files are read): a set costs its norms, not its bytes
   --results-bag PATH      instead: the beliefs a node published during a replay (recorded by
                           launch/replay.launch), scored exactly as offline for the method the
                           node ran; ground truth from --tolerance/--ground-truth/--tolerance-m
@@ -137,6 +140,11 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.metric = ForFlag(flag, [&] { return ParseDistanceMetric(value); });
     } else if (flag == "--storage") {
       a.storage = ForFlag(flag, [&] { return ParseStoragePrecision(value); });
+    } else if (flag == "--memory-map") {
+      if (value != "true" && value != "false") {
+        throw std::invalid_argument("--memory-map takes true or false, got '" + value + "'");
+      }
+      a.memory_map = value == "true";
     } else if (flag == "--tolerance") {
       a.tolerance_frames = ParseInteger(flag, value);
       if (a.tolerance_frames < 0) throw std::invalid_argument("--tolerance must be >= 0");

@@ -36,6 +36,7 @@ struct EvaluateArgs {
   // if they agree, else euclidean (evaluate_inputs.h).
   std::optional<DistanceMetric> metric;
   StoragePrecision storage = StoragePrecision::kFloat32;
+  bool memory_map = false;    // --memory-map true: map reference .npy files held at `storage`
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
   std::string query_poses;    // --query-poses CSV, for --tolerance-m (evaluate_ground_truth.h)

@@ -30,13 +30,13 @@ bool IsFolder(const std::string& path) {
 // Image folders are described with `describer`, built on first use (an ONNX model is then
 // loaded once for all the folders one loading thread describes, see LoadAllSets).
 ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
-                        const ImageDescriberOptions& options,
+                        const ImageDescriberOptions& options, const ReadSetOptions& read,
                         std::unique_ptr<ImageDescriber>* describer) {
   if (IsFolder(path)) {
     if (!*describer) *describer = MakeImageDescriber(options);
     return DescribeImageFolderAsSet(path, name, **describer);
   }
-  return LoadReferenceSetFile(path, name);
+  return LoadReferenceSetFile(path, name, read);
 }
 
 // A distance declared by a reference-set (or query) YAML, and who declared it.
@@ -90,7 +90,10 @@ std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
     std::unique_ptr<ImageDescriber> describer;  // one per thread: describers are not shared
     for (size_t i = next++; i < inputs.size(); i = next++) {
       try {
-        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, &describer);
+        // --memory-map: the reference sets' files mapped at --storage; the queries read.
+        ReadSetOptions read;
+        if (args.memory_map && i < args.references.size()) read.memory_map = args.storage;
+        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, read, &describer);
       } catch (...) {
         errors[i] = std::current_exception();
       }

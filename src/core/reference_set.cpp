@@ -113,20 +113,50 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors, std::st
 
 void ReferenceMap::Add(ReferenceSet set) {
   set.Validate();
-  SetLayout layout;
-  layout.name = set.name;
-  layout.condition = set.condition;
-  layout.descriptor_type = set.descriptor_type;
-  layout.place_ids = set.place_ids;
-  layout.poses = set.poses;
-  layout.images = set.images;
-  layout.image_files = set.image_files;
-  layout.dimension = set.dimension();
-  // Everything that can throw happens aside (the layout's checks, encoding, copies); the
-  // map changes only by moves below.
+  // The layout's checks first: a set the map refuses is not encoded.
   PlaceLayout next = layout_;
-  next.Add(std::move(layout));
-  StoredReferenceSet stored(std::move(set), storage_);
+  next.Add(LayoutOf(set.name, set.condition, set.descriptor_type, set.place_ids, set.poses,
+                    set.images, set.image_files, set.dimension()));
+  Insert(StoredReferenceSet(std::move(set), storage_), std::move(next));
+}
+
+StoredReferenceSet ReferenceMap::Store(ReferenceSet set, StoragePrecision precision) {
+  set.Validate();
+  return StoredReferenceSet(std::move(set), precision);
+}
+
+void ReferenceMap::Add(StoredReferenceSet set) {
+  if (set.precision() != storage_) {
+    throw std::invalid_argument("reference set '" + set.name() + "' is held at " +
+                                ToString(set.precision()) + ", the map stores " +
+                                ToString(storage_));
+  }
+  PlaceLayout next = layout_;
+  next.Add(LayoutOf(set.name(), set.condition(), set.descriptor_type(), set.place_ids(),
+                    set.poses(), set.images(), set.image_files(), set.dimension()));
+  Insert(std::move(set), std::move(next));
+}
+
+SetLayout ReferenceMap::LayoutOf(const std::string& name, const std::string& condition,
+                                 const std::string& descriptor_type,
+                                 const std::vector<int>& place_ids,
+                                 const std::vector<PlacePose>& poses, const std::string& images,
+                                 const std::vector<std::string>& image_files, int dimension) {
+  SetLayout layout;
+  layout.name = name;
+  layout.condition = condition;
+  layout.descriptor_type = descriptor_type;
+  layout.place_ids = place_ids;
+  layout.poses = poses;
+  layout.images = images;
+  layout.image_files = image_files;
+  layout.dimension = dimension;
+  return layout;
+}
+
+void ReferenceMap::Insert(StoredReferenceSet stored, PlaceLayout next) {
+  // Everything that can throw happened aside (the layout's checks, encoding, copies); the
+  // map changes only by moves here.
   sets_.reserve(sets_.size() + 1);
   static_assert(std::is_nothrow_move_constructible_v<StoredReferenceSet>);
   static_assert(std::is_nothrow_move_assignable_v<PlaceLayout>);

@@ -1,5 +1,6 @@
 #include "bsf_vpr/map/local_map.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -51,24 +52,25 @@ void LocalMap::Log(LogLevel level, const std::string& message) const {
 }
 
 void LocalMap::LoadConfigured(const std::vector<ConfiguredSet>& configured) {
-  std::vector<std::pair<ReferenceSet, std::string>> sets;  // and the file each came from
+  // Read and encoded without the lock (a mapped set's norms are read here).
+  std::vector<std::pair<StoredReferenceSet, std::string>> sets;  // and the file each came from
   for (const ConfiguredSet& e : configured) {
     ReferenceSet set = LoadReferenceSetFile(e.path, e.name, ReadOptionsOf(options_));
     if (!e.condition.empty()) set.condition = e.condition;
-    sets.emplace_back(std::move(set), e.path);
+    sets.emplace_back(ReferenceMap::Store(std::move(set), options_.storage), e.path);
   }
   MutexLock lock(&mutex_);
   if (!options_.metric) {
     // The distance the sets were made for, if they agree on one.
     std::string declared;
     for (const auto& [set, path] : sets) {
-      if (set.distance.empty()) continue;
-      if (!declared.empty() && set.distance != declared) {
+      if (set.distance().empty()) continue;
+      if (!declared.empty() && set.distance() != declared) {
         throw std::invalid_argument("the reference sets are meant for different distances (" +
-                                    declared + " and " + set.distance + " for '" + set.name +
+                                    declared + " and " + set.distance() + " for '" + set.name() +
                                     "'); set the parameter distance");
       }
-      declared = set.distance;
+      declared = set.distance();
     }
     if (!declared.empty()) metric_ = ParseDistanceMetric(declared);
   }
@@ -121,27 +123,30 @@ std::string LocalMap::Load(const LoadRequest& request, const SetCheck& check) {
     throw std::invalid_argument("shard " + QuotedForMessage(request.shard) +
                                 " given, but this node fuses no shards (parameter shards)");
   }
-  ReferenceSet set = ReadRequestedSet(data_dir_, request, ReadOptionsOf(options_));  // unlocked
+  // Read, and encoded (a mapped set's norms read), without the lock: queries go on.
+  ReferenceSet set = ReadRequestedSet(data_dir_, request, ReadOptionsOf(options_));
   if (check) check(set.name);
+  StoredReferenceSet stored = ReferenceMap::Store(std::move(set), options_.storage);
   MutexLock lock(&mutex_);
-  return AddLocked(std::move(set), data_dir_->Relative(request.path));
+  return AddLocked(std::move(stored), data_dir_->Relative(request.path));
 }
 
 std::string LocalMap::Add(ReferenceSet set, const std::string& where) {
+  StoredReferenceSet stored = ReferenceMap::Store(std::move(set), options_.storage);
   MutexLock lock(&mutex_);
-  return AddLocked(std::move(set), where);
+  return AddLocked(std::move(stored), where);
 }
 
-std::string LocalMap::AddLocked(ReferenceSet set, const std::string& where) {
+std::string LocalMap::AddLocked(StoredReferenceSet set, const std::string& where) {
   DistanceMetric metric = metric_;
-  if (!options_.metric && map_.num_sets() == 0 && !set.distance.empty()) {
+  if (!options_.metric && map_.num_sets() == 0 && !set.distance().empty()) {
     // No distance configured and nothing loaded yet: the first set's own distance.
-    metric = ParseDistanceMetric(set.distance);
+    metric = ParseDistanceMetric(set.distance());
   }
   CheckSetDistance(set, metric, where);
-  const std::string name = set.name;
+  const std::string name = set.name();
   const int places = set.size();
-  const std::string declared = set.distance;
+  const std::string declared = set.distance();
   fingerprints_.reserve(fingerprints_.size() + 1);  // no throw once the set is in
   map_.Add(std::move(set));
   if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(map_.sets().back()));
@@ -217,20 +222,20 @@ void LocalMap::RequestIndex() {
       if (base) {
         for (const StoredReferenceSet& set : *sets) (base->Covers(set) ? kept : projected)++;
         built = std::make_shared<const ApproximateIndex>(*base, *sets, /*threads=*/1);
+        // A basis fitted without a new set may miss its directions: when it keeps of the
+        // new set's energy a point less than of the rows it was fitted to (and under the
+        // warning's 99%), a basis is fitted to all sets. Random rows, which no basis fits,
+        // are kept alike by any: they do not make every load refit.
+        const double fits = std::min(kFirstStageEnergyWarning, base->RetainedEnergy() - 0.01);
         for (const StoredReferenceSet& set : *sets) {
-          // A basis fitted without the new set may miss its directions: fit one to all.
-          if (!base->Covers(set) && built->RetainedEnergyOf(set) < kFirstStageEnergyWarning) {
-            refit = true;
-          }
+          if (!base->Covers(set) && built->RetainedEnergyOf(set) < fits) refit = true;
         }
         result.how = std::to_string(kept) + " sets kept, " + std::to_string(projected) +
                      " projected onto the basis";
       }
       if (refit) {
         built = std::make_shared<const ApproximateIndex>(*sets, options, /*threads=*/1);
-        result.how = base ? "a new basis (the old one kept under " +
-                                Printed("%.0f%%", 100 * kFirstStageEnergyWarning) +
-                                " of a new set's energy)"
+        result.how = base ? "a new basis (the old one kept too little of a new set's energy)"
                           : "a new basis";
       }
       result.index = std::move(built);

@@ -5,11 +5,12 @@
 
 namespace bsf_vpr {
 
-void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std::string& where) {
+void CheckSetDistance(const StoredReferenceSet& set, DistanceMetric metric,
+                      const std::string& where) {
   const std::string name = ToString(metric);
-  if (!set.distance.empty() && set.distance != name) {
-    throw std::invalid_argument("reference set '" + set.name + "' (" + where + ") is meant for " +
-                                set.distance + " distance, the node uses " + name);
+  if (!set.distance().empty() && set.distance() != name) {
+    throw std::invalid_argument("reference set '" + set.name() + "' (" + where + ") is meant for " +
+                                set.distance() + " distance, the node uses " + name);
   }
 }
 

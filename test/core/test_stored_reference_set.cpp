@@ -229,3 +229,33 @@ TEST(StoredReferenceSet, RefusesEncodedRowsAtAnotherPrecisionOrNotFinite) {
 
 }  // namespace
 }  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+// Store encodes a set aside (a map's owner does it before taking its lock); Add takes it
+// as Add(ReferenceSet) would, and refuses it at another precision or against the layout,
+// the map unchanged.
+TEST(ReferenceMap, AddsASetStoredAsideAsItAddsOneItEncodes) {
+  const RowMatrixXf x = testing::RandomMatrix(5, 12, 23);
+  ReferenceMap direct, aside;
+  direct.SetStoragePrecision(StoragePrecision::kInt8);
+  aside.SetStoragePrecision(StoragePrecision::kInt8);
+  direct.Add(MakeReferenceSet("a", x));
+  aside.Add(ReferenceMap::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8));
+  ASSERT_EQ(aside.num_sets(), 1);
+  EXPECT_EQ(aside.num_places(), direct.num_places());
+  EXPECT_EQ(std::memcmp(aside.set(0).data(), direct.set(0).data(), direct.set(0).data_bytes()), 0);
+  EXPECT_EQ(aside.set(0).scale(), direct.set(0).scale());
+
+  EXPECT_THROW(aside.Add(ReferenceMap::Store(MakeReferenceSet("b", x), StoragePrecision::kFloat16)),
+               std::invalid_argument);
+  EXPECT_THROW(aside.Add(ReferenceMap::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8)),
+               std::invalid_argument);  // the name is taken
+  EXPECT_EQ(aside.num_sets(), 1);
+  EXPECT_THROW(ReferenceMap::Store(MakeReferenceSet("", x), StoragePrecision::kInt8),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace bsf_vpr

@@ -108,6 +108,15 @@ class ReferenceMap {
   // (CheckPlacePoses), or if float16 cannot hold a value; the
   // map is unchanged whenever it throws (std::bad_alloc included).
   void Add(ReferenceSet set);
+  // A set validated and encoded at `precision`, ready to join a map of that precision
+  // (Add(StoredReferenceSet)): the part of Add that reads every row and needs no map, so
+  // that whoever guards a map with a lock can do it before taking the lock. Throws as Add
+  // does for the set itself.
+  static StoredReferenceSet Store(ReferenceSet set, StoragePrecision precision);
+  // Adds a set Store made: the layout's checks, then the set. Throws std::invalid_argument
+  // as Add(ReferenceSet) does for the map's checks, and when the set is held at another
+  // precision than storage_precision(); the map is unchanged whenever it throws.
+  void Add(StoredReferenceSet set);
   // Removes the named set; returns false if there is none.
   bool Remove(const std::string& name);
   // Throws std::invalid_argument naming the problem when `descriptor` cannot be compared
@@ -142,6 +151,13 @@ class ReferenceMap {
   }
 
  private:
+  static SetLayout LayoutOf(const std::string& name, const std::string& condition,
+                            const std::string& descriptor_type, const std::vector<int>& place_ids,
+                            const std::vector<PlacePose>& poses, const std::string& images,
+                            const std::vector<std::string>& image_files, int dimension);
+  // Appends `stored` and adopts `next` (its layout with the set): no throw.
+  void Insert(StoredReferenceSet stored, PlaceLayout next);
+
   std::vector<StoredReferenceSet> sets_;
   PlaceLayout layout_;  // set u of it is sets_[u]'s
   StoragePrecision storage_ = StoragePrecision::kFloat32;

@@ -98,9 +98,10 @@ class LocalMap : public MapBackend {
   int num_sets() const;
 
  private:
-  // Adds `set` (read from `where`) under mutex_: adopts its distance when none is
-  // configured and nothing is loaded yet, refuses a set meant for another distance.
-  std::string AddLocked(ReferenceSet set, const std::string& where) REQUIRES(mutex_);
+  // Adds `set` (read from `where`, encoded by ReferenceMap::Store without the lock) under
+  // mutex_: adopts its distance when none is configured and nothing is loaded yet, refuses
+  // a set meant for another distance.
+  std::string AddLocked(StoredReferenceSet set, const std::string& where) REQUIRES(mutex_);
   // The descriptor as a 1 x D query, checked against the sets. Throws std::invalid_argument.
   RowMatrixXf QueryRow(const QueryDescriptor& descriptor) const REQUIRES(mutex_);
   // After every change of sets, with mutex_ held: a new layout; the first stage's index

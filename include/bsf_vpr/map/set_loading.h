@@ -21,7 +21,8 @@ ReferenceSet ReadRequestedSet(const DataDirectory* dir, const LoadRequest& req,
 
 // Throws std::invalid_argument when `set` (from `where`) declares a distance other than
 // `metric`.
-void CheckSetDistance(const ReferenceSet& set, DistanceMetric metric, const std::string& where);
+void CheckSetDistance(const StoredReferenceSet& set, DistanceMetric metric,
+                      const std::string& where);
 
 // Why descriptors of `type` should not be compared with `layout`'s sets ("" when they may):
 // a set declares another descriptor type. An empty type (not declared) is never refused.

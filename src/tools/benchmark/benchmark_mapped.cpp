@@ -109,7 +109,7 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   options.storage = StoragePrecision::kInt8;
   options.memory_map = true;
   options.first_stage = first_stage;
-  const double rss0 = ResidentBytes() / 1e6;
+  const double rss0 = ResidentBytes() / 1e6, anon0 = AnonymousResidentBytes() / 1e6;
   LocalMap map(options, &data);
   auto t0 = Clock::now();
   std::vector<ConfiguredSet> sets;
@@ -119,6 +119,7 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   map.WaitForIndex();
   const double index_s = Ms(t0) / 1000 - load_s;
   const double rss_map = ResidentBytes() / 1e6 - rss0;
+  const double anon_map = AnonymousResidentBytes() / 1e6 - anon0;
   const RowMatrixXf queries = Uniform(std::max(repeats, 20) + 1, d, 17);
   int q = 0;
   const double query_ms = TimeMs(
@@ -127,10 +128,11 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   std::printf(
       "mapped  M=%d N=%d D=%d int8 memory-mapped, pca (d'=%d, %d re-ranked per set): sets "
       "opened in %.1f s, index built in the background in %.1f s (one thread); a query %.1f "
-      "ms (%.1f queries/s); resident %.0f MB after the build, %.0f MB after the queries (the "
-      "rows as stored: %.0f MB)\n",
+      "ms (%.1f queries/s); resident %.0f MB after the build (the process's own %.0f MB, the "
+      "rest mapped pages of the page cache), %.0f MB after the queries (the rows as stored: "
+      "%.0f MB)\n",
       m, n, d, first_stage.approximate.dimensions, first_stage.approximate.rerank, load_s, index_s,
-      query_ms, 1000 / query_ms, rss_map, rss_queried, 1e-6 * m * n * d);
+      query_ms, 1000 / query_ms, rss_map, anon_map, rss_queried, 1e-6 * m * n * d);
 
   // A load while beliefs stream: queries back to back on one thread (as the node's
   // recognition thread takes descriptors), the 11th set loaded on another, its codes built

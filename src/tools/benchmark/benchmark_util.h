@@ -130,6 +130,17 @@ inline size_t ResidentBytes() {
   return 0;
 }
 
+// Of the resident bytes, the process's own (RssAnon: its heap and stacks), apart from the
+// pages of mapped files (RssFile: the page cache's, which the kernel may drop and read
+// again), 0 if unknown.
+inline size_t AnonymousResidentBytes() {
+  std::ifstream in("/proc/self/status");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("RssAnon:", 0) == 0) return std::stoul(line.substr(8)) * 1024;
+  }
+  return 0;
+}
+
 // Bytes of memory the kernel reports available (MemAvailable), 0 if unknown.
 inline double AvailableBytes() {
   std::ifstream in("/proc/meminfo");

@@ -194,33 +194,28 @@ std::string DataDirectory::Relative(const std::string& request) const {
   return out;
 }
 
-std::string DataDirectory::Read(const std::string& relative, uint64_t max_bytes) const {
+int DataDirectory::OpenForReading(const std::string& relative) const {
   const std::vector<std::string> parts = Split(Relative(relative));
   const Fd root(OpenRoot());
   const Fd dir = OpenParent(root.get(), parts, relative, false);
-  const Fd file(openat(dir.get(), parts.back().c_str(),
-                       O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
-  if (file.get() < 0) {
+  const int file = openat(dir.get(), parts.back().c_str(),
+                          O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (file < 0) {
     const int err = errno;
     throw std::runtime_error(
         SystemError("open", relative, err) +
         (err == ELOOP ? " (links are not followed below the data directory)" : ""));
   }
+  return file;
+}
+
+std::string DataDirectory::Read(const std::string& relative, uint64_t max_bytes) const {
+  const Fd file(OpenForReading(relative));
   return ReadRegularFile(file.get(), relative, max_bytes);
 }
 
 std::shared_ptr<const MappedFile> DataDirectory::Map(const std::string& relative) const {
-  const std::vector<std::string> parts = Split(Relative(relative));
-  const Fd root(OpenRoot());
-  const Fd dir = OpenParent(root.get(), parts, relative, false);
-  const Fd file(openat(dir.get(), parts.back().c_str(),
-                       O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
-  if (file.get() < 0) {
-    const int err = errno;
-    throw std::runtime_error(
-        SystemError("open", relative, err) +
-        (err == ELOOP ? " (links are not followed below the data directory)" : ""));
-  }
+  const Fd file(OpenForReading(relative));
   return MapRegularFile(file.get(), relative);
 }
 

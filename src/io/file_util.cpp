@@ -56,7 +56,9 @@ std::string RandomChars(size_t n) {
   return s;
 }
 
-std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes) {
+// The size of the regular file open at `fd`; throws std::runtime_error naming `name` when
+// it cannot be inspected or is a folder, FIFO, socket or device.
+uint64_t RegularFileSize(int fd, const std::string& name) {
   struct stat st;
   if (fstat(fd, &st) != 0) {
     throw std::runtime_error("cannot inspect " + QuotedForMessage(name) + ": " +
@@ -66,7 +68,11 @@ std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes)
     throw std::runtime_error(QuotedForMessage(name) +
                              " is not a regular file (a folder, FIFO, socket or device)");
   }
-  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  return static_cast<uint64_t>(st.st_size);
+}
+
+std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes) {
+  const uint64_t size = RegularFileSize(fd, name);
   if (size > max_bytes) throw std::runtime_error(TooLargeMessage(name, size, max_bytes));
   // At most the size seen: a file that grows while being read is cut there.
   std::string bytes(static_cast<size_t>(size), '\0');
@@ -86,16 +92,7 @@ std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes)
 }
 
 std::shared_ptr<const MappedFile> MapRegularFile(int fd, const std::string& name) {
-  struct stat st;
-  if (fstat(fd, &st) != 0) {
-    throw std::runtime_error("cannot inspect " + QuotedForMessage(name) + ": " +
-                             std::strerror(errno));
-  }
-  if (!S_ISREG(st.st_mode)) {
-    throw std::runtime_error(QuotedForMessage(name) +
-                             " is not a regular file (a folder, FIFO, socket or device)");
-  }
-  const size_t size = static_cast<size_t>(st.st_size);
+  const size_t size = static_cast<size_t>(RegularFileSize(fd, name));
   if (size == 0) return std::make_shared<const MappedFile>();
   void* at = mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
   if (at == MAP_FAILED) {

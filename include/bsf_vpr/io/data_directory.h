@@ -119,6 +119,9 @@ class DataDirectory {
 
  private:
   int OpenRoot() const;  // a new handle on the folder; the caller closes it
+  // The file at `relative` opened read-only as Read opens it (below the folder, no link
+  // followed, non-blocking); the caller closes it. Throws std::runtime_error naming it.
+  int OpenForReading(const std::string& relative) const;
 
   std::string path_;
 };

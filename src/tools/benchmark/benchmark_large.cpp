@@ -19,10 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double Ms(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
 double ResidentMb() { return ResidentBytes() / 1e6; }
 
 }  // namespace
@@ -45,7 +41,7 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
   for (int u = 0; u < m; ++u) {
     recognizer.AddReferenceSet(MakeReferenceSet("s" + std::to_string(u), Uniform(n, d, 100 + u)));
   }
-  const double build_s = Ms(t0) / 1000;
+  const double build_s = MsSince(t0) / 1000;
   const double map_mb = ResidentMb() - rss0;
   const RowMatrixXf queries = Uniform(repeats + 1, d, 7);
   // Median time of Recognize over `repeats` queries, after one warm-up query.
@@ -61,7 +57,7 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
   const double rss1 = ResidentMb();
   t0 = Clock::now();
   recognizer.PrepareFirstStage();
-  const double index_s = Ms(t0) / 1000;
+  const double index_s = MsSince(t0) / 1000;
   const double index_mb = ResidentMb() - rss1;
   const double pca_ms = time_queries(recognizer);
   const ApproximateIndex& index = *recognizer.distance_stage().index();
@@ -78,13 +74,13 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
     ApproximateIndex::StageTimes times;
     std::vector<RowMatrixXf> dist =
         index.Distances(DistanceMetric::kEuclidean, one, recognizer.map(), &times);
-    stage_ms.push_back(Ms(start));
+    stage_ms.push_back(MsSince(start));
     approximate_ms.push_back(times.approximate_ms);
     rerank_ms.push_back(times.rerank_ms);
     const std::vector<RowMatrixXf> kept = dist;
     const auto decide = Clock::now();
     recognizer.Decide(QueryDistances::AllPresent(std::move(dist)), false);
-    decide_ms.push_back(Ms(decide));
+    decide_ms.push_back(MsSince(decide));
     const auto likelihoods = Clock::now();
     const int threads = m * n >= 50000 ? std::min(DistanceThreads(), m) : 1;  // as the fusion
     std::vector<std::thread> pool;
@@ -101,7 +97,7 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
       });
     }
     for (std::thread& th : pool) th.join();
-    likelihood_ms.push_back(Ms(likelihoods));
+    likelihood_ms.push_back(MsSince(likelihoods));
   }
   std::printf(
       "large   M=%d N=%d D=%d int8 (%.0f MB resident, made in %.1f s; random data: time only): "

@@ -22,10 +22,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double Ms(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
 // Drops the file's pages from the page cache (clean pages need no privilege): the next
 // read of it comes from the disk, as after a reboot.
 void EvictFromPageCache(const std::string& path) {
@@ -88,11 +84,11 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
     EvictFromPageCache(npy);
     auto t0 = Clock::now();
     open_set(mapped);
-    cold_mapped.push_back(Ms(t0));
+    cold_mapped.push_back(MsSince(t0));
     EvictFromPageCache(npy);
     t0 = Clock::now();
     open_set(ReadSetOptions());
-    cold_read.push_back(Ms(t0));
+    cold_read.push_back(MsSince(t0));
   }
   const std::vector<std::vector<double>> warm =
       InterleavedTimesMs(repeats, {[&] { open_set(mapped); }, [&] { open_set({}); }});
@@ -115,9 +111,9 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   std::vector<ConfiguredSet> sets;
   for (int u = 0; u < m; ++u) sets.push_back({dir + "/s" + std::to_string(u) + ".yaml", "", ""});
   map.LoadConfigured(sets);
-  const double load_s = Ms(t0) / 1000;
+  const double load_s = MsSince(t0) / 1000;
   map.WaitForIndex();
-  const double index_s = Ms(t0) / 1000 - load_s;
+  const double index_s = MsSince(t0) / 1000 - load_s;
   const double rss_map = ResidentBytes() / 1e6 - rss0;
   const double anon_map = AnonymousResidentBytes() / 1e6 - anon0;
   const RowMatrixXf queries = Uniform(std::max(repeats, 20) + 1, d, 17);
@@ -144,15 +140,15 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
     while (!done.load()) {
       const auto start = Clock::now();
       map.Ask(Descriptor(queries, k++ % static_cast<int>(queries.rows())));
-      during.push_back(Ms(start));
+      during.push_back(MsSince(start));
     }
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   t0 = Clock::now();
   map.Load({"s" + std::to_string(m) + ".yaml", "", "", ""}, nullptr);
-  const double add_load_ms = Ms(t0);
+  const double add_load_ms = MsSince(t0);
   map.WaitForIndex();
-  const double add_index_s = Ms(t0) / 1000;
+  const double add_index_s = MsSince(t0) / 1000;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   done = true;
   stream.join();

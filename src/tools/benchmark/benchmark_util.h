@@ -35,6 +35,11 @@ inline RowMatrixXf Uniform(int rows, int cols, uint64_t seed) {
   return m;
 }
 
+// Milliseconds since `t0`.
+inline double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // The median of `v` (the upper one of an even count).
 inline double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -558,10 +559,25 @@ void SaveStoredReferenceSet(const StoredReferenceSet& stored, const std::string&
                                 QuotedForMessage(yaml_path));
   }
   const std::string stem = yaml_path.substr(0, yaml_path.size() - 5);
-  const std::string npy = stem + "." + ToString(stored.precision()) + ".npy";
   static const NpyDtype kDtypes[] = {NpyDtype::kFloat32, NpyDtype::kFloat16, NpyDtype::kInt8};
-  WriteFileAtomically(npy, EncodeNpyBytes(stored.data(), stored.size(), stored.dimension(),
-                                          kDtypes[static_cast<int>(stored.precision())]));
+  const std::string bytes = EncodeNpyBytes(stored.data(), stored.size(), stored.dimension(),
+                                           kDtypes[static_cast<int>(stored.precision())]);
+  // Named by its content (`<stem>.<precision>.<hash>.npy`), so that it never replaces the
+  // file an existing YAML names: the YAML's rename is the one step that replaces the set, and
+  // a kill before it leaves the old set whole (its rows and its scale).
+  const std::string npy = SavedDescriptorPath(stem + "." + ToString(stored.precision()), bytes);
+  std::string replaced;  // the descriptors the YAML named before, if this tool wrote them
+  try {
+    const YAML::Node old = YAML::Load(ReadFile(yaml_path));
+    const std::string named = old["descriptors"] ? old["descriptors"].as<std::string>() : "";
+    if (HasSavedDescriptorName(named) && named.find('/') == std::string::npos &&
+        named.rfind(BaseName(stem) + ".", 0) == 0) {
+      replaced = DirName(yaml_path) + "/" + named;
+    }
+  } catch (const std::exception&) {
+    // No YAML there (or not one of ours): nothing to replace.
+  }
+  WriteFileAtomically(npy, bytes);
   // The sidecar of the set's metadata, naming the encoded rows just written.
   ReferenceSet meta;
   meta.name = stored.name();
@@ -580,6 +596,8 @@ void SaveStoredReferenceSet(const StoredReferenceSet& stored, const std::string&
   const std::string folder = AbsoluteFolder(DirName(yaml_path));
   WriteFileAtomically(
       yaml_path, SidecarText(meta, BaseName(npy), folder, stored.images(), stored.image_files()));
+  // The old rows go once the YAML names the new ones (a map holding them mapped keeps them).
+  if (!replaced.empty() && BaseName(replaced) != BaseName(npy)) std::remove(replaced.c_str());
 }
 
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path) {

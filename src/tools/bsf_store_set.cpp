@@ -1,5 +1,6 @@
 // bsf_store_set: a reference set written as a map holds it (int8 or float16), so that the
 // fusion node and bsf_evaluate can memory-map it instead of reading it (see --help).
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <stdexcept>
@@ -15,9 +16,11 @@ const char kUsage[] =
     R"(usage: bsf_store_set --set FILE --out OUT.yaml [--storage int8|float16|float32]
 
 Writes the reference set FILE (a set's .yaml, or a descriptor .npy) as a map holds it at
---storage (default int8): OUT.<storage>.npy with the encoded rows (int8: one scale for the
-set, max |x| / 127, written to OUT.yaml as descriptor_scale), and OUT.yaml naming it with
-the set's name, condition, places, poses and images. A map that stores sets at that
+--storage (default int8): OUT.<storage>.<content hash>.npy with the encoded rows (int8: one
+scale for the set, max |x| / 127, written to OUT.yaml as descriptor_scale), then OUT.yaml
+naming it with the set's name, condition, places, poses and images. Writing over an OUT
+made before replaces it as one (a kill leaves the old set whole) and removes its old rows;
+the temporary files a killed run for the same OUT left are removed at the start. A map that stores sets at that
 precision with memory_map (the node's parameter, bsf_evaluate --memory-map) maps the file
 instead of reading it: loading then costs the set's norms, not its bytes, and the distances
 are bitwise those of FILE loaded and encoded at --storage (docs/performance.md, "Maps larger
@@ -57,6 +60,19 @@ int Run(int argc, char** argv) {
     name = name.substr(0, name.rfind(".yaml"));
   }
   ReferenceSet set = LoadReferenceSetFile(set_path, name);
+  // What a killed run of this tool for the same OUT left: its rows' temporary files.
+  namespace fs = std::filesystem;
+  const fs::path out_path(out);
+  const std::string stem = out_path.stem().string();
+  const fs::path folder = out_path.has_parent_path() ? out_path.parent_path() : fs::path(".");
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(folder, ec)) {
+    const std::string f = e.path().filename().string();
+    if (f.rfind("." + stem + "." + storage + ".", 0) == 0 &&
+        f.find(".npy.bsf_tmp.") != std::string::npos && e.is_regular_file()) {
+      fs::remove(e.path(), ec);
+    }
+  }
   ReferenceMap map;
   map.SetStoragePrecision(precision);
   map.SetPlacePoseTolerance(std::numeric_limits<double>::infinity());

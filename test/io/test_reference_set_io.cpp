@@ -363,7 +363,18 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
     resident.Add(s);
     const std::string yaml = Path("stored_" + what + ".yaml");
     SaveStoredReferenceSet(resident.set(0), yaml);
-    EXPECT_TRUE(fs::exists(Path("stored_" + what + "." + what + ".npy"))) << what;
+    // The rows' file, named by the set's stem, its precision and its content.
+    const auto rows_files = [&] {
+      std::vector<std::string> out;
+      for (const auto& e : fs::directory_iterator(dir_)) {
+        const std::string f = e.path().filename().string();
+        if (f.rfind("stored_" + what + "." + what + ".", 0) == 0) out.push_back(f);
+      }
+      return out;
+    };
+    ASSERT_EQ(rows_files().size(), 1u) << what;
+    const std::string first_rows = rows_files()[0];
+    EXPECT_EQ(first_rows.size(), ("stored_" + what + "." + what + ".0123456789ab.npy").size());
 
     ReadSetOptions options;
     options.memory_map = p;
@@ -384,20 +395,22 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
         std::memcmp(mapped.set(0).data(), resident.set(0).data(), resident.set(0).data_bytes()), 0)
         << what;
 
-    // Replaced by another set (written to a new file, renamed over it), then removed: the
-    // mapped set keeps the rows it was loaded with.
+    // Replaced by another set: its rows go to a file of their own, the YAML names it, and
+    // the old rows' file is removed; the mapped set keeps the rows it was loaded with.
     const RowMatrixXf q = testing::RandomMatrix(3, 19, 9);
     const auto before = ComputeDistances(DistanceMetric::kCosine, q, mapped);
     ReferenceMap other;
     other.SetStoragePrecision(p);
     other.Add(MakeReferenceSet("winter", testing::RandomMatrix(7, 19, 77)));
     SaveStoredReferenceSet(other.set(0), yaml);
+    ASSERT_EQ(rows_files().size(), 1u) << what;
+    EXPECT_NE(rows_files()[0], first_rows);
     const auto after = ComputeDistances(DistanceMetric::kCosine, q, mapped);
     EXPECT_EQ(std::memcmp(before[0].data(), after[0].data(), sizeof(float) * before[0].size()), 0);
-    fs::remove(Path("stored_" + what + "." + what + ".npy"));
-    EXPECT_EQ(std::memcmp(before[0].data(),
-                          ComputeDistances(DistanceMetric::kCosine, q, mapped)[0].data(),
-                          sizeof(float) * before[0].size()),
+    ReferenceMap reloaded;
+    reloaded.SetStoragePrecision(p);
+    reloaded.Add(LoadReferenceSetFile(yaml, "", options));
+    EXPECT_EQ(std::memcmp(reloaded.set(0).data(), other.set(0).data(), other.set(0).data_bytes()),
               0);
   }
 

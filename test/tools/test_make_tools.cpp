@@ -341,13 +341,24 @@ namespace {
 // the original (the rows and scale are bitwise the same).
 TEST_F(MakeTools, StoreSetWritesInt8SetsThatEvaluateMapsToTheSameResults) {
   const std::string tool = BSF_STORE_SET_PATH;
+  // What a killed run left for this OUT goes; another set's temporary stays.
+  const std::string stale = dir_ + "/.day_left.int8.000000000000.npy.bsf_tmp.abcdefgh";
+  const std::string other = dir_ + "/.night.int8.000000000000.npy.bsf_tmp.abcdefgh";
+  std::ofstream(stale) << "partial";
+  std::ofstream(other) << "partial";
   for (const std::string set : {"day_left"}) {
     const Result r = RunCommand(tool + " --set " + kGardens + set + ".npy --out " + dir_ + "/" +
                                 set + ".yaml --storage int8");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_NE(r.output.find("int8"), std::string::npos) << r.output;
-    EXPECT_TRUE(fs::exists(dir_ + "/" + set + ".int8.npy"));
-    EXPECT_EQ(fs::file_size(dir_ + "/" + set + ".int8.npy"), 128u + 200u * 4096u);
+    std::vector<std::string> rows;  // day_left.int8.<content hash>.npy
+    for (const auto& e : fs::directory_iterator(dir_)) {
+      if (e.path().filename().string().rfind(set + ".int8.", 0) == 0) rows.push_back(e.path());
+    }
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_EQ(fs::file_size(rows[0]), 128u + 200u * 4096u);
+    EXPECT_FALSE(fs::exists(stale));
+    EXPECT_TRUE(fs::exists(other));
   }
   const std::string common =
       " --query " + kGardens + "night_right.npy --tolerance 2 --storage int8";

@@ -117,11 +117,13 @@ std::string ReadReferenceImage(const SetLayout& set, int row, const DataDirector
 void SaveReferenceSet(const ReferenceSet& set, const std::string& yaml_path);
 
 // Writes a set as a map holds it (`set.precision()`: float32, float16, or int8 with its
-// descriptor_scale), for memory-mapping (ReadSetOptions::memory_map): `<stem>.<precision>.npy`
-// beside `yaml_path`, then the YAML naming it, each atomically (a reader sees an old file or
-// the new one). For the command line (bsf_store_set); the node's saves go through
-// SaveReferenceSet. Throws std::invalid_argument for a path not ending in .yaml,
-// std::runtime_error naming the file when writing fails.
+// descriptor_scale), for memory-mapping (ReadSetOptions::memory_map):
+// `<stem>.<precision>.<content hash>.npy` beside `yaml_path`, then the YAML naming it, each
+// atomically; the YAML's rename replaces an existing set as one (a kill before it leaves the
+// old set whole), and the old set's rows, if this function wrote them, are removed after it.
+// For the command line (bsf_store_set); the node's saves go through SaveReferenceSet. Throws
+// std::invalid_argument for a path not ending in .yaml, std::runtime_error naming the file
+// when writing fails.
 void SaveStoredReferenceSet(const StoredReferenceSet& set, const std::string& yaml_path);
 
 struct SaveOptions {

@@ -68,7 +68,10 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   std::filesystem::create_directories(dir);
   for (int u = 0; u <= m; ++u) WriteSet(dir, "s" + std::to_string(u), n, d, 300 + u);
   const std::string one = dir + "/s0.yaml";
-  const std::string npy = dir + "/s0.int8.npy";
+  std::string npy;  // s0's rows: s0.int8.<content hash>.npy
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.path().filename().string().rfind("s0.int8.", 0) == 0) npy = e.path().string();
+  }
 
   // Opening one set: mapped (its norms read) against read and encoded, each from the disk
   // (pages evicted first) and from the page cache.

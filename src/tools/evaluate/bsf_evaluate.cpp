@@ -20,12 +20,16 @@ namespace {
 // --timings: wall time and cores busy (CPU time of all threads / wall time) per phase.
 class PhaseTimes {
  public:
-  void End(const std::string& phase) {
+  // `parts`: the phase's parts, timed where they ran, in brackets after it.
+  void End(const std::string& phase, const std::string& parts = "") {
     const Point now = Now();
-    const double wall = now.wall - last_.wall, cpu = now.cpu - last_.cpu;
-    text_ += (text_.empty() ? "" : ", ") + phase + " " + Format(wall, 3) + " s (" +
-             Format(wall > 0 ? cpu / wall : 0.0, 2) + " cores)";
+    text_ += (text_.empty() ? "" : ", ") + Phase(phase, now.wall - last_.wall, now.cpu - last_.cpu);
+    if (!parts.empty()) text_ += " [" + parts + "]";
     last_ = now;
+  }
+  static std::string Phase(const std::string& phase, double wall, double cpu) {
+    return phase + " " + Format(wall, 3) + " s (" + Format(wall > 0 ? cpu / wall : 0.0, 2) +
+           " cores)";
   }
   std::string text() const { return text_; }
 
@@ -170,9 +174,15 @@ int Run(int argc, char** argv) {
                    std::chrono::duration<double>(now - start).count());
     };
   }
+  EvaluationPhaseTimes parts;
   const std::vector<MethodResults> results =
-      EvaluateMethods(data->input, methods, args.options, data->truth, progress);
-  times.End("distances, fusion and metrics");
+      EvaluateMethods(data->input, methods, args.options, data->truth, progress, 256, &parts);
+  const auto part = [](const std::string& name, const EvaluationPhaseTimes::Phase& p) {
+    return PhaseTimes::Phase(name, p.wall_s, p.cpu_s);
+  };
+  times.End("distances, fusion and metrics", part("distances", parts.distances) + "; " +
+                                                 part("fusion", parts.methods) + "; " +
+                                                 part("metrics", parts.metrics));
   Report(results, args.out_dir);
   times.End("table and files");
   if (args.timings) std::fprintf(stderr, "bsf_evaluate: timings: %s\n", times.text().c_str());

@@ -44,31 +44,80 @@ constexpr int kWL = static_cast<int>(hn::MaxLanes(DL()));
 constexpr int kVecsL = kPackRows / kWL;
 using LaneSums = VL[kTileQueries][kVecsL];
 
+#undef BSF_VPR_TRANSPOSE_EIGHT              // this file is included once per target
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2  // 8-float vectors of two 128-bit halves
+#define BSF_VPR_TRANSPOSE_EIGHT 1
+// Eight rows' blocks of eight elements (row k's at src + k * d) transposed: lane j's eight
+// values (one per row) stored at to + j * lane_stride. Unpacks within 128-bit halves, then
+// the halves exchanged: 24 shuffles for 64 values where element by element took 128 moves.
+template <class T>
+HWY_INLINE void TransposeEight(const T* src, size_t d, float* to, size_t lane_stride) {
+  const D8 d8;
+  const hn::Repartition<double, D8> d64;
+  V8 v[kLanes];
+  for (int k = 0; k < kLanes; ++k) v[k] = LoadFloats(d8, src + k * d);
+  // Rows (a b), (c d), ... interleaved by element: a0 b0 a1 b1 | a4 b4 a5 b5 and the uppers.
+  V8 t[kLanes];
+  for (int k = 0; k < kLanes; k += 2) {
+    t[k] = hn::InterleaveLower(d8, v[k], v[k + 1]);
+    t[k + 1] = hn::InterleaveUpper(d8, v[k], v[k + 1]);
+  }
+  // Then by pairs: u[4 h + e] holds rows 4h..4h+3 of elements e and e + 4.
+  V8 u[kLanes];
+  for (int h = 0; h < 2; ++h) {
+    for (int i = 0; i < 2; ++i) {
+      const auto lo = hn::BitCast(d64, t[4 * h + i]), hi = hn::BitCast(d64, t[4 * h + 2 + i]);
+      u[4 * h + 2 * i] = hn::BitCast(d8, hn::InterleaveLower(d64, lo, hi));
+      u[4 * h + 2 * i + 1] = hn::BitCast(d8, hn::InterleaveUpper(d64, lo, hi));
+    }
+  }
+  // Lane j (j < 4): the lower halves of u[j] (rows 0-3) and u[4 + j] (rows 4-7); lane j + 4
+  // the upper halves.
+  for (int j = 0; j < 4; ++j) {
+    hn::StoreU(hn::ConcatLowerLower(d8, u[4 + j], u[j]), d8, to + j * lane_stride);
+    hn::StoreU(hn::ConcatUpperUpper(d8, u[4 + j], u[j]), d8, to + (j + 4) * lane_stride);
+  }
+}
+#else
+#define BSF_VPR_TRANSPOSE_EIGHT 0
+#endif
+
 // Rows [b0, b0 + count) (count <= kPackRows; d float32 or float16 values each) packed as
 // floats: lane j's step t (element 8 t + j of each row; zero past d and past count) at
-// packed + (j * steps + t) * kPackRows, steps = ceil(d / 8). `packed` on 64 bytes. Each row's
-// block of eight elements is decoded with vectors, then written lane by lane.
+// packed + (j * steps + t) * kPackRows, steps = ceil(d / 8). `packed` on 64 bytes. Eight
+// rows' blocks of eight elements at a time: transposed in registers on x86 where all eight
+// are there, else decoded with vectors and written lane by lane.
 template <class T>
 void PackRowLanes(const T* rows, int d, int b0, int count, float* packed) {
   const D8 d8;
   const int steps = (d + kLanes - 1) / kLanes, full = d / kLanes;
+  const size_t lane_stride = static_cast<size_t>(steps) * kPackRows;
   for (int t = 0; t < steps; ++t) {
-    HWY_ALIGN float block[kPackRows][kLanes];
-    for (int k = 0; k < kPackRows; ++k) {
-      const T* row = k < count ? rows + static_cast<size_t>(b0 + k) * d : nullptr;
-      if (row == nullptr) {
-        std::fill(block[k], block[k] + kLanes, 0.0f);
-      } else if (t < full) {
-        for (int v = 0; v < kVecs8; ++v) {
-          hn::Store(LoadFloats(d8, row + t * kLanes + v * kW8), d8, block[k] + v * kW8);
-        }
-      } else {
-        PadTail(row, t * kLanes, d, block[k]);
+    for (int g = 0; g < kPackRows; g += kLanes) {
+      float* const to = packed + static_cast<size_t>(t) * kPackRows + g;
+#if BSF_VPR_TRANSPOSE_EIGHT
+      if (t < full && g + kLanes <= count) {
+        TransposeEight(rows + static_cast<size_t>(b0 + g) * d + t * kLanes, static_cast<size_t>(d),
+                       to, lane_stride);
+        continue;
       }
-    }
-    for (int j = 0; j < kLanes; ++j) {
-      float* to = packed + (static_cast<size_t>(j) * steps + t) * kPackRows;
-      for (int k = 0; k < kPackRows; ++k) to[k] = block[k][j];
+#endif
+      HWY_ALIGN float block[kLanes][kLanes];
+      for (int k = 0; k < kLanes; ++k) {
+        const T* row = g + k < count ? rows + static_cast<size_t>(b0 + g + k) * d : nullptr;
+        if (row == nullptr) {
+          std::fill(block[k], block[k] + kLanes, 0.0f);
+        } else if (t < full) {
+          for (int v = 0; v < kVecs8; ++v) {
+            hn::Store(LoadFloats(d8, row + t * kLanes + v * kW8), d8, block[k] + v * kW8);
+          }
+        } else {
+          PadTail(row, t * kLanes, d, block[k]);
+        }
+      }
+      for (int j = 0; j < kLanes; ++j) {
+        for (int k = 0; k < kLanes; ++k) to[j * lane_stride + k] = block[k][j];
+      }
     }
   }
 }

@@ -3,6 +3,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <stdexcept>
 
@@ -105,13 +106,16 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         for (int q = begin; q < end; ++q) run(runners[k], q);  // carries state: in order
         continue;
       }
-      // Without state every query stands alone: split them over the cores, one runner each.
+      // Without state every query stands alone: the cores take them in turn, a few at a time
+      // (queries differ in cost: the sets selected), one runner each.
       const int threads = std::min(DistanceThreads(), end - begin);
-      RunParallel(threads, threads, [&](int t) {
+      constexpr int kQueriesATurn = 8;
+      std::atomic<int> next{begin};
+      RunParallel(threads, threads, [&](int) {
         MethodRunner runner(methods[k], options);
-        const int q0 = begin + (end - begin) * t / threads;
-        const int q1 = begin + (end - begin) * (t + 1) / threads;
-        for (int q = q0; q < q1; ++q) run(runner, q);
+        for (int q0; (q0 = next.fetch_add(kQueriesATurn)) < end;) {
+          for (int q = q0; q < std::min(end, q0 + kQueriesATurn); ++q) run(runner, q);
+        }
       });
     }
     clock.Lap(times ? &times->methods : nullptr);

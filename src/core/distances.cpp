@@ -106,9 +106,12 @@ struct SetJob {
 void PrepareJob(const RowMatrixXf& queries, const SetRows& set, int threads, SetJob* job) {
   job->set = set;
   job->out.resize(queries.rows(), set.rows);
-  // Threads only pay off beyond about a million multiply-adds.
+  // Threads only pay off beyond about a million multiply-adds. Four row ranges a thread,
+  // so that a thread that finishes early (its rows read faster, or the other thread lost its
+  // core a while) takes more, rather than wait for the other's last range.
   const double work = static_cast<double>(queries.rows()) * set.rows * set.refs.cols;
-  job->parts = work < 1e6 ? 1 : std::max(1, std::min(threads, set.rows));
+  const int per_thread = work < 1e8 ? 1 : 4;
+  job->parts = work < 1e6 ? 1 : std::max(1, std::min(threads * per_thread, set.rows));
 }
 
 // Distances from `queries` to every set: all sets' row ranges as tasks of one parallel run

@@ -1,6 +1,10 @@
 #include "bsf_vpr/evaluation/evaluation_runner.h"
 
+#include <time.h>
+
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <stdexcept>
 
 #include "bsf_vpr/core/distances.h"
@@ -9,11 +13,42 @@
 
 namespace bsf_vpr {
 
+namespace {
+
+// Adds the wall and process CPU time since the last Lap (or construction) to a phase.
+class PhaseClock {
+ public:
+  void Lap(EvaluationPhaseTimes::Phase* phase) {
+    const double wall = Wall(), cpu = Cpu();
+    if (phase != nullptr) {
+      phase->wall_s += wall - wall_;
+      phase->cpu_s += cpu - cpu_;
+    }
+    wall_ = wall;
+    cpu_ = cpu;
+  }
+
+ private:
+  static double Wall() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+  static double Cpu() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
+  double wall_ = Wall(), cpu_ = Cpu();
+};
+
+}  // namespace
+
 std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
                                            const std::vector<Method>& methods,
                                            const MethodOptions& options, const GroundTruth& truth,
                                            const std::function<void(int, int)>& progress,
-                                           int block_size) {
+                                           int block_size, EvaluationPhaseTimes* times) {
+  PhaseClock clock;
   options.Validate();
   if (truth.num_queries() != input.num_queries) {
     throw std::invalid_argument("ground truth describes " + std::to_string(truth.num_queries()) +
@@ -35,8 +70,10 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
   std::vector<RowMatrixXf> block(m), joint_block(input.joint_kinds.size());
   for (int begin = 0; begin < input.num_queries; begin += block_size) {
     const int end = std::min(input.num_queries, begin + block_size);
+    clock.Lap(nullptr);
     input.distances(begin, end, &block);
     if (!input.joint_kinds.empty()) input.joint_distances(begin, end, &joint_block);
+    clock.Lap(times ? &times->distances : nullptr);
     for (const RowMatrixXf& j : joint_block) {
       if (j.rows() != end - begin || j.cols() != input.num_places) {
         throw std::logic_error("joint distance block has the wrong shape");
@@ -69,18 +106,24 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         for (int q = begin; q < end; ++q) run(runners[k], q);  // carries state: in order
         continue;
       }
-      // Without state every query stands alone: split them over the cores, one runner each.
+      // Without state every query stands alone: the cores take them in turn, a few at a time
+      // (queries differ in cost: the sets selected), one runner each.
       const int threads = std::min(DistanceThreads(), end - begin);
-      RunParallel(threads, threads, [&](int t) {
+      constexpr int kQueriesATurn = 8;
+      std::atomic<int> next{begin};
+      RunParallel(threads, threads, [&](int) {
         MethodRunner runner(methods[k], options);
-        const int q0 = begin + (end - begin) * t / threads;
-        const int q1 = begin + (end - begin) * (t + 1) / threads;
-        for (int q = q0; q < q1; ++q) run(runner, q);
+        for (int q0; (q0 = next.fetch_add(kQueriesATurn)) < end;) {
+          for (int q = q0; q < std::min(end, q0 + kQueriesATurn); ++q) run(runner, q);
+        }
       });
     }
+    clock.Lap(times ? &times->methods : nullptr);
     if (progress) progress(end, input.num_queries);
   }
+  clock.Lap(nullptr);
   for (MethodResults& r : results) r.metrics = ScoreOutcomes(r.outcomes, truth);
+  clock.Lap(times ? &times->metrics : nullptr);
   return results;
 }
 

@@ -143,7 +143,7 @@ TEST(DescriptorStore, SimdKernelsGiveTheSameBits) {
   SetDistanceKernel("auto");
 }
 
-// The pair and lane tiles (QueryLayout::kPairs, kLanes: chosen on AVX-512 only, where they pay)
+// The pair and lane tiles (QueryLayout::kPairs, kLanes: chosen where they pay, AVX-512 and AVX2)
 // give the row tiles' inner products bit for bit on every kernel this CPU runs, so that their
 // algorithm is tested where AVX-512 is not at hand: float32 and float16 rows (pairs float32
 // only; float16 falls back to rows), panels of queries whole and partial (19: pairs and one

@@ -46,14 +46,27 @@ struct EvaluationInput {
   DistanceBlockFn joint_distances;
 };
 
+// Where EvaluateMethods' time went: wall seconds and CPU seconds of the process (all its
+// threads) in each part, summed over the blocks.
+struct EvaluationPhaseTimes {
+  struct Phase {
+    double wall_s = 0, cpu_s = 0;
+  };
+  Phase distances;  // input.distances and input.joint_distances
+  Phase methods;    // the methods over the queries (selection, likelihoods, fusion, decision)
+  Phase metrics;    // ScoreOutcomes of every method
+};
+
 // Evaluates every method on every query, in order (+filter and +seq carry state from one
 // query to the next), `block_size` queries at a time (bounding memory
 // to block_size x sum N_u distances), and scores them against `truth` (which must have
-// num_queries queries). `progress(done, total)` is called after each block if given.
+// num_queries queries). `progress(done, total)` is called after each block if given;
+// `times`, if given, receives the time of each part.
 std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
                                            const std::vector<Method>& methods,
                                            const MethodOptions& options, const GroundTruth& truth,
                                            const std::function<void(int, int)>& progress = {},
-                                           int block_size = 256);
+                                           int block_size = 256,
+                                           EvaluationPhaseTimes* times = nullptr);
 
 }  // namespace bsf_vpr

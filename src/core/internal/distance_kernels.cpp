@@ -69,17 +69,17 @@ void SweepPairs(TileArgs a, const float* rows, int b0, int b1) {
   for (; r < b1; ++r) TilePairs<NP, 1>(a, at(r), a.d);
 }
 
-// A batch by lane: the rows 32 at a time packed by lane (PackRowLanes, in L2 while every
-// panel of 12 queries passes over them), then made distances while in cache.
+// A batch by lane: the rows kPackRows at a time packed by lane (PackRowLanes, in L2 while
+// every panel of 12 queries passes over them), then made distances while in cache.
 template <class T>
 void DotsLanes(const T* rows, int r0, int r1, const Queries& queries, float* out, int out_stride,
                const ToDistancesArgs* finish) {
   const int d = queries.cols, steps = queries.lane_steps, num_queries = queries.rows;
   std::vector<float> packing;
-  float* const packed = On64Bytes(static_cast<size_t>(kLanes) * steps * kLaneRows, &packing);
+  float* const packed = On64Bytes(static_cast<size_t>(kLanes) * steps * kPackRows, &packing);
   const size_t panel = static_cast<size_t>(kLanes) * steps * kLaneQueries;
-  for (int b0 = r0; b0 < r1; b0 += kLaneRows) {
-    const int count = std::min(kLaneRows, r1 - b0);
+  for (int b0 = r0; b0 < r1; b0 += kPackRows) {
+    const int count = std::min(kPackRows, r1 - b0);
     PackRowLanes(rows, d, b0, count, packed);
     for (int q0 = 0; q0 < num_queries; q0 += kLaneQueries) {
       TileLanes(queries.lanes.data() + (q0 / kLaneQueries) * panel, packed, steps,
@@ -208,7 +208,7 @@ float SelfDotTarget(const float* x, int n) {
   return out;
 }
 
-// Floats to a full register: where pairs and lanes pay (16).
+// Floats to a full register: where pairs pay (16) and lanes (8 and 16).
 int FloatLanesTarget() { return static_cast<int>(hn::Lanes(hn::ScalableTag<float>())); }
 
 }  // namespace HWY_NAMESPACE
@@ -286,10 +286,11 @@ Queries PrepareQueries(const float* data, int rows, int stride, int cols, bool i
   out.cols = cols;
   out.stride = stride;
   if (layout == QueryLayout::kAuto) {
-    const bool wide = BSF_VPR_DISPATCH(FloatLanesTarget)() >= 2 * kLanes;
-    layout = wide && rows >= kPackQueries    ? QueryLayout::kLanes
-             : wide && rows >= kBatchQueries ? QueryLayout::kPairs
-                                             : QueryLayout::kRows;
+    const int width = BSF_VPR_DISPATCH(FloatLanesTarget)();
+    const bool wide = width >= 2 * kLanes;
+    layout = width >= kLanes && rows >= kPackQueries ? QueryLayout::kLanes
+             : wide && rows >= kBatchQueries         ? QueryLayout::kPairs
+                                                     : QueryLayout::kRows;
   }
   if (layout == QueryLayout::kLanes) {
     PrepareLanes(data, rows, stride, cols, &out);

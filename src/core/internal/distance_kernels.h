@@ -62,9 +62,11 @@ struct Queries {
 // How a batch runs: by rows (every kernel's tiles of 4 queries x 3 rows), by pairs of queries
 // (tiles of 4 pairs x 6 rows, two queries' eight lanes in one 16-float register: float32 rows
 // only) or by lane (for float32 and float16 rows from 32 queries: each lane a matrix product
-// over panels of 12 queries x 32 rows). The three give the same bits on every kernel; kAuto
-// takes pairs and lanes where they pay, on kernels with 16 floats to a register (AVX-512:
-// enough registers for their sums), rows elsewhere. The tests ask for each on every kernel.
+// over panels of 12 queries x 32 rows, or on kernels of 8 floats to a register tiles of
+// 6 queries x 16 rows). The three give the same bits on every kernel; kAuto takes pairs where
+// they pay, on kernels with 16 floats to a register (AVX-512: enough registers for their
+// sums), lanes on those and on 8-float ones (AVX2), rows elsewhere. The tests ask for each on
+// every kernel.
 enum class QueryLayout { kAuto, kRows, kPairs, kLanes };
 
 // `data`: `rows` queries of `cols` floats, query q at data + q * stride (not copied unless

@@ -24,7 +24,8 @@ constexpr int kLanes = 8;
 // panels do (the rows' packing is paid back by the panels of queries that pass over them).
 constexpr int kBatchQueries = 8;
 constexpr int kPackQueries = 32;
-// The lane-major tiles: panels of 12 queries x 32 rows (distance_lanes-inl.h).
+// The lane-major tiles: panels of 12 queries x 32 rows (distance_lanes-inl.h; on targets
+// narrower than 16 floats, tiles of half of each).
 constexpr int kLaneQueries = 12;
 constexpr int kLaneRows = 32;
 

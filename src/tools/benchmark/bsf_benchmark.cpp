@@ -65,7 +65,9 @@ Measures, on random data of the stated shapes (float32), medians of R runs (defa
   evaluate bsf_evaluate end to end (3 .npy sets of 3000 x 4096, 3000 queries, --methods bsf,
            results written) vs scripts/numpy_bsf, the same method in NumPy + OpenBLAS, as
            separate processes on the same files (written once to --evaluate-dir DIR, default
-           /tmp/bsf_benchmark_evaluate, 196 MB); also the cores each kept busy
+           /tmp/bsf_benchmark_evaluate, 196 MB), for --fusion mixture and for the paper's
+           method (--fusion product --likelihood two_sided); also the cores each kept busy,
+           bsf_evaluate's phases and NumPy's distances alone
   describe per image (median and p90 over the images of --images DIR, default the shipped
            data/nordland_subset100/256x144/summer), at their resolution: decoding, and each
            image describer (patchnorm and hog with their defaults, onnx with the test models

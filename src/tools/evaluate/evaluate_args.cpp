@@ -86,7 +86,8 @@ match, and the table):
   --out DIR               write DIR/summary.csv and DIR/matches/<method>.csv
   --no-progress           do not report progress on stderr
   --timings               report on stderr each phase's wall time and how many cores it
-                          kept busy (load; distances, fusion and metrics; table and files)
+                          kept busy (load; distances, fusion and metrics, with the time of
+                          each of the three in brackets; table and files)
   -h, --help              show this help
 
 Exit status: 0 on success, 2 on bad arguments or unreadable/invalid input.

@@ -45,6 +45,8 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
                                "vs pca first stage (d'=256",
                                "pca ms/query   speed-up",
                                "every distance first",
+                               "the paper's method (bsf --fusion product",
+                               "NumPy's distances alone",
                                "time split of a pca query",
                                "decision (selection, likelihoods over",
                                "a query of the default (with the discriminant)",
@@ -69,51 +71,97 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
   EXPECT_NE(int8.output.find("scaling (int8 storage;"), std::string::npos) << int8.output;
 }
 
+// The table row "bsf ..." of an evaluation's output, as numbers (empty if there is none).
+std::vector<double> BsfRow(const std::string& out) {
+  const size_t at = out.find("\nbsf ");
+  if (at == std::string::npos) return {};
+  std::stringstream in(out.substr(at + 4, out.find('\n', at + 1) - at - 4));
+  std::vector<double> v;
+  for (double x; in >> x;) v.push_back(x);
+  return v;
+}
+
+// query,match: the first two columns of each line of a matches file.
+std::vector<std::string> QueryAndMatch(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);) {
+    const size_t second = line.find(',', line.find(',') + 1);
+    out.push_back(line.substr(0, second));
+  }
+  return out;
+}
+
+// bsf_evaluate --methods bsf --off-map false `method` and numpy_bsf `method` on `inputs` give
+// the same table and the same match for every query; returns bsf_evaluate's row.
+std::vector<double> ExpectNumPyGivesBsfEvaluatesResults(const std::string& inputs,
+                                                        const std::string& method,
+                                                        const std::string& dir) {
+  // --off-map false: the belief over places only, which numpy_bsf computes (the off-map
+  // hypothesis would change the confidence).
+  const Result ours = RunCommand(std::string(BSF_EVALUATE_PATH) + inputs +
+                                 " --methods bsf --off-map false --no-progress" + method +
+                                 " --out " + dir + "/ours");
+  EXPECT_EQ(ours.exit_code, 0) << ours.output;
+  const Result numpy =
+      RunCommand("PATH=/usr/bin:$PATH /usr/bin/python3 " + std::string(BSF_SOURCE_DIR) +
+                 "/scripts/numpy_bsf" + inputs + method + " --out " + dir + "/numpy");
+  EXPECT_EQ(numpy.exit_code, 0) << numpy.output;
+  const std::vector<double> a = BsfRow(ours.output), b = BsfRow(numpy.output);
+  EXPECT_EQ(a.size(), 6u) << ours.output;
+  EXPECT_EQ(b.size(), 6u) << numpy.output;
+  for (size_t k = 0; k < a.size() && k < b.size(); ++k)
+    EXPECT_NEAR(a[k], b[k], 1e-9) << method << "\n" << ours.output << numpy.output;
+  const std::vector<std::string> ma = QueryAndMatch(dir + "/ours/matches/bsf.csv");
+  EXPECT_GT(ma.size(), 100u) << method;
+  EXPECT_EQ(ma, QueryAndMatch(dir + "/numpy/matches/bsf.csv")) << method;
+  return a;
+}
+
 // The NumPy baseline is the same method: on real data (Gardens Point HDC-DELF, night
-// against day, cosine, +-8 places) it gives bsf_evaluate's table, and the same matches.
+// against day, cosine, +-8 places) it gives bsf_evaluate's table, and the same matches, with
+// the mixture of bsf_evaluate's defaults and with the paper's product and two-sided
+// likelihood (relative selection, gamma 0.04); the paper's method also on two sets (the
+// Nordland-100 64x32 summer and fall frames against winter as grey levels, Euclidean,
+// +-2 places: real images, where gamma 0.04 selects both sets for 1 query of the 100 and
+// gamma 0.2 for 16, so that the product of two sets' likelihoods is compared too).
 TEST(BenchmarkTool, NumPyBaselineGivesBsfEvaluatesResultsOnRealData) {
   const std::string data = std::string(BSF_SOURCE_DIR) + "/data/gardens_point_hdc_delf/";
   const std::string inputs = " --reference day=" + data + "day_left.npy --query " + data +
                              "night_right.npy --tolerance 8 --distance cosine";
   const std::string dir = ::testing::TempDir() + "numpy_bsf_check";
-  // --fusion mixture --off-map false: the method numpy_bsf implements (the default's places'
-  // means and its off-map hypothesis would make one set's belief differ from it).
-  const Result ours = RunCommand(
-      std::string(BSF_EVALUATE_PATH) + inputs +
-      " --methods bsf --fusion mixture --off-map false --no-progress --out " + dir + "/ours");
-  ASSERT_EQ(ours.exit_code, 0) << ours.output;
-  const Result numpy =
-      RunCommand("PATH=/usr/bin:$PATH /usr/bin/python3 " + std::string(BSF_SOURCE_DIR) +
-                 "/scripts/numpy_bsf" + inputs + " --out " + dir + "/numpy");
-  ASSERT_EQ(numpy.exit_code, 0) << numpy.output;
-  const auto table_row = [](const std::string& out) {
-    const size_t at = out.find("\nbsf ");
-    return at == std::string::npos ? std::string()
-                                   : out.substr(at + 1, out.find('\n', at + 1) - at - 1);
-  };
-  const auto numbers = [](std::string row) {
-    std::stringstream in(row.substr(3));
-    std::vector<double> v;
-    for (double x; in >> x;) v.push_back(x);
-    return v;
-  };
-  const std::vector<double> a = numbers(table_row(ours.output)),
-                            b = numbers(table_row(numpy.output));
-  ASSERT_EQ(a.size(), 6u) << ours.output;
-  ASSERT_EQ(b.size(), 6u) << numpy.output;
-  for (size_t k = 0; k < a.size(); ++k)
-    EXPECT_NEAR(a[k], b[k], 1e-9) << ours.output << numpy.output;
-  EXPECT_GT(a[2], 0.5) << "R@1 on Gardens Point: " << ours.output;
-  const auto matches = [](const std::string& path) {  // query,match: the first two columns
-    std::ifstream in(path);
-    std::vector<std::string> out;
-    for (std::string line; std::getline(in, line);) {
-      const size_t second = line.find(',', line.find(',') + 1);
-      out.push_back(line.substr(0, second));
-    }
-    return out;
-  };
-  EXPECT_EQ(matches(dir + "/ours/matches/bsf.csv"), matches(dir + "/numpy/matches/bsf.csv"));
+  const std::vector<double> mixture =
+      ExpectNumPyGivesBsfEvaluatesResults(inputs, " --fusion mixture", dir + "/mixture");
+  ASSERT_EQ(mixture.size(), 6u);
+  EXPECT_GT(mixture[2], 0.5) << "R@1 on Gardens Point";
+  const std::string paper = " --fusion product --likelihood two_sided";
+  const std::vector<double> product =
+      ExpectNumPyGivesBsfEvaluatesResults(inputs, paper, dir + "/product");
+  ASSERT_EQ(product.size(), 6u);
+  EXPECT_GT(product[2], 0.5) << "R@1 on Gardens Point";
+
+  // Nordland-100's frames as grey levels in [0, 1] (2048-d), one .npy per season.
+  const std::string frames = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/64x32/";
+  const Result made = RunCommand(
+      "PATH=/usr/bin:$PATH /usr/bin/python3 -c 'import numpy as np, os, sys; "
+      "from PIL import Image; "
+      "[np.save(sys.argv[2] + s + \".npy\", np.stack([np.asarray(Image.open("
+      "os.path.join(sys.argv[1], s, f)).convert(\"L\"), dtype=np.float32).ravel() / 255 "
+      "for f in sorted(os.listdir(os.path.join(sys.argv[1], s)))])) "
+      "for s in (\"summer\", \"fall\", \"winter\")]' " +
+      frames + " " + ::testing::TempDir() + "numpy_bsf_nordland_");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::string grey = ::testing::TempDir() + "numpy_bsf_nordland_";
+  const std::vector<double> two = ExpectNumPyGivesBsfEvaluatesResults(
+      " --reference summer=" + grey + "summer.npy --reference fall=" + grey + "fall.npy --query " +
+          grey + "winter.npy --tolerance 2",
+      paper, dir + "/nordland");
+  ASSERT_EQ(two.size(), 6u);
+  EXPECT_GT(two[2], 0.4) << "R@1 on Nordland-100, grey levels";
+  ExpectNumPyGivesBsfEvaluatesResults(
+      " --reference summer=" + grey + "summer.npy --reference fall=" + grey + "fall.npy --query " +
+          grey + "winter.npy --tolerance 2 --gamma-fraction 0.2",
+      paper, dir + "/nordland_gamma");
 }
 
 // The fair OpenBLAS: the kernel that fits a CPU's vector width, and which of OpenBLAS's own

@@ -55,7 +55,10 @@ TEST(BenchmarkTool, RunsEverySectionAndReportsRatios) {
                                "subspace built in",
                                "joint   M=10 N=10000 D=4096 int8: discriminant (64 dimensions",
                                "offmap  M=3 N=300 D=4096 float32, bsf, timed in turn",
-                               "offmap  M=3 N=300 D=4096 float32, bsf+filter, timed in turn"}) {
+                               "offmap  M=3 N=300 D=4096 float32, bsf+filter, timed in turn",
+                               "mapped  open one set of 1000 x 4096 int8",
+                               "memory-mapped, pca (d'=256",
+                               "loaded while queries stream"}) {
     EXPECT_NE(r.output.find(fragment), std::string::npos) << fragment << "\n" << r.output;
   }
   EXPECT_EQ(r.output.find("MATCHES DIFFER"), std::string::npos) << r.output;

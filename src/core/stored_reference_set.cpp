@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <type_traits>
 
@@ -67,9 +68,13 @@ void StoredReferenceSet::HoldEncoded(EncodedRows rows) {
                                 " (bsf_store_set) or load it without memory_map");
   }
   scale_ = rows.scale;
-  if (precision_ == StoragePrecision::kInt8 && !(scale_ > 0 && std::isfinite(scale_))) {
-    throw std::invalid_argument(who + ": its int8 rows need a positive scale, got " +
-                                std::to_string(scale_));
+  if (precision_ == StoragePrecision::kInt8 && !(scale_ >= kMinInt8Scale && std::isfinite(scale_))) {
+    char got[32];
+    std::snprintf(got, sizeof got, "%g", static_cast<double>(scale_));
+    throw std::invalid_argument(who +
+                                ": its int8 rows need a finite scale of at least 1.0842022e-19 "
+                                "(below it they decode to zero), got " +
+                                got);
   }
   rows_ = std::make_shared<const Rows>(std::move(rows));
   // The norms as the resident encodings give them (decoded, then the kernels' SelfDot), so

@@ -301,6 +301,11 @@ ReferenceSet ParseSidecar(const YAML::Node& root, const std::string& yaml_path,
       throw std::runtime_error("'descriptor_scale' must be a positive number, got " +
                                root["descriptor_scale"].as<std::string>());
     }
+    if (*scale < kMinInt8Scale) {
+      throw std::runtime_error("'descriptor_scale' " + root["descriptor_scale"].as<std::string>() +
+                               " is too small: the int8 rows would decode to (nearly) zero, "
+                               "their squared norms underflowing float; the smallest is 1.0842022e-19");
+    }
   }
   ReferenceSet set =
       MakeSetOf(root["name"].as<std::string>(), ReadDescriptors(files, npy, options, scale));
@@ -470,6 +475,7 @@ void AddReplacedFiles(const DataDirectory& dir, const std::string& yaml, const s
       if (npy != files->descriptors && npy.size() == stem.size() + 1 + 12 + 4 &&
           npy.rfind(stem + ".", 0) == 0 && HasSavedDescriptorName(BaseName(npy))) {
         files->replaced.push_back(npy);
+        files->replaced_proofs.push_back(ProofByName());
       }
     }
   } catch (const std::exception&) {
@@ -481,10 +487,17 @@ void AddReplacedFiles(const DataDirectory& dir, const std::string& yaml, const s
     }
     const std::string folder = below.resolve(yaml, old["images"].as<std::string>());
     if (!IsSavedImageFolder(folder, stem)) return;
-    for (const YAML::Node& image : old["image_files"]) {
-      const std::string name = image.as<std::string>();
-      if (!name.empty() && ImageFileProblem(name).empty()) {
-        files->replaced.push_back(dir.Relative(folder + "/" + name));
+    for (const YAML::Node& entry : old["image_files"]) {
+      const std::string name = entry.as<std::string>();
+      if (name.empty() || !ImageFileProblem(name).empty()) continue;
+      const std::string image = dir.Relative(folder + "/" + name);
+      try {
+        // Its bytes now: only these go once the new set is in place.
+        const std::string bytes = dir.Read(image);
+        files->replaced.push_back(image);
+        files->replaced_proofs.push_back(ProofOfContent(bytes));
+      } catch (const std::exception&) {
+        // Gone or unreadable: nothing of it to remove.
       }
     }
     files->replaced_folders.push_back(folder);
@@ -646,6 +659,7 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   files.yaml = yaml;
   files.descriptors = SavedDescriptorPath(stem, bytes);
   files.created.push_back(files.descriptors);
+  files.created_proofs.push_back(ProofByName());
   std::string image_folder;
   std::vector<std::string> image_files;
   if (options.images && std::any_of(options.images->begin(), options.images->end(),
@@ -654,8 +668,9 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     files.created_folders.push_back(image_folder);
     for (size_t row = 0; row < options.images->size(); ++row) {
       image_files.push_back(SavedImageName(row, (*options.images)[row]));
-      if (!image_files.back().empty())
-        files.created.push_back(image_folder + "/" + image_files.back());
+      if (image_files.back().empty()) continue;
+      files.created.push_back(image_folder + "/" + image_files.back());
+      files.created_proofs.push_back(ProofOfContent((*options.images)[row]));
     }
   }
   if (dir.Exists(yaml)) AddReplacedFiles(dir, yaml, stem, &files);

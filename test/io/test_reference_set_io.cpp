@@ -466,6 +466,22 @@ TEST_F(MappedSets, RefusesAnInt8FileWithoutItsScaleAndMapsOnlyBelowTheDataDirect
               std::string::npos)
         << e.what();
   }
+  // A scale at which the rows vanish (1e-25: every int8 row decodes to zero in float's
+  // squared norms; 1e-45: a denormal) is refused, read or mapped.
+  for (const char* tiny : {"1e-25", "1e-45", "1e-19"}) {
+    std::ofstream(Path("tiny_scale.yaml"))
+        << "name: t\ndescriptors: raw.npy\ndescriptor_scale: " << tiny << "\n";
+    for (const ReadSetOptions& options : {ReadSetOptions(), i8}) {
+      try {
+        LoadReferenceSetFile(Path("tiny_scale.yaml"), "", options);
+        ADD_FAILURE() << "descriptor_scale " << tiny << " was taken";
+      } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("is too small"), std::string::npos) << e.what();
+      }
+    }
+  }
+  std::ofstream(Path("small_ok.yaml")) << "name: s\ndescriptors: raw.npy\ndescriptor_scale: 2e-19\n";
+  EXPECT_NO_THROW(LoadReferenceSetFile(Path("small_ok.yaml"), "", i8));
   std::ofstream(Path("ok.yaml")) << "name: ok\ndescriptors: raw.npy\ndescriptor_scale: 0.5\n";
   const DataDirectory dir(dir_);
   const ReferenceSet below = LoadReferenceSetFile(dir, "ok.yaml", "", i8);

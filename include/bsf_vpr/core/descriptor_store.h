@@ -23,6 +23,11 @@ std::string ToString(StoragePrecision precision);
 // Bytes per descriptor element: 4, 2 or 1.
 int BytesPerElement(StoragePrecision precision);
 
+// The smallest scale of int8 rows (an element stands for scale x its value): sqrt(FLT_MIN).
+// Below it the square of one level underflows float, so a row's squared norm and its
+// distances lose their digits (at 1e-25 every row decodes to zero): such a scale is refused.
+constexpr float kMinInt8Scale = 1.0842022e-19f;
+
 // Rows already encoded at a storage precision, held by someone else: a reference set's .npy
 // memory-mapped (io/reference_set_io.h, ReadSetOptions::memory_map), so that a map holds the
 // set without reading its bytes. `owner` keeps `data` valid (the mapping is undone when the

@@ -68,14 +68,27 @@ Fd OpenParent(int root, const std::vector<std::string>& parts, const std::string
   return dir;
 }
 
-int RemoveTemporariesBelow(int dir_fd) {
-  int removed = 0;
+// Whether `name` has WriteAtomically's temporary form: ".<name>.bsf_tmp.<8 of a-z0-9>".
+bool IsTemporaryName(const std::string& name) {
+  const size_t marker = name.rfind(kTempMarker);
+  if (name.size() < 2 || name[0] != '.' || marker == std::string::npos || marker < 2) return false;
+  const size_t tail = marker + sizeof(kTempMarker) - 1;
+  if (name.size() != tail + 8) return false;
+  for (size_t i = tail; i < name.size(); ++i) {
+    const char c = name[i];
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9'))) return false;
+  }
+  return true;
+}
+
+// Appends to *out the temporaries below the folder open as `dir_fd` (paths from `prefix`).
+void ListTemporariesBelow(int dir_fd, const std::string& prefix, std::vector<std::string>* out) {
   const int dup = fcntl(dir_fd, F_DUPFD_CLOEXEC, 0);
-  if (dup < 0) return 0;
+  if (dup < 0) return;
   DIR* d = fdopendir(dup);
   if (d == nullptr) {
     close(dup);
-    return 0;
+    return;
   }
   std::vector<std::string> folders;
   while (const dirent* e = readdir(d)) {
@@ -85,17 +98,15 @@ int RemoveTemporariesBelow(int dir_fd) {
     if (fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
     if (S_ISDIR(st.st_mode)) {
       folders.push_back(name);
-    } else if (S_ISREG(st.st_mode) && name[0] == '.' &&
-               name.find(kTempMarker) != std::string::npos) {
-      if (unlinkat(dir_fd, name.c_str(), 0) == 0) ++removed;
+    } else if (S_ISREG(st.st_mode) && IsTemporaryName(name)) {
+      out->push_back(prefix + name);
     }
   }
   closedir(d);
   for (const std::string& f : folders) {
     Fd sub(openat(dir_fd, f.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
-    if (sub.get() >= 0) removed += RemoveTemporariesBelow(sub.get());
+    if (sub.get() >= 0) ListTemporariesBelow(sub.get(), prefix + f + "/", out);
   }
-  return removed;
 }
 
 // Appends to *out the regular files below the folder `dir_fd` (whose path below the data
@@ -328,9 +339,20 @@ void DataDirectory::Remove(const std::string& relative) const {
   }
 }
 
-int DataDirectory::RemoveStaleTemporaries() const {
+std::vector<std::string> DataDirectory::Temporaries() const {
   const Fd root(OpenRoot());
-  return RemoveTemporariesBelow(root.get());
+  std::vector<std::string> out;
+  ListTemporariesBelow(root.get(), "", &out);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+bool DataDirectory::IsTemporaryOf(const std::string& temporary, const std::string& relative) {
+  const size_t slash = relative.rfind('/');
+  const std::string folder = slash == std::string::npos ? "" : relative.substr(0, slash + 1);
+  const std::string prefix = folder + "." + relative.substr(folder.size()).substr(0, 200) + kTempMarker;
+  return temporary.size() == prefix.size() + 8 && temporary.compare(0, prefix.size(), prefix) == 0 &&
+         IsTemporaryName(temporary.substr(folder.size()));
 }
 
 void DataDirectory::CreateFolder(const std::string& relative) const {
@@ -375,16 +397,27 @@ DataDirectory::LockedFile DataDirectory::CreateLocked(const std::string& relativ
   const std::vector<std::string> parts = Split(Relative(relative));
   const Fd root(OpenRoot());
   const Fd dir = OpenParent(root.get(), parts, relative, true);
-  const char* name = parts.back().c_str();
-  Fd file(openat(dir.get(), name, O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
-  if (file.get() < 0) throw std::runtime_error(SystemError("create", relative, errno));
+  const std::string& name = parts.back();
+  // Written whole under a temporary name, then linked to its own: a file of this name is
+  // never seen half-written, whenever the process is killed.
+  std::string tmp;
+  int raw = -1;
+  for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
+    tmp = "." + name.substr(0, 200) + kTempMarker + RandomChars(8);
+    raw = openat(dir.get(), tmp.c_str(), O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (raw < 0 && errno != EEXIST) break;
+  }
+  if (raw < 0) throw std::runtime_error(SystemError("create", relative, errno));
+  Fd file(raw);
   int err = flock(file.get(), LOCK_EX) != 0 ? errno : WriteAll(file.get(), bytes);
   if (err == 0 && fsync(file.get()) != 0) err = errno;
-  if (err == 0 && fsync(dir.get()) != 0) err = errno;
-  if (err != 0) {
-    unlinkat(dir.get(), name, 0);
-    throw std::runtime_error(SystemError("write", relative, err));
+  if (err == 0 && linkat(dir.get(), tmp.c_str(), dir.get(), name.c_str(), 0) != 0) err = errno;
+  unlinkat(dir.get(), tmp.c_str(), 0);
+  if (err == 0 && fsync(dir.get()) != 0) {
+    err = errno;
+    unlinkat(dir.get(), name.c_str(), 0);
   }
+  if (err != 0) throw std::runtime_error(SystemError("write", relative, err));
   return LockedFile(file.release());
 }
 

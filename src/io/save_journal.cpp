@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <optional>
 #include <stdexcept>
 
@@ -37,46 +38,51 @@ std::string Resolve(const DataDirectory& dir, const std::string& yaml, const std
   }
 }
 
-// The .npy the YAML at `yaml` names (relative), "" if there is no such YAML or it names none
-// below the directory. Throws std::runtime_error for a YAML that exists but cannot be parsed.
-std::string DescriptorsOf(const DataDirectory& dir, const std::string& yaml) {
-  if (!dir.Exists(yaml)) return "";
-  try {
-    const YAML::Node root = YAML::Load(dir.Read(yaml));
-    if (!root.IsMap() || !root["descriptors"] || !root["descriptors"].IsScalar()) return "";
-    return Resolve(dir, yaml, root["descriptors"].as<std::string>());
-  } catch (const std::exception& e) {
-    throw std::runtime_error(QuotedForMessage(yaml) + " cannot be read (" + e.what() + ")");
-  }
-}
+constexpr int kJournalVersion = 2;
+constexpr char kVersionKey[] = "bsf_vpr_save_journal";
+constexpr char kByName[] = "named by content";
+constexpr char kContent[] = "content ";
 
 std::string JournalText(const SaveFiles& f) {
   YAML::Emitter out;
   out << YAML::BeginMap;
-  out << YAML::Key << "bsf_vpr_save_journal" << YAML::Value << 1;
+  out << YAML::Key << kVersionKey << YAML::Value << kJournalVersion;
   out << YAML::Key << "yaml" << YAML::Value << f.yaml;
   out << YAML::Key << "descriptors" << YAML::Value << f.descriptors;
   out << YAML::Key << "yaml_digest" << YAML::Value << f.yaml_digest;
   out << YAML::Key << "created" << YAML::Value << f.created;
+  out << YAML::Key << "created_proofs" << YAML::Value << f.created_proofs;
   out << YAML::Key << "created_folders" << YAML::Value << f.created_folders;
   out << YAML::Key << "replaced" << YAML::Value << f.replaced;
+  out << YAML::Key << "replaced_proofs" << YAML::Value << f.replaced_proofs;
   out << YAML::Key << "replaced_folders" << YAML::Value << f.replaced_folders;
   out << YAML::Key << "complete" << YAML::Value << true;  // last: the journal was written whole
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 
-// The journal's files, each checked to lie below `dir`; std::nullopt for a journal that was
-// not written whole (its save created nothing yet). Throws std::runtime_error if it cannot
-// be parsed.
-std::optional<SaveFiles> ParseJournal(const DataDirectory& dir, const std::string& text) {
+// The journal's files, each checked to lie below `dir`. Throws std::runtime_error saying why
+// `text` is not a complete journal of this version (another file that has a journal's name,
+// a journal of an earlier version, one cut short): such a file is left as it is.
+SaveFiles ParseJournal(const DataDirectory& dir, const std::string& text) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const std::exception&) {
-    return std::nullopt;  // cut short while written: nothing was created after it
+    throw std::runtime_error("not a journal of a bsf_vpr save (not YAML)");
   }
-  if (!root.IsMap() || !root["complete"] || !root["complete"].as<bool>(false)) return std::nullopt;
+  if (!root.IsMap() || !root[kVersionKey]) {
+    throw std::runtime_error("not a journal of a bsf_vpr save (no " + std::string(kVersionKey) +
+                             ")");
+  }
+  if (root[kVersionKey].as<std::string>("") != std::to_string(kJournalVersion)) {
+    throw std::runtime_error("a journal of version " + root[kVersionKey].as<std::string>("?") +
+                             ", which cannot prove which files its save wrote; check the files "
+                             "it lists and remove it by hand");
+  }
+  if (!root["complete"] || !root["complete"].as<bool>(false)) {
+    throw std::runtime_error("a journal cut short");
+  }
   SaveFiles f;
   const auto paths = [&](const char* key) {
     std::vector<std::string> out;
@@ -88,30 +94,96 @@ std::optional<SaveFiles> ParseJournal(const DataDirectory& dir, const std::strin
   try {
     f.yaml = dir.Relative(root["yaml"].as<std::string>());
     f.descriptors = dir.Relative(root["descriptors"].as<std::string>());
-    if (root["yaml_digest"]) f.yaml_digest = root["yaml_digest"].as<std::string>();
+    f.yaml_digest = root["yaml_digest"].as<std::string>();
     f.created = paths("created");
+    f.created_proofs = root["created_proofs"].as<std::vector<std::string>>();
     f.created_folders = paths("created_folders");
     f.replaced = paths("replaced");
+    f.replaced_proofs = root["replaced_proofs"].as<std::vector<std::string>>();
     f.replaced_folders = paths("replaced_folders");
   } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("not a journal of a save (") + e.what() + ")");
+    throw std::runtime_error(std::string("not a journal of a bsf_vpr save (") + e.what() + ")");
+  }
+  if (f.created_proofs.size() != f.created.size() ||
+      f.replaced_proofs.size() != f.replaced.size()) {
+    throw std::runtime_error("not a journal of a bsf_vpr save (a file without its proof)");
   }
   return f;
 }
 
-// Removes those of `files` that `named` does not name, then the folders that are left
-// empty; returns how many files were removed. Never throws: what cannot go stays.
-int RemoveUnnamed(const DataDirectory& dir, const std::vector<std::string>& files,
-                  const std::vector<std::string>& folders, const NamedFiles& named) {
-  int removed = 0;
-  for (const std::string& f : files) {
+// Why the file at `relative` is not the one `proof` names ("" if it is, or is gone).
+std::string Unproven(const DataDirectory& dir, const std::string& relative,
+                     const std::string& proof) {
+  if (!dir.Exists(relative)) return "";
+  std::string bytes;
+  try {
+    bytes = dir.Read(relative);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (proof == kByName) {
+    return IsSavedDescriptorFile(BaseName(relative), bytes)
+               ? ""
+               : "its bytes are not those its name was given for";
+  }
+  if (proof.rfind(kContent, 0) == 0) {
+    return ContentDigest(bytes) == proof.substr(sizeof(kContent) - 1)
+               ? ""
+               : "its bytes are not those the save wrote";
+  }
+  return "the journal proves nothing of it";
+}
+
+// What one recovery did: the files removed and those kept, each with its reason.
+struct Removal {
+  std::vector<std::string> removed, kept;
+};
+
+// Removes those of `files` (with their `proofs`) that `named` does not name, then the
+// temporaries of `files` and the folders left empty; but only when every one of them that
+// exists is proved (bytes as the journal says): a journal that lists a file it cannot prove
+// may not be ours, and nothing is removed for it (those files are `kept`). Never throws:
+// what cannot go stays.
+Removal RemoveProven(const DataDirectory& dir, const std::vector<std::string>& files,
+                     const std::vector<std::string>& proofs,
+                     const std::vector<std::string>& folders, const NamedFiles& named) {
+  Removal r;
+  std::vector<std::string> proved;
+  for (size_t i = 0; i < files.size(); ++i) {
+    const std::string& f = files[i];
     if (named.Names(f)) continue;
     try {
       if (!dir.Exists(f)) continue;
-      dir.Remove(f);
-      ++removed;
-    } catch (const std::exception&) {
+      const std::string why = Unproven(dir, f, i < proofs.size() ? proofs[i] : "");
+      if (why.empty()) {
+        proved.push_back(f);
+      } else {
+        r.kept.push_back(QuotedForMessage(f) + " (" + why + ")");
+      }
+    } catch (const std::exception& e) {
+      r.kept.push_back(QuotedForMessage(f) + " (" + e.what() + ")");
     }
+  }
+  if (!r.kept.empty()) return r;
+  for (const std::string& f : proved) {
+    try {
+      dir.Remove(f);
+      r.removed.push_back(QuotedForMessage(f));
+    } catch (const std::exception& e) {
+      r.kept.push_back(QuotedForMessage(f) + " (" + e.what() + ")");
+    }
+  }
+  // The temporaries a killed write of these files left (a half-written copy of one).
+  try {
+    for (const std::string& t : dir.Temporaries()) {
+      for (const std::string& f : files) {
+        if (!DataDirectory::IsTemporaryOf(t, f)) continue;
+        dir.Remove(t);
+        r.removed.push_back(QuotedForMessage(t) + " (a half-written copy)");
+        break;
+      }
+    }
+  } catch (const std::exception&) {
   }
   for (const std::string& f : folders) {
     try {
@@ -119,10 +191,24 @@ int RemoveUnnamed(const DataDirectory& dir, const std::vector<std::string>& file
     } catch (const std::exception&) {
     }
   }
-  return removed;
+  return r;
+}
+
+// "removed 2 file(s): 'a', 'b'"; and the files kept, if any.
+std::string Describe(const Removal& r) {
+  std::string out = "removed " + std::to_string(r.removed.size()) + " file(s)";
+  for (size_t i = 0; i < r.removed.size(); ++i) out += (i ? ", " : ": ") + r.removed[i];
+  if (!r.kept.empty()) {
+    out += "; kept " + std::to_string(r.kept.size()) + " it listed";
+    for (size_t i = 0; i < r.kept.size(); ++i) out += (i ? ", " : ": ") + r.kept[i];
+  }
+  return out;
 }
 
 }  // namespace
+
+std::string ProofByName() { return kByName; }
+std::string ProofOfContent(const std::string& bytes) { return kContent + ContentDigest(bytes); }
 
 bool NamedFiles::Names(const std::string& relative) const {
   if (EndsWith(relative, ".npy") && descriptor_names.count(BaseName(relative))) return true;
@@ -196,7 +282,14 @@ void SaveJournal::RollBack(const std::vector<std::string>& made,
   } catch (const std::exception&) {
     return;  // the journal stays for the next start, which asks every YAML again
   }
-  RemoveUnnamed(dir_, made, made_folders, named);
+  std::vector<std::string> proofs;
+  for (const std::string& f : made) {
+    const auto at = std::find(files_.created.begin(), files_.created.end(), f);
+    proofs.push_back(at == files_.created.end()
+                         ? ""
+                         : files_.created_proofs[static_cast<size_t>(at - files_.created.begin())]);
+  }
+  RemoveProven(dir_, made, proofs, made_folders, named);
   try {
     for (const std::string& f : made) {
       if (!named.Names(f) && dir_.Exists(f)) return;  // left: the next start tries again
@@ -210,7 +303,8 @@ void SaveJournal::Finish(const std::set<std::string>& keep) noexcept {
   try {
     // A set saved under a new name replaced nothing: no YAML need be read.
     if (!files_.replaced.empty()) {
-      RemoveUnnamed(dir_, files_.replaced, files_.replaced_folders, ScanNamedFiles(dir_, keep));
+      RemoveProven(dir_, files_.replaced, files_.replaced_proofs, files_.replaced_folders,
+                   ScanNamedFiles(dir_, keep));
     }
   } catch (const std::exception&) {
     // A YAML that cannot be read might name the old files: they stay, and so does nothing
@@ -228,44 +322,71 @@ std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
   for (const std::string& f : dir.ListFilesBelow()) {
     if (IsSaveJournalName(BaseName(f))) journals.push_back(f);
   }
-  if (journals.empty()) return {};
-  // The temporaries a killed write left in a save's new folder: else the folder is not empty
-  // when its save is undone.
-  dir.RemoveStaleTemporaries();
   std::vector<std::string> report;
+  // A journal's own temporary (CreateLocked writes it whole, then links it to its name): a
+  // kill before the unlink leaves it, with or without its journal. Ours when its bytes are
+  // (the start of) a journal of this version.
+  const std::string header = std::string(kVersionKey) + ": " + std::to_string(kJournalVersion);
+  for (const std::string& t : dir.Temporaries()) {
+    const std::string name = BaseName(t);
+    const size_t marker = name.rfind(".bsf_tmp.");
+    if (marker == std::string::npos || !IsSaveJournalName(name.substr(1, marker - 1))) continue;
+    try {
+      const std::string bytes = dir.Read(t, 1 << 20);
+      const size_t n = std::min(bytes.size(), header.size());
+      if (bytes.compare(0, n, header, 0, n) != 0) continue;
+      dir.Remove(t);
+      report.push_back("removed " + QuotedForMessage(t) +
+                       ", the copy of a journal its save was writing when it was killed");
+    } catch (const std::exception&) {
+    }
+  }
+  if (journals.empty()) return report;
   NamedFiles named;
   try {
     named = ScanNamedFiles(dir, keep);
   } catch (const std::exception& e) {
-    return {"left " + std::to_string(journals.size()) +
-            " interrupted save(s) as they are: " + e.what()};
+    report.push_back("left " + std::to_string(journals.size()) +
+                     " interrupted save(s) as they are: " + e.what());
+    return report;
   }
   for (const std::string& journal : journals) {
     DataDirectory::LockedFile lock;
     try {
       const std::optional<std::string> text = dir.ReadIfUnlocked(journal, &lock);
       if (!text) continue;  // a save running in another process
-      const std::optional<SaveFiles> f = ParseJournal(dir, *text);
-      if (f) {
-        // The new YAML is in place: the very bytes the save wrote (the same descriptors
-        // saved again name the same .npy, so that alone cannot tell).
-        const bool saved =
-            f->yaml_digest.empty()
-                ? DescriptorsOf(dir, f->yaml) == f->descriptors
-                : dir.Exists(f->yaml) && ContentDigest(dir.Read(f->yaml)) == f->yaml_digest;
-        const int n = saved ? RemoveUnnamed(dir, f->replaced, f->replaced_folders, named)
-                            : RemoveUnnamed(dir, f->created, f->created_folders, named);
-        report.push_back((saved ? "finished the interrupted save of " + QuotedForMessage(f->yaml) +
-                                      ": removed " + std::to_string(n) +
-                                      " file(s) of the set it replaced"
-                                : "undid the interrupted save of " + QuotedForMessage(f->yaml) +
-                                      " (the old set, if any, is as it was): removed " +
-                                      std::to_string(n) + " file(s) it had written"));
+      const SaveFiles f = ParseJournal(dir, *text);
+      // The new YAML is in place: the very bytes the save wrote (the same descriptors
+      // saved again name the same .npy, so that alone cannot tell).
+      const bool saved = dir.Exists(f.yaml) && ContentDigest(dir.Read(f.yaml)) == f.yaml_digest;
+      Removal r =
+          saved ? RemoveProven(dir, f.replaced, f.replaced_proofs, f.replaced_folders, named)
+                : RemoveProven(dir, f.created, f.created_proofs, f.created_folders, named);
+      if (!saved && r.kept.empty()) {
+        // A half-written YAML: the temporary of its write.
+        for (const std::string& t : dir.Temporaries()) {
+          if (!DataDirectory::IsTemporaryOf(t, f.yaml)) continue;
+          dir.Remove(t);
+          r.removed.push_back(QuotedForMessage(t) + " (a half-written copy)");
+        }
+      }
+      if (!r.kept.empty()) {
+        // Files it lists that are not what it says: it may not be ours; it stays with them.
+        report.push_back("left " + QuotedForMessage(journal) + " and the files it lists whose " +
+                         "bytes it does not prove: " + Describe(r));
+        continue;
       }
       dir.Remove(journal);
+      report.push_back(
+          (saved ? "finished the interrupted save of " + QuotedForMessage(f.yaml) +
+                       " (journal " + QuotedForMessage(journal) + "): of the set it replaced, "
+                 : "undid the interrupted save of " + QuotedForMessage(f.yaml) + " (journal " +
+                       QuotedForMessage(journal) + "; the old set, if any, is as it was): of " +
+                       "what it had written, ") +
+          Describe(r));
     } catch (const std::exception& e) {
-      report.push_back("left the interrupted save " + QuotedForMessage(journal) +
-                       " as it is: " + e.what());
+      report.push_back("left " + QuotedForMessage(journal) + " as it is, and every file it names: " +
+                       e.what());
     }
   }
   return report;

@@ -116,13 +116,25 @@ TEST_F(DataDir, WritesAtomicallyBelowAndNeverThroughALink) {
   }
 }
 
-TEST_F(DataDir, RemovesStaleTemporariesOnly) {
+TEST_F(DataDir, ListsTemporariesOfItsOwnFormAndRemovesNone) {
   Write(Data(".a.yaml.bsf_tmp.abcdefgh"), "half");
   Write(Data("sets/.b.npy.bsf_tmp.12345678"), "half");
   Write(Data("sets/keep.yaml"), "name: keep");
-  EXPECT_EQ(dir_->RemoveStaleTemporaries(), 2);
-  EXPECT_TRUE(fs::exists(Data("sets/keep.yaml")));
-  EXPECT_FALSE(fs::exists(Data(".a.yaml.bsf_tmp.abcdefgh")));
+  // Named like one but not of the form: a person's files.
+  Write(Data(".mine.bsf_tmp.keep"), "mine");
+  Write(Data(".c.npy.bsf_tmp.ABCDEFGH"), "mine");
+  Write(Data("d.npy.bsf_tmp.abcdefgh"), "mine");
+  EXPECT_EQ(dir_->Temporaries(),
+            (std::vector<std::string>{".a.yaml.bsf_tmp.abcdefgh", "sets/.b.npy.bsf_tmp.12345678"}));
+  for (const char* f : {".a.yaml.bsf_tmp.abcdefgh", "sets/.b.npy.bsf_tmp.12345678",
+                        ".mine.bsf_tmp.keep", ".c.npy.bsf_tmp.ABCDEFGH", "d.npy.bsf_tmp.abcdefgh"}) {
+    EXPECT_TRUE(fs::exists(Data(f))) << f;
+  }
+  EXPECT_TRUE(DataDirectory::IsTemporaryOf(".a.yaml.bsf_tmp.abcdefgh", "a.yaml"));
+  EXPECT_TRUE(DataDirectory::IsTemporaryOf("sets/.b.npy.bsf_tmp.12345678", "sets/b.npy"));
+  EXPECT_FALSE(DataDirectory::IsTemporaryOf("sets/.b.npy.bsf_tmp.12345678", "b.npy"));
+  EXPECT_FALSE(DataDirectory::IsTemporaryOf(".a.yaml.bsf_tmp.abcdefgh", "b.yaml"));
+  EXPECT_FALSE(DataDirectory::IsTemporaryOf(".mine.bsf_tmp.keep", "mine"));
 }
 
 TEST_F(DataDir, ListsTheRegularFilesBelowItWithoutFollowingLinks) {

@@ -12,6 +12,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -124,6 +126,82 @@ TEST_F(SaveJournalTest, StartUpRemovesNoFileThatNoSaveOfOursLeftWhateverItsNameO
   fs::remove_all(dir_ + "_outside");
 }
 
+// Every regular file below the folder with its bytes, relative paths.
+std::map<std::string, std::string> Contents(const std::string& root) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (!e.is_regular_file()) continue;
+    std::ifstream in(e.path(), std::ios::binary);
+    out[fs::relative(e.path(), root).string()] =
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  return out;
+}
+
+TEST_F(SaveJournalTest, HandMadeForeignAndMalformedJournalsRemoveNothingOfThePersons) {
+  // Found attacking the node: journals written by hand, in the old format and in this one,
+  // removed a person's files at start-up, and files that only had a journal's or a
+  // temporary's name were removed without a word.
+  const DataDirectory dir(dir_);
+  SaveToday(dir, 1, 3);  // a real set, whose files a journal could name
+  fs::create_directories(Path("sub"));
+  std::ofstream(Path("mydata.csv")) << "1,2,3\n";
+  std::ofstream(Path("sub/precious.txt")) << "precious";
+  std::ofstream(Path("notes.txt")) << "notes";
+  std::ofstream(Path("orphan_old.npy")) << "not a saved npy";
+  std::ofstream(Path("finished.yaml")) << "name: x\n";
+  // A YAML absent ("undo") and one present ("finish"), in the format of an earlier version.
+  std::ofstream(Path(".ghost.yaml.bsf_save.XXXXXXXX"))
+      << "bsf_vpr_save_journal: 1\nyaml: ghost.yaml\ndescriptors: ghost.a.npy\n"
+         "created: [mydata.csv, sub/precious.txt]\ncreated_folders: [sub]\nreplaced: []\n"
+         "replaced_folders: []\ncomplete: true\n";
+  std::ofstream(Path(".finished.yaml.bsf_save.YYYYYYYY"))
+      << "bsf_vpr_save_journal: 1\nyaml: finished.yaml\ndescriptors: f.npy\ncreated: []\n"
+         "created_folders: []\nreplaced: [notes.txt, orphan_old.npy]\nreplaced_folders: []\n"
+         "complete: true\n";
+  // This version's format, with proofs that do not fit the files, or that fit another file.
+  std::ofstream(Path(".ghost2.yaml.bsf_save.ZZZZZZZZ"))
+      << "bsf_vpr_save_journal: 2\nyaml: ghost2.yaml\ndescriptors: ghost2.a.npy\n"
+         "yaml_digest: 0000000000000000\n"
+         "created: [mydata.csv, sub/precious.txt, orphan_old.npy]\n"
+         "created_proofs: [content 0123456789abcdef, named by content, named by content]\n"
+         "created_folders: [sub]\nreplaced: []\nreplaced_proofs: []\nreplaced_folders: []\n"
+         "complete: true\n";
+  std::ofstream(Path(".finished.yaml.bsf_save.WWWWWWWW"))
+      << "bsf_vpr_save_journal: 2\nyaml: finished.yaml\ndescriptors: f.npy\n"
+         "yaml_digest: " << ContentDigest("name: x\n") << "\n"
+         "created: []\ncreated_proofs: []\ncreated_folders: []\n"
+         "replaced: [notes.txt, sub/precious.txt]\n"
+         "replaced_proofs: [content " << ContentDigest("other") << ", named by content]\n"
+         "replaced_folders: [sub]\ncomplete: true\n";
+  // No journal at all, one cut short, an empty one, and temporaries' look-alikes.
+  std::ofstream(Path(".todo.yaml.bsf_save.CCCCCCCC")) << "- my\n- todo list\n";
+  std::ofstream(Path(".cut.yaml.bsf_save.DDDDDDDD"))
+      << "bsf_vpr_save_journal: 2\nyaml: cut.yaml\ncreated: [mydata.csv]\n";
+  std::ofstream(Path(".empty.yaml.bsf_save.EEEEEEEE"));
+  std::ofstream(Path(".mine.bsf_tmp.keep")) << "mine";
+  std::ofstream(Path("sub/.precious.txt.bsf_tmp.abcdefgh")) << "a person's file after all";
+  for (const std::string& f : dir.ListFilesBelow()) Age(f);
+  const std::map<std::string, std::string> before = Contents(dir_);
+
+  const std::vector<std::string> report = RecoverInterruptedSaves(dir);
+  EXPECT_EQ(Contents(dir_), before) << "a file was removed or changed";
+  // Each is reported as left, with its reason.
+  std::string all;
+  for (const std::string& line : report) all += line + "\n";
+  for (const char* journal : {".ghost.yaml.bsf_save.XXXXXXXX", ".finished.yaml.bsf_save.YYYYYYYY",
+                              ".ghost2.yaml.bsf_save.ZZZZZZZZ",
+                              ".finished.yaml.bsf_save.WWWWWWWW", ".todo.yaml.bsf_save.CCCCCCCC",
+                              ".cut.yaml.bsf_save.DDDDDDDD", ".empty.yaml.bsf_save.EEEEEEEE"}) {
+    EXPECT_NE(all.find(std::string("left '") + journal + "'"), std::string::npos)
+        << journal << " not reported in:\n"
+        << all;
+  }
+  EXPECT_NE(all.find("version 1"), std::string::npos) << all;
+  EXPECT_NE(all.find("not those the save wrote"), std::string::npos) << all;
+  EXPECT_EQ(CheckWholeSet(dir, 3), 1);
+}
+
 TEST_F(SaveJournalTest, AReplacedSetsOwnFilesGoAndAConfiguredOrNamedOneStays) {
   const DataDirectory dir(dir_);
   SaveToday(dir, 1, 4);
@@ -232,7 +310,6 @@ TEST_F(SaveJournalTest, KilledAtAnyMomentTheOldSetStaysWholeWithItsOwnImagesAndN
     KilledSave(dir_, generation + 1, kRows, delay);
     const std::vector<std::string> report = RecoverInterruptedSaves(dir);
     caught += !report.empty();
-    dir.RemoveStaleTemporaries();  // a killed write's temporary (start-up removes it too)
     // Whole, one generation: the old one (killed before the YAML's rename) or the new one.
     const int now = CheckWholeSet(dir, kRows);
     EXPECT_TRUE(now == generation || now == generation + 1) << now << " after " << generation;
@@ -280,9 +357,11 @@ TEST_F(SaveJournalTest, ASaveRunningInAnotherProcessIsLeftAlone) {
   const DataDirectory dir(dir_);
   SaveFiles files;
   files.yaml = "today.yaml";
-  files.descriptors = "today.0123456789ab.npy";
+  files.yaml_digest = ContentDigest("name: today\n");
+  files.descriptors = SavedDescriptorPath("today", "being written");
   files.created = {files.descriptors};
-  WriteRaw("today.0123456789ab.npy", "being written");
+  files.created_proofs = {ProofByName()};
+  WriteRaw(files.descriptors, "being written");
   {
     SaveJournal running(dir, files);  // holds the journal's lock, as a live save does
     const pid_t child = fork();
@@ -290,11 +369,11 @@ TEST_F(SaveJournalTest, ASaveRunningInAnotherProcessIsLeftAlone) {
     int status = 0;
     waitpid(child, &status, 0);
     EXPECT_EQ(WEXITSTATUS(status), 0);
-    EXPECT_TRUE(fs::exists(Path("today.0123456789ab.npy")));
+    EXPECT_TRUE(fs::exists(Path(files.descriptors)));
   }
   // Its process gone without finishing (the lock released): undone.
   EXPECT_EQ(RecoverInterruptedSaves(dir).size(), 1u);
-  EXPECT_FALSE(fs::exists(Path("today.0123456789ab.npy")));
+  EXPECT_FALSE(fs::exists(Path(files.descriptors)));
   EXPECT_TRUE(Entries().empty());
 }
 

@@ -79,9 +79,13 @@ class DataDirectory {
   // Removes the file at `relative` if it exists (never follows a link; removes the link).
   void Remove(const std::string& relative) const;
 
-  // Removes what interrupted writes left behind anywhere below the folder: temporary files
-  // of WriteAtomically. Returns how many were removed.
-  int RemoveStaleTemporaries() const;
+  // The temporary files of WriteAtomically and CreateLocked anywhere below the folder
+  // (".<name>.bsf_tmp.<8 of a-z0-9>", relative paths, sorted): what writes killed on the way
+  // left. Nothing is removed here: a temporary is removed only by the journal of the save that
+  // wrote it (RecoverInterruptedSaves), the others are reported.
+  std::vector<std::string> Temporaries() const;
+  // Whether `temporary` (relative) is a temporary that a write of `relative` made.
+  static bool IsTemporaryOf(const std::string& temporary, const std::string& relative);
 
   // Makes the folder at `relative` (and the folders on the way), which must not exist yet.
   // Throws std::runtime_error naming it if it exists or cannot be made.
@@ -109,7 +113,8 @@ class DataDirectory {
     int fd_ = -1;
   };
   // Creates the file `relative` (it must not exist; missing folders are made), locks it,
-  // writes `bytes` and flushes the file and its folder. Throws std::runtime_error naming it;
+  // writes `bytes` and flushes the file and its folder. The bytes are written under a
+  // temporary name first, so that the file never exists half-written. Throws std::runtime_error naming it;
   // a file it created is removed again on failure.
   LockedFile CreateLocked(const std::string& relative, const std::string& bytes) const;
   // Locks the regular file at `relative` without waiting and returns its bytes, the lock

@@ -164,14 +164,17 @@ std::set<std::string> FilesOfReferenceSets(const DataDirectory& dir,
 
 // Finishes or undoes the saves (SaveReferenceSet) that a killed process left below `dir`,
 // by their journals: where the new YAML is in place, the files of the set it replaced go;
-// where it is not, the files the save had written go, and the old set is as it was. Only
-// files a journal lists are removed, and none that a YAML below `dir` or `keep` (relative
-// paths: the configured sets' files) names; a file found lying around is never removed,
-// whatever its name. A journal that a running save holds (another process) is left alone.
-// Returns a line for each save it finished or undid, for the caller to log. If a YAML below
-// `dir` cannot be read (it might name anything), nothing is removed and the line says so.
-// Call it at start-up; it removes stale temporaries first (RemoveStaleTemporaries), as a
-// killed save leaves them in the folders it made.
+// where it is not, the files the save had written go (and the half-written copies its
+// writes left), and the old set is as it was. A file goes only when a complete journal of
+// this version lists it, its bytes are still those the journal proves (the hash in a saved
+// .npy's name, or the digest the journal holds), and neither a YAML below `dir` nor `keep`
+// (relative paths: the configured sets' files) names it. A file found lying around is never
+// removed, whatever its name; a file with a journal's name that is no such journal (another
+// program's, an earlier version's, a hand-made one) is left as it is with every file it
+// names. A journal that a running save holds (another process) is left alone. Returns a line
+// for each journal, naming every file removed and every listed file kept, for the caller to
+// log. If a YAML below `dir` cannot be read (it might name anything), nothing is removed and
+// the line says so. Call it at start-up.
 std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
                                                  const std::set<std::string>& keep = {});
 

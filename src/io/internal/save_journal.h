@@ -4,8 +4,11 @@
 // the way (kill -9, a power cut) leaves its journal; RecoverInterruptedSaves
 // (reference_set_io.h) reads it at the next start and finishes the save (the new YAML is in
 // place: the replaced files go) or undoes it (the new YAML is not: the created files go).
-// So start-up removes only what a save of ours wrote or replaced, never a file found lying
-// around, whatever its name.
+// A file goes only when the journal lists it and its bytes are still the ones the journal
+// proves (SaveFiles' proofs), so start-up removes only what a save of ours wrote or replaced,
+// never a file found lying around, whatever its name, nor one a hand-made journal names. A
+// file with a journal's name that is not a complete journal of this version is left as it is
+// and reported.
 #pragma once
 
 #include <set>
@@ -16,14 +19,23 @@
 
 namespace bsf_vpr {
 
+// How a journal proves that a file is the one its save wrote (or replaced), before anything
+// removes it: the file's bytes must still be those the save knew.
+// "named by content": a saved .npy whose name carries the hash of its bytes
+// (IsSavedDescriptorFile); "content <16 hex>": the ContentDigest of its bytes.
+std::string ProofByName();
+std::string ProofOfContent(const std::string& bytes);
+
 // Paths relative to the data directory.
 struct SaveFiles {
   std::string yaml;                           // the set's YAML
   std::string descriptors;                    // the new .npy: the YAML names it once saved
   std::string yaml_digest;  // ContentDigest of the new YAML: it is in place once saved
   std::vector<std::string> created;           // files the save makes (.npy, images)
+  std::vector<std::string> created_proofs;    // one per created file (ProofByName, ProofOfContent)
   std::vector<std::string> created_folders;   // folders the save makes (images), new ones
   std::vector<std::string> replaced;          // the old set's own files, to go once saved
+  std::vector<std::string> replaced_proofs;   // one per replaced file
   std::vector<std::string> replaced_folders;  // their folders, removed when left empty
 };
 

@@ -52,10 +52,15 @@ void FusionNode::Start() {
     for (const std::string& line : RecoverInterruptedSaves(*data_dir_, keep_)) {
       ROS_WARN("bsf_vpr: %s: %s", data_dir_->path().c_str(), line.c_str());
     }
-    const int stale = data_dir_->RemoveStaleTemporaries();
-    if (stale > 0) {
-      ROS_WARN("bsf_vpr: removed %d temporary file(s) left in %s by an interrupted save", stale,
-               data_dir_->path().c_str());
+    const std::vector<std::string> stale = data_dir_->Temporaries();
+    if (!stale.empty()) {
+      std::string names;
+      for (size_t i = 0; i < stale.size() && i < 10; ++i) names += (i ? ", " : "") + stale[i];
+      ROS_WARN("bsf_vpr: %s holds %zu file(s) named like the temporaries of an interrupted write "
+               "(%s%s) that no journal of a save names: left as they are; remove them by hand "
+               "if they are not yours",
+               data_dir_->path().c_str(), stale.size(), names.c_str(),
+               stale.size() > 10 ? ", ..." : "");
     }
   }
   map_ = make_map_(params_, data_dir_.get());  // calls back only once started, below

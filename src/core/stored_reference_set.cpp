@@ -94,6 +94,15 @@ void StoredReferenceSet::HoldEncoded(EncodedRows rows) {
     }
     squared_norms_(r) = norm;
   }
+  const std::string changed = RowsChanged();
+  if (!changed.empty()) {
+    throw std::invalid_argument(who + ": " + changed + ", while it was being loaded");
+  }
+}
+
+std::string StoredReferenceSet::RowsChanged() const {
+  const auto* encoded = std::get_if<EncodedRows>(rows_.get());
+  return encoded && encoded->changed ? encoded->changed() : "";
 }
 
 bool StoredReferenceSet::mapped() const { return std::holds_alternative<EncodedRows>(*rows_); }

@@ -1,11 +1,13 @@
 #include "bsf_vpr/io/file_util.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -13,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -91,19 +94,130 @@ std::string ReadRegularFile(int fd, const std::string& name, uint64_t max_bytes)
   return bytes;
 }
 
+namespace {
+
+// The mappings a SIGBUS may fall in: a file truncated under its mapping faults on the pages
+// past its new end. Slots are taken and freed under the mutex; the handler reads them lock-free.
+struct GuardedRange {
+  std::atomic<uintptr_t> begin{0};  // 0: a free slot
+  std::atomic<size_t> length{0};
+  std::atomic<int> faulted{0};
+};
+constexpr int kGuardedRanges = 4096;
+GuardedRange g_ranges[kGuardedRanges];
+std::mutex g_ranges_mutex;
+struct sigaction g_previous_bus;
+
+// SIGBUS in a mapping of ours: its pages become zeros (an anonymous mapping in its place) and
+// the read goes on; the mapping's Changed() then says the file shrank, and the answer is not
+// used. Elsewhere: as the handler before, or the default (the process ends).
+void OnBus(int sig, siginfo_t* info, void* context) {
+  const uintptr_t at = reinterpret_cast<uintptr_t>(info->si_addr);
+  for (GuardedRange& r : g_ranges) {
+    const uintptr_t begin = r.begin.load(std::memory_order_acquire);
+    const size_t length = r.length.load(std::memory_order_acquire);
+    if (begin == 0 || at < begin || at - begin >= length) continue;
+    if (mmap(reinterpret_cast<void*>(begin), length, PROT_READ,
+             MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1, 0) != MAP_FAILED) {
+      r.faulted.store(1, std::memory_order_release);
+      return;
+    }
+    break;
+  }
+  if ((g_previous_bus.sa_flags & SA_SIGINFO) && g_previous_bus.sa_sigaction != nullptr) {
+    g_previous_bus.sa_sigaction(sig, info, context);
+  } else if (!(g_previous_bus.sa_flags & SA_SIGINFO) && g_previous_bus.sa_handler != SIG_DFL &&
+             g_previous_bus.sa_handler != SIG_IGN) {
+    g_previous_bus.sa_handler(sig);
+  } else {
+    signal(SIGBUS, SIG_DFL);  // the faulting read runs again and ends the process
+  }
+}
+
+// A slot for [begin, begin + length), or -1 when all are taken (the mapping then goes
+// unguarded: a truncation under it would end the process).
+int GuardRange(const void* begin, size_t length) {
+  static std::once_flag installed;
+  std::call_once(installed, [] {
+    struct sigaction action {};
+    action.sa_sigaction = OnBus;
+    action.sa_flags = SA_SIGINFO | SA_NODEFER;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGBUS, &action, &g_previous_bus);
+  });
+  std::lock_guard<std::mutex> lock(g_ranges_mutex);
+  for (int i = 0; i < kGuardedRanges; ++i) {
+    GuardedRange& r = g_ranges[i];
+    if (r.begin.load(std::memory_order_relaxed) != 0) continue;
+    r.faulted.store(0, std::memory_order_relaxed);
+    r.length.store(length, std::memory_order_release);
+    r.begin.store(reinterpret_cast<uintptr_t>(begin), std::memory_order_release);
+    return i;
+  }
+  return -1;
+}
+
+void ReleaseRange(int slot) {
+  if (slot < 0) return;
+  std::lock_guard<std::mutex> lock(g_ranges_mutex);
+  g_ranges[slot].begin.store(0, std::memory_order_release);
+}
+
+}  // namespace
+
+MappedFile::~MappedFile() {
+  ReleaseRange(guard_);
+  if (data != nullptr) munmap(const_cast<char*>(data), size);
+  if (fd_ >= 0) close(fd_);
+}
+
+std::string MappedFile::Changed() const {
+  if (fd_ < 0) return "";
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!changed_.empty()) return changed_;
+  struct stat st;
+  if (guard_ >= 0 && g_ranges[guard_].faulted.load(std::memory_order_acquire)) {
+    changed_ = "was truncated under its mapping (a read fell past its end)";
+  } else if (fstat(fd_, &st) != 0) {
+    changed_ = std::string("can no longer be inspected: ") + std::strerror(errno);
+  } else if (st.st_size != size_at_map_) {
+    changed_ = "was rewritten in place: " + std::to_string(size_at_map_) + " bytes when loaded, " +
+               std::to_string(st.st_size) + " now";
+  } else if (st.st_mtim.tv_sec != mtime_sec_ || st.st_mtim.tv_nsec != mtime_nsec_) {
+    changed_ = "was rewritten in place (modified since it was loaded)";
+  }
+  if (!changed_.empty()) changed_ = QuotedForMessage(name_) + " " + changed_;
+  return changed_;
+}
+
 std::shared_ptr<const MappedFile> MapRegularFile(int fd, const std::string& name) {
+  struct stat st;
+  if (fstat(fd, &st) != 0) {
+    throw std::runtime_error("cannot inspect " + QuotedForMessage(name) + ": " +
+                             std::strerror(errno));
+  }
   const size_t size = static_cast<size_t>(RegularFileSize(fd, name));
-  if (size == 0) return std::make_shared<const MappedFile>();
+  auto file = std::make_shared<MappedFile>();
+  if (size == 0) return file;
+  // Its own handle, kept: Changed() asks the file mapped, not whatever has its name now.
+  file->fd_ = fcntl(fd, F_DUPFD_CLOEXEC, 0);
+  if (file->fd_ < 0) {
+    throw std::runtime_error("cannot map " + QuotedForMessage(name) +
+                             " into memory: " + std::strerror(errno));
+  }
+  file->name_ = name;
+  file->size_at_map_ = static_cast<int64_t>(size);
+  file->mtime_sec_ = st.st_mtim.tv_sec;
+  file->mtime_nsec_ = st.st_mtim.tv_nsec;
   void* at = mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
   if (at == MAP_FAILED) {
     throw std::runtime_error("cannot map " + QuotedForMessage(name) +
                              " into memory: " + std::strerror(errno));
   }
-  auto* file = new MappedFile{static_cast<const char*>(at), size};
-  return std::shared_ptr<const MappedFile>(file, [](const MappedFile* f) {
-    munmap(const_cast<char*>(f->data), f->size);
-    delete f;
-  });
+  file->data = static_cast<const char*>(at);
+  file->size = size;
+  file->guard_ = GuardRange(at, size);
+  return file;
 }
 
 std::shared_ptr<const MappedFile> MapFile(const std::string& path) {

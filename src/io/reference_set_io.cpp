@@ -153,6 +153,7 @@ Descriptors ReadDescriptors(const FileAccess& files, const std::string& npy_path
       rows.scale = h.dtype == NpyDtype::kInt8 ? *scale : 1.0f;
       rows.data = file->data + h.data_offset;
       rows.source = QuotedForMessage(npy_path) + ", memory-mapped";
+      rows.changed = [file] { return file->Changed(); };
       rows.owner = std::move(file);
       out.encoded = std::move(rows);
       return out;

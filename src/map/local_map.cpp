@@ -108,14 +108,49 @@ MapBackend::Query LocalMap::Ask(const QueryDescriptor& descriptor) {
   Query query;
   query.header = descriptor.header;
   MutexLock lock(&mutex_);
+  DropChangedSets();
   const RowMatrixXf row = QueryRow(descriptor);
   query.layout = layout_;
-  query.distances = DistancesOf(row);
-  if (joint_ && joint_->num_places() == map_.num_places()) {
-    query.distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
-  }
+  query.distances = ReadDistances(row);
+  DropChangedSets();  // the next query's layout is without them
   query.seconds = SecondsSince(start);
   return query;
+}
+
+QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row) {
+  QueryDistances distances = DistancesOf(row);
+  if (joint_ && joint_->num_places() == map_.num_places()) {
+    distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
+  }
+  // Asked after the rows were read: a write in place changes a file's modification time
+  // before its bytes, so rows read while (or after) it wrote are seen here.
+  for (int u = 0; u < map_.num_sets(); ++u) {
+    if (map_.set(u).RowsChanged().empty()) continue;
+    distances.SetAbsent(u);
+    distances.ClearJoint();
+  }
+  return distances;
+}
+
+void LocalMap::DropChangedSets() {
+  bool any = false;
+  for (int u = map_.num_sets() - 1; u >= 0; --u) {
+    const std::string why = map_.set(u).RowsChanged();
+    if (why.empty()) continue;
+    const std::string name = map_.set(u).name();
+    if (joint_) {
+      const std::vector<std::string>& in_joint = joint_->set_names();
+      if (std::find(in_joint.begin(), in_joint.end(), name) != in_joint.end()) joint_.reset();
+    }
+    map_.Remove(name);
+    if (options_.fingerprints) fingerprints_.erase(fingerprints_.begin() + u);
+    dropped_[name] = why;
+    any = true;
+    Log(LogLevel::kError, "reference set '" + name + "' unloaded: its file " + why +
+                              " while memory-mapped; no belief uses its rows from now on: "
+                              "load it again to use the file as it is now");
+  }
+  if (any) Changed();
 }
 
 std::string LocalMap::Load(const LoadRequest& request, const SetCheck& check) {
@@ -150,6 +185,7 @@ std::string LocalMap::AddLocked(StoredReferenceSet set, const std::string& where
   fingerprints_.reserve(fingerprints_.size() + 1);  // no throw once the set is in
   map_.Add(std::move(set));
   if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(map_.sets().back()));
+  dropped_.erase(name);
   if (metric != metric_) {
     metric_ = metric;
     Log(LogLevel::kInfo, "distance " + declared + ", as the reference set '" + name + "' declares");
@@ -326,6 +362,9 @@ void LocalMap::JointBuilt(JointBuilder::Result result) {
     return;  // the sets or the kind changed since: a newer request is on its way
   }
   const std::string took = Printed("%.2f s", result.seconds);
+  for (const StoredReferenceSet& s : map_.sets()) {
+    if (!s.RowsChanged().empty()) return;  // built from rows that changed: the set goes first
+  }
   if (!result.joint) {
     joint_.reset();
     joint_status_ = "failed: " + result.error;
@@ -361,6 +400,12 @@ std::string LocalMap::DescriptorTypeMismatch(const std::string& type) const {
 
 std::string LocalMap::Problem() const {
   MutexLock lock(&mutex_);
+  if (!dropped_.empty()) {
+    const auto& [name, why] = *dropped_.begin();
+    return "reference set '" + name + "' was unloaded: its file " + why +
+           " while memory-mapped; load it again" +
+           (dropped_.size() > 1 ? " (and " + std::to_string(dropped_.size() - 1) + " more)" : "");
+  }
   return first_stage_error_.empty()
              ? ""
              : "first stage pca failed, exact search instead: " + first_stage_error_;
@@ -374,7 +419,11 @@ StatusValues LocalMap::Diagnose() const {
   } else if (stage_.kind() == FirstStageKind::kPca) {
     first_stage = index_job_.busy() ? index_status_ + " (building a new index)" : index_status_;
   }
-  return {{"joint representation", joint_status_}, {"first stage", first_stage}};
+  StatusValues out = {{"joint representation", joint_status_}, {"first stage", first_stage}};
+  for (const auto& [name, why] : dropped_) {
+    out.push_back({"unloaded, its file changed in place: " + name, why});
+  }
+  return out;
 }
 
 ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
@@ -382,9 +431,12 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
   MutexLock lock(&mutex_);
   if (map_.num_sets() == 0) return out;  // a shard without sets answers with none
   try {
+    DropChangedSets();
+    if (map_.num_sets() == 0) return out;
     const RowMatrixXf row = QueryRow(descriptor);
-    QueryDistances distances = DistancesOf(row);
-    // A set whose codes are being built is left out: the combiner takes it for absent.
+    QueryDistances distances = ReadDistances(row);
+    // A set whose codes are being built (or whose rows changed) is left out: the combiner
+    // takes it for absent.
     for (int u = 0; u < map_.num_sets(); ++u) {
       if (!distances.present(u)) continue;
       out.distances.push_back(distances.of(u));
@@ -392,12 +444,13 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
       out.fingerprints.push_back(options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u))
                                                        : 0);
     }
-    if (joint_ && joint_->num_places() == map_.num_places()) {
+    if (distances.joint()) {
       out.joint_kind = joint_->kind();
       out.joint_build = joint_build_;
       out.joint_sets = joint_->set_names();
-      out.joint_distances = joint_->Distances(row);
+      out.joint_distances = distances.joint()->distances;
     }
+    DropChangedSets();
   } catch (const std::exception& e) {
     out = ShardAnswer();
     out.error = e.what();

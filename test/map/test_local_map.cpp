@@ -6,7 +6,9 @@
 
 #include <atomic>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <mutex>
 #include <random>
 #include <string>
 #include <thread>
@@ -284,6 +286,113 @@ TEST_F(MapFixture, TheFirstStageIsBuiltInTheBackgroundWhileQueriesGoOn) {
   EXPECT_TRUE(unloaded.distances.present(0));
   m.WaitForIndex();
   EXPECT_NE(m.Diagnose().at(1).second.find("of 3000 rows"), std::string::npos);
+}
+
+// The .npy file below `root` whose name starts with `stem` (a stored set's rows).
+std::string RowsFile(const fs::path& root, const std::string& stem) {
+  for (const auto& e : fs::directory_iterator(root)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(stem + ".", 0) == 0 && e.path().extension() == ".npy") return e.path().string();
+  }
+  return "";
+}
+
+// Found attacking the node: a memory-mapped set's file rewritten in place (cp over it, bytes
+// written with dd conv=notrunc, truncate) changed the live map silently, or ended the process
+// with SIGBUS. While queries run, each way: no query's distances come from the changed rows
+// (every distance given for the set is the one its rows gave when loaded), the set is
+// unloaded, and the log and Problem() name it and its file; truncation ends nothing.
+TEST_F(MapFixture, AMappedFileRewrittenInPlaceIsDroppedAndNoQueryUsesItsNewRows) {
+  constexpr int kRows = 2000;
+  for (const char* how : {"copied over", "bytes in place", "truncated"}) {
+    SCOPED_TRACE(how);
+    ReferenceMap encoder;
+    encoder.SetStoragePrecision(StoragePrecision::kInt8);
+    encoder.Add(MakeReferenceSet("mapped", SubspaceRows(kRows, 1, 11)));
+    encoder.Add(MakeReferenceSet("other", SubspaceRows(kRows, 2, 12)));
+    SaveStoredReferenceSet(encoder.set(0), (root / "mapped.yaml").string());
+    SaveStoredReferenceSet(encoder.set(1), (root / "other.yaml").string());
+    LocalMapOptions options;
+    options.storage = StoragePrecision::kInt8;
+    options.memory_map = true;
+    std::vector<std::string> messages;
+    std::mutex messages_mutex;
+    options.log = [&](LogLevel, const std::string& m) {
+      std::lock_guard<std::mutex> lock(messages_mutex);
+      messages.push_back(m);
+    };
+    LocalMap m(options, dir.get());
+    m.Load({"mapped.yaml", "", "", ""}, nullptr);
+    const RowMatrixXf q = SubspaceRows(1, 1, 99);
+    QueryDescriptor d;
+    d.values = q.data();
+    d.size = q.size();
+    const RowMatrixXf loaded = m.Ask(d).distances.of(0);
+
+    std::atomic<bool> stop{false};
+    std::atomic<int> present{0}, wrong{0}, absent{0};
+    std::thread asker([&] {
+      while (!stop) {
+        MapBackend::Query a;
+        try {
+          a = m.Ask(d);
+        } catch (const std::invalid_argument&) {
+          ++absent;  // no set left to ask
+          continue;
+        }
+        if (a.distances.num_sets() == 1 && a.distances.present(0)) {
+          ++present;
+          if (!(a.distances.of(0).array() == loaded.array()).all()) ++wrong;
+        } else {
+          ++absent;
+        }
+      }
+    });
+    while (present < 20) std::this_thread::yield();
+    const std::string npy = RowsFile(root, "mapped");
+    ASSERT_FALSE(npy.empty());
+    const std::string other_npy = RowsFile(root, "other");
+    if (std::string(how) == "copied over") {
+      fs::copy_file(other_npy, npy, fs::copy_options::overwrite_existing);  // same size
+    } else if (std::string(how) == "bytes in place") {
+      std::fstream f(npy, std::ios::in | std::ios::out | std::ios::binary);
+      f.seekp(static_cast<std::streamoff>(fs::file_size(npy) / 2));
+      const std::string noise(4096 * 64, '\x55');
+      f.write(noise.data(), static_cast<std::streamsize>(noise.size()));
+    } else {
+      ASSERT_EQ(::truncate(npy.c_str(), 100), 0);
+    }
+    const int before = present;
+    // Queries go on after the change, without the set.
+    const int after_change = absent + 20;
+    while (absent < after_change) std::this_thread::yield();
+    stop = true;
+    asker.join();
+    EXPECT_EQ(wrong, 0) << "of " << present << " queries with the set, " << wrong
+                        << " used rows that changed";
+    EXPECT_GE(before, 20);
+    EXPECT_EQ(m.num_sets(), 0);
+    EXPECT_NE(m.Problem().find("'mapped' was unloaded"), std::string::npos) << m.Problem();
+    EXPECT_NE(m.Problem().find(npy.substr(root.string().size() + 1)), std::string::npos)
+        << m.Problem();
+    bool logged = false;
+    for (const std::string& line : messages) {
+      logged = logged || (line.find("reference set 'mapped' unloaded") != std::string::npos &&
+                          line.find("mapped.") != std::string::npos);
+    }
+    EXPECT_TRUE(logged);
+    // Loaded again, the file as it is now answers (or is refused, truncated).
+    if (std::string(how) == "truncated") {
+      EXPECT_THROW(m.Load({"mapped.yaml", "", "", ""}, nullptr), std::exception);
+    } else {
+      EXPECT_NO_THROW(m.Load({"mapped.yaml", "", "", ""}, nullptr));
+      EXPECT_EQ(m.Problem(), "");
+    }
+    fs::remove(npy);
+    fs::remove(root / "mapped.yaml");
+    fs::remove(other_npy);
+    fs::remove(root / "other.yaml");
+  }
 }
 
 // With no index yet, a query is refused with the reason, not answered wrongly or waited on.

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -31,9 +32,9 @@ constexpr float kMinInt8Scale = 1.0842022e-19f;
 // Rows already encoded at a storage precision, held by someone else: a reference set's .npy
 // memory-mapped (io/reference_set_io.h, ReadSetOptions::memory_map), so that a map holds the
 // set without reading its bytes. `owner` keeps `data` valid (the mapping is undone when the
-// last copy goes). The bytes must not change while any copy lives: the loaders map files
-// that a save never rewrites in place (a save writes new files and renames, so a mapped
-// file's pages stay those of the old file).
+// last copy goes). A save never rewrites a mapped file in place (it writes new files and
+// renames, so a mapped file's pages stay those of the old file); another program may, and
+// `changed` then says so: the map drops the set rather than use its rows.
 struct EncodedRows {
   StoragePrecision precision = StoragePrecision::kFloat32;
   int64_t rows = 0;
@@ -43,6 +44,9 @@ struct EncodedRows {
   const void* data = nullptr;  // rows x cols elements of `precision`, row-major
   std::shared_ptr<const void> owner;
   std::string source;  // where the rows are, for messages ("'winter.npy', memory-mapped")
+  // Why the rows may no longer be those loaded ("" while they are): their file was changed
+  // in place by another program. Empty: they cannot change. Asked around every read.
+  std::function<std::string()> changed;
 
   size_t bytes() const {
     return static_cast<size_t>(rows) * static_cast<size_t>(cols) *

@@ -27,6 +27,8 @@ class QueryDistances {
   void Set(int u, RowMatrixXf distances) {
     sets_.at(static_cast<size_t>(u)) = std::move(distances);
   }
+  // Set u is absent after all (its rows changed under the query).
+  void SetAbsent(int u) { sets_.at(static_cast<size_t>(u)).reset(); }
   // The absent sets, ascending.
   std::vector<int> Absent() const;
   int num_present() const;
@@ -41,6 +43,7 @@ class QueryDistances {
   };
   void SetJoint(Joint joint) { joint_ = std::move(joint); }
   const std::optional<Joint>& joint() const { return joint_; }
+  void ClearJoint() { joint_.reset(); }
 
  private:
   std::vector<std::optional<RowMatrixXf>> sets_;

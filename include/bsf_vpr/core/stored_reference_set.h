@@ -57,6 +57,10 @@ class StoredReferenceSet {
   // Whether the rows are memory-mapped (ReferenceSet::encoded), and where from ("" if not).
   bool mapped() const;
   std::string rows_source() const;
+  // Why the rows may no longer be those loaded ("" while they are): a mapped set's file
+  // changed in place (EncodedRows::changed). Distances read while this says so are not to be
+  // used.
+  std::string RowsChanged() const;
 
   // The ReferenceSet this set was made from, for saving it. Only a set held at float32 has
   // it: at reduced precision the float32 values are gone, and this throws

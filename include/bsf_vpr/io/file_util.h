@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -24,11 +25,35 @@ std::string ReadFile(const std::string& path,
 // last pointer to it goes. The pages are read from the file when first touched and may be
 // dropped again by the kernel under memory pressure (the page cache holds them). A file
 // replaced by a rename (as every writer of bsf_vpr replaces files) keeps its old pages for
-// the mapping; a file truncated in place by another program would fault on access (SIGBUS):
-// the data directory's files are never rewritten in place.
-struct MappedFile {
+// the mapping. A file another program rewrites in place (cp over it, dd conv=notrunc,
+// truncate) changes the mapped bytes: Changed() says so, and the readers check it around
+// every read. A read past the end of a file truncated under the mapping, which the kernel
+// answers with SIGBUS, does not end the process: the mapping's pages turn to zeros and
+// Changed() says the file shrank.
+class MappedFile {
+ public:
+  MappedFile() = default;  // empty: no bytes
+  ~MappedFile();
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+
   const char* data = nullptr;
   size_t size = 0;
+
+  // Why the mapped bytes may no longer be those the file held when it was mapped ("" while
+  // they are): its size or modification time changed (a write in place), or a read fell past
+  // its end. Once said, said for good. One fstat: cheap enough around every read of the rows.
+  // Thread-safe.
+  std::string Changed() const;
+
+ private:
+  friend std::shared_ptr<const MappedFile> MapRegularFile(int fd, const std::string& name);
+  std::string name_;
+  int fd_ = -1;  // kept open: fstat sees the file mapped, whatever is renamed over its name
+  int64_t size_at_map_ = 0, mtime_sec_ = 0, mtime_nsec_ = 0;
+  int guard_ = -1;  // its slot among the mappings the SIGBUS handler knows, -1: none
+  mutable std::mutex mutex_;
+  mutable std::string changed_;  // under mutex_
 };
 
 // Maps the regular file at `path`. Throws std::runtime_error naming it if it cannot be

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -111,6 +112,14 @@ class LocalMap : public MapBackend {
   // The distances of `row` to the sets: exact, or through the first stage's index, where
   // a set it holds no codes of yet is absent (its codes are being built).
   QueryDistances DistancesOf(const RowMatrixXf& row) REQUIRES(mutex_);
+  // The query's distances and, if the map has one for these places, its joint distances;
+  // the sets whose rows changed while they were read (a mapped file rewritten in place) are
+  // absent, and then so is the joint.
+  QueryDistances ReadDistances(const RowMatrixXf& row) REQUIRES(mutex_);
+  // Unloads the sets whose rows changed under the map (StoredReferenceSet::RowsChanged: a
+  // mapped file rewritten or truncated in place), naming them and the file in an error and in
+  // Problem(); a joint representation they are part of goes with them.
+  void DropChangedSets() REQUIRES(mutex_);
   // Asks for the first stage's index of the sets now, on index_job_'s thread: the current
   // index extended by the new sets' codes (those it holds are kept), or a new basis for all
   // when there is none or the basis fits a new set poorly. The current index answers for
@@ -156,6 +165,9 @@ class LocalMap : public MapBackend {
   uint64_t joint_build_ GUARDED_BY(mutex_) = 0;
   uint64_t joint_builds_ GUARDED_BY(mutex_) = 0;
   std::string joint_status_ GUARDED_BY(mutex_) = "none asked for";
+  // The sets unloaded because their file changed in place, with why, until a set of the
+  // same name is loaded again.
+  std::map<std::string, std::string> dropped_ GUARDED_BY(mutex_);
   // Last: destroyed first, so that no build calls back into a map being destroyed.
   JointBuilder joint_builder_{[this](JointBuilder::Result r) { JointBuilt(std::move(r)); }};
   LatestJob index_job_;

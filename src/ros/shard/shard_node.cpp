@@ -79,7 +79,10 @@ ShardInfo ShardNode::Info() const {
   return info;
 }
 
-void ShardNode::PublishInfo() { info_pub_.publish(Info()); }
+void ShardNode::PublishInfo() {
+  published_generation_ = map_->layout()->generation;
+  info_pub_.publish(Info());
+}
 
 bool ShardNode::OnInfo(GetShardInfo::Request&, GetShardInfo::Response& res) {
   MutexLock lock(&mutex_);
@@ -108,6 +111,7 @@ void ShardNode::OnDescriptor(const Descriptor::ConstPtr& msg) {
   }
   // Published either way: the combiner learns at once that this query cannot be answered.
   distances_pub_.publish(out);
+  if (map_->layout()->generation != published_generation_) PublishInfo();  // a set dropped
 }
 
 ShardDistances ShardNode::Answer(const Descriptor& descriptor) const {

@@ -92,6 +92,9 @@ class ShardNode {
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
 
+  // The map's layout generation last published in ~shard_info: the map may drop a set by
+  // itself (its mapped file changed in place), and the combiner then learns of it.
+  uint64_t published_generation_ GUARDED_BY(mutex_) = 0;
   // Since the last diagnostics update.
   int processed_ GUARDED_BY(mutex_) = 0;
   int rejected_ GUARDED_BY(mutex_) = 0;

@@ -16,6 +16,7 @@ belief before sending the next image.
    poses, at least 90 of the 100 places kept, each holding the frame the offline import
    (bsf_import) gives it, and with save_images its camera image. Recording by localisation
    keeps only accepted places, each right.
+   Then a lens cap: /bsf_vpr/localization says not localised, and why, within 1.6 s.
 4. Localising the winter drive with the recorded set: /bsf_vpr/pose within 25 m (median) of
    the true position, with a covariance that covers the error.
 5. The README's map section (import, replay and score; record on the robot; the pose-source
@@ -227,9 +228,12 @@ class LiveRobot(unittest.TestCase):
         rospy.Subscriber("/bsf_vpr/pose", PoseWithCovarianceStamped,
                          lambda m: cls.poses.__setitem__(m.header.stamp, m), queue_size=1000)
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diagnostics.append, queue_size=100)
-        cls.localization = {}
-        rospy.Subscriber("/bsf_vpr/localization", Localization,
-                         lambda m: cls.localization.__setitem__(m.header.stamp, m), queue_size=1000)
+        cls.localization, cls.localization_heard = {}, []
+
+        def on_localization(m):
+            cls.localization[m.header.stamp] = m
+            cls.localization_heard.append((time.time(), m))
+        rospy.Subscriber("/bsf_vpr/localization", Localization, on_localization, queue_size=1000)
 
     @classmethod
     def tearDownClass(cls):
@@ -293,6 +297,42 @@ class LiveRobot(unittest.TestCase):
         print("localization: %d of %d images localised; diagnostics: %s" % (
             localized, len(sent), keys[-1]))
 
+    def assert_a_covered_camera_is_not_localised(self, robot, sent):
+        """A lens cap after localising (found driving it live: a latched "localized: true"
+        for as long as the cap stayed on): uniform frames at the camera's rate, which the
+        ingest drops. Within localization_timeout (1 s) and the node's check (0.1 s),
+        /bsf_vpr/localization says not localised and why, and the diagnostics turn WARN.
+        Uncovered, the next belief localises again."""
+        self.assertTrue(any(self.localization[s].localized for s, _ in sent[-20:]),
+                        "the drive ended without localising: nothing to lose")
+        cap = Image()
+        frame = robot.frames[-1]
+        cap.height, cap.width, cap.encoding, cap.step = (frame.height, frame.width,
+                                                         frame.encoding, frame.step)
+        cap.data = bytes([40]) * len(frame.data)  # a covered lens: one grey level
+        covered = time.time()
+        until = covered + 3.0
+        said = None
+        while time.time() < until:
+            cap.header.stamp = rospy.Time.now()
+            robot.camera.publish(cap)
+            time.sleep(1.0 / CAMERA_HZ)
+            heard = [(t, m) for t, m in list(self.localization_heard) if t > covered]
+            if said is None and heard and not heard[-1][1].localized:
+                said = heard[-1]
+        self.assertIsNotNone(said, "still localised 3 s after the camera was covered")
+        delay = said[0] - covered
+        print("covered camera: not localised after %.2f s: %s" % (delay, said[1].reason))
+        self.assertLessEqual(delay, 1.6)
+        self.assertIn("uniform", said[1].reason)
+        self.assertEqual(said[1].place, -1)
+        warned = [s for s in self.fusion_status(covered) if s.level == 1 and "not localised" in
+                  s.message and "uniform" in s.message]
+        self.assertTrue(warned, "the diagnostics did not turn WARN while the camera was covered")
+        # The latched message a robot that connects now reads says the same.
+        latched = rospy.wait_for_message("/bsf_vpr/localization", Localization, timeout=5)
+        self.assertFalse(latched.localized)
+
     def test_1_the_readme_robot_command_gives_a_belief_per_camera_image(self):
         block = readme_block(os.path.join(self.repo, "README.md"), "## Running it on a robot")
         home = os.path.join(self.tmp, "home")
@@ -314,6 +354,7 @@ class LiveRobot(unittest.TestCase):
             self.assert_localization_follows(sent)
             errors = [s for s in self.fusion_status(time.time() - 3) if s.level >= 2]
             self.assertEqual(errors, [])
+            self.assert_a_covered_camera_is_not_localised(robot, sent)
             self.assertTrue(os.path.isdir(os.path.join(home, ".ros", "bsf_vpr")))
         finally:
             shell.interrupt()

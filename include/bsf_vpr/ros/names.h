@@ -11,6 +11,8 @@ constexpr char kExternalDescriptorTopic[] = "descriptor_in";  // bsf_vpr/Descrip
 constexpr char kDescriptorTopic[] = "descriptor";             // bsf_vpr/Descriptor out
 // bsf_vpr/DescriptorFormat, latched: what the ingest sends on kDescriptorTopic.
 constexpr char kDescriptorFormatTopic[] = "descriptor_format";
+// bsf_vpr/InputDropped out: each input dropped, with why (the fusion node listens).
+constexpr char kInputDroppedTopic[] = "input_dropped";
 // std_msgs/Float64 out, private namespace: seconds each image took to describe.
 constexpr char kDescribeTimeTopic[] = "describe_time";
 

@@ -26,6 +26,7 @@ FusionNode::~FusionNode() {
   descriptor_sub_.shutdown();
   recording_image_sub_.shutdown();
   format_sub_.shutdown();
+  dropped_sub_.shutdown();
   diagnostics_timer_.stop();
   services_.clear();
   if (load_spinner_) load_spinner_->stop();
@@ -78,6 +79,11 @@ void FusionNode::Start() {
   diagnostics_->setHardwareID("bsf_vpr");
   diagnostics_->add("fusion", this, &FusionNode::Diagnose);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
+    {
+      // Beliefs that stopped coming: not localised, with what is known of the inputs.
+      MutexLock lock(&mutex_);
+      publisher_->CheckStale(ros::Time::now(), WhyNoBelief());
+    }
     diagnostics_->update();  // publishes at ~diagnostic_period
   });
 
@@ -98,6 +104,7 @@ void FusionNode::Start() {
   map_->Start(std::move(callbacks));
   format_sub_ =
       nh_.subscribe(names::kDescriptorFormatTopic, 1, &FusionNode::OnDescriptorFormat, this);
+  dropped_sub_ = nh_.subscribe(names::kInputDroppedTopic, 100, &FusionNode::OnInputDropped, this);
   // Always subscribed: the belief is state that must follow every query (a sharded map only
   // notes the stamp: its shards hear the descriptors themselves).
   descriptor_sub_ =
@@ -179,8 +186,36 @@ void FusionNode::StartParts() {
 
 void FusionNode::RejectMessage(const std::string& why) {
   ++rejected_;
+  ++rejected_total_;
+  ++refused_since_belief_;
   last_rejection_ = why;
   ROS_ERROR_THROTTLE(1.0, "bsf_vpr: dropped a descriptor: %s", why.c_str());
+}
+
+void FusionNode::OnInputDropped(const InputDropped::ConstPtr& msg) {
+  MutexLock lock(&mutex_);
+  ++dropped_since_belief_;
+  last_drop_ = msg->detail.empty() ? msg->cause : msg->detail;
+}
+
+std::string FusionNode::WhyNoBelief() const {
+  std::string why;
+  if (dropped_since_belief_ > 0) {
+    why = "the ingest dropped " + std::to_string(dropped_since_belief_) +
+          " input(s) since the last (" + last_drop_ + ")";
+  }
+  if (refused_since_belief_ > 0) {
+    why += std::string(why.empty() ? "" : "; ") + "refused " +
+           std::to_string(refused_since_belief_) + " descriptor(s) since the last (" +
+           last_rejection_ + ")";
+  }
+  if (why.empty()) {
+    why = received_since_belief_ > 0
+              ? std::to_string(received_since_belief_) +
+                    " descriptor(s) received since the last, none decided"
+              : "no descriptor since the last (is the camera or the ingest running?)";
+  }
+  return why;
 }
 
 void FusionNode::OnDescriptorFormat(const DescriptorFormat::ConstPtr& msg) {
@@ -261,6 +296,8 @@ void FusionNode::OnDescriptor(const ros::MessageEvent<const Descriptor>& event) 
   {
     MutexLock lock(&mutex_);
     ++received_;
+    ++received_total_;
+    ++received_since_belief_;
     const uint64_t lost = sequence_gaps_.Note(event.getPublisherName(), msg->header.seq);
     lost_ += lost;
     lost_total_ += lost;
@@ -364,6 +401,7 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
   processing_s_max_ = std::max(processing_s_max_, seconds);
   counters_.Count(r, *layout_);
   publisher_->Publish(ToHeaderMsg(query.header), r, *layout_, decider_, seconds);
+  received_since_belief_ = refused_since_belief_ = dropped_since_belief_ = 0;
   return r;
 }
 
@@ -447,6 +485,9 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
           : "";
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
+  } else if (!publisher_->stale().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "not localised: " + publisher_->stale());
   } else if (rejected_ > 0 && processed_ == 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "every descriptor dropped (%d): %s",
                     rejected_, last_rejection_.c_str());
@@ -492,6 +533,10 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("dropped: queue overflow", lost_);
   status.add("dropped: queue overflow since start", lost_total_);
   status.add("dropped: the map's sets changed under the query since start", superseded_);
+  // Since start, every descriptor by its fate: received = beliefs + bad + superseded (a
+  // recording without sets aside); sent by the ingest = received + lost to the queue.
+  status.add("received since start", received_total_);
+  status.add("dropped: bad since start", rejected_total_);
   status.add("beliefs published", publisher_->beliefs_published());
   publisher_->Diagnose(status);
   status.add("method", decider_.method_name());

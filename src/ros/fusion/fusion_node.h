@@ -24,6 +24,7 @@
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/DescriptorFormat.h>
 #include <bsf_vpr/FusionConfig.h>
+#include <bsf_vpr/InputDropped.h>
 #include <bsf_vpr/GetSelectionStatistics.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
@@ -107,6 +108,10 @@ class FusionNode {
   void OnReconfigure(FusionConfig& config, uint32_t level) EXCLUDES(mutex_);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) EXCLUDES(mutex_);
   void RejectMessage(const std::string& why) REQUIRES(mutex_);
+  // An input the ingest dropped (InputDropped): why no belief may follow.
+  void OnInputDropped(const InputDropped::ConstPtr& msg) EXCLUDES(mutex_);
+  // What is known of the inputs since the last belief, for "no belief for X s: ...".
+  std::string WhyNoBelief() const REQUIRES(mutex_);
 
   bool OnList(ListReferenceSets::Request& req, ListReferenceSets::Response& res);
   bool OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Response& res) EXCLUDES(mutex_);
@@ -153,6 +158,7 @@ class FusionNode {
 
   ros::Subscriber descriptor_sub_;
   ros::Subscriber format_sub_;
+  ros::Subscriber dropped_sub_;  // the ingest's InputDropped
   // While a recording with save_images runs.
   ros::Subscriber recording_image_sub_ GUARDED_BY(mutex_);
   DescriptorFormat::ConstPtr format_ GUARDED_BY(mutex_);  // the ingest's, once heard
@@ -175,6 +181,17 @@ class FusionNode {
   // Queries decided on a layout the map had changed since.
   uint64_t superseded_ GUARDED_BY(mutex_) = 0;
   SequenceGaps sequence_gaps_ GUARDED_BY(mutex_);
+  // Since start: descriptors received and dropped as bad (every descriptor received becomes
+  // a belief, or is dropped as bad, or its layout was superseded; those a full queue lost
+  // are lost_total_).
+  uint64_t received_total_ GUARDED_BY(mutex_) = 0;
+  uint64_t rejected_total_ GUARDED_BY(mutex_) = 0;
+  // Since the last belief: descriptors received, refused, and the inputs the ingest
+  // dropped, with the last drop's words.
+  uint64_t received_since_belief_ GUARDED_BY(mutex_) = 0;
+  uint64_t refused_since_belief_ GUARDED_BY(mutex_) = 0;
+  uint64_t dropped_since_belief_ GUARDED_BY(mutex_) = 0;
+  std::string last_drop_ GUARDED_BY(mutex_);
   // Recording by pose: descriptors without a pose, by cause (since start).
   std::map<std::string, long> pose_losses_ GUARDED_BY(mutex_);
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).

@@ -49,6 +49,14 @@ const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
               "header.seq): 100 is 10 s at 10 Hz, 3 s at 30 Hz",
               "messages", Between(1, 100000))
           .Add(
+              "localization_timeout",
+              [](auto& p) -> auto& { return p.localization_timeout_s; },
+              "no belief for this long (or for 3 of the recent intervals between beliefs, if "
+              "longer: a slow camera) after one was published, and localization says not "
+              "localised, with the reason (a covered camera whose images the ingest drops, "
+              "descriptors refused, no input)",
+              "s", Above(0))
+          .Add(
               "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
               "distance between places drawn in rviz when they do not all have poses; 0: the "
               "places are spread over marker_view_size_m",

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include "bsf_vpr/core/place_layout.h"
@@ -30,13 +31,30 @@ RecognitionPublisher::RecognitionPublisher(ros::NodeHandle& nh, ros::NodeHandle&
   localization_pub_ = nh.advertise<Localization>(names::kLocalizationTopic, queue, true);
 }
 
+namespace {
+
+// Why a belief is not localised ("" when it is).
+std::string NotLocalizedReason(const PlaceBelief& b) {
+  if (b.accepted) return "";
+  char out[96];
+  if (b.off_map_probability > 0.5) {
+    std::snprintf(out, sizeof out, "off the map (P %.2f)", b.off_map_probability);
+  } else {
+    std::snprintf(out, sizeof out, "no match accepted (confidence %.2f)", b.confidence);
+  }
+  return out;
+}
+
+}  // namespace
+
 void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
                                                const PlaceBelief& b) {
   const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
-  if (!localized_ || *localized_ != b.accepted || stamp < localized_since_) {
+  if (!localized_ || *localized_ != b.accepted || stamp < localized_since_ || !stale_.empty()) {
     localized_ = b.accepted;
     localized_since_ = stamp;
   }
+  stale_.clear();
   last_stamp_ = stamp;
   localized_place_ = b.accepted ? b.match : -1;
   off_map_probability_ = b.off_map_probability;
@@ -46,7 +64,40 @@ void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
   msg->place = localized_place_;
   msg->off_map_probability = b.off_map_probability;
   msg->since_s = (stamp - localized_since_).toSec();
+  msg->reason = NotLocalizedReason(b);
   localization_pub_.publish(msg);
+}
+
+std::string RecognitionPublisher::CheckStale(const ros::Time& now, const std::string& why) {
+  if (last_belief_time_.isZero() || !stale_.empty()) return stale_;
+  const double silent = (now - last_belief_time_).toSec();
+  double timeout = options_.localization_timeout_s;
+  if (intervals_.size() >= 5) {
+    // A slow camera: no belief for 3 of its usual intervals.
+    std::vector<double> sorted = intervals_;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    timeout = std::max(timeout, 3 * sorted[sorted.size() / 2]);
+  }
+  if (!(silent > timeout)) return "";
+  char head[64];
+  std::snprintf(head, sizeof head, "no belief for %.1f s: ", silent);
+  stale_ = head + why;
+  const bool was_localized = localized_.value_or(false);
+  localized_ = false;
+  if (was_localized) localized_since_ = now;
+  localized_place_ = -1;
+  last_stamp_ = now;
+  auto msg = boost::make_shared<Localization>();
+  msg->header.stamp = now;
+  msg->header.frame_id = options_.map_frame;
+  msg->localized = false;
+  msg->place = -1;
+  msg->off_map_probability = off_map_probability_;
+  msg->since_s = (now - localized_since_).toSec();
+  msg->reason = stale_;
+  localization_pub_.publish(msg);
+  if (was_localized) ROS_WARN("bsf_vpr: not localised: %s", stale_.c_str());
+  return stale_;
 }
 
 void RecognitionPublisher::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
@@ -55,7 +106,9 @@ void RecognitionPublisher::Diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     return;
   }
   const double since = (last_stamp_ - localized_since_).toSec();
-  if (*localized_) {
+  if (!stale_.empty()) {
+    status.addf("localized", "no, for %.1f s (%s)", since, stale_.c_str());
+  } else if (*localized_) {
     status.addf("localized", "yes, at place %d, for %.1f s", localized_place_, since);
   } else {
     status.addf("localized", "no, for %.1f s (P(off the map) %.3f)", since, off_map_probability_);
@@ -71,6 +124,12 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
   ToBeliefMsg(r, layout, decider, options_.belief_top_k, belief.get());
   belief->processing_time = seconds;
   belief_pub_.publish(belief);
+  const ros::Time now = ros::Time::now();
+  if (!last_belief_time_.isZero() && now > last_belief_time_) {
+    if (intervals_.size() >= 20) intervals_.erase(intervals_.begin());
+    intervals_.push_back((now - last_belief_time_).toSec());
+  }
+  last_belief_time_ = now;
   PublishLocalization(header, r.belief);
   if (r.belief.accepted) {
     auto match = boost::make_shared<Match>();

@@ -26,6 +26,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/place_layout.h"
@@ -51,6 +52,9 @@ struct RecognitionPublisherOptions {
   // Messages each of the belief, match and pose publishers holds per subscriber before
   // roscpp drops the oldest.
   int publish_queue_size = 100;
+  // No belief for this long (or for 3 intervals of the recent descriptors, if longer): the
+  // robot is not localised (CheckStale).
+  double localization_timeout_s = 1.0;
 };
 
 class RecognitionPublisher {
@@ -73,6 +77,15 @@ class RecognitionPublisher {
   // fusion node's diagnostics).
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;
 
+  // Called periodically: once no belief has been published for the timeout
+  // (options.localization_timeout_s, or 3 of the recent intervals between beliefs if longer)
+  // after one was, publishes "not localised" with "no belief for X s: " + `why` (what the
+  // caller knows of the inputs) and returns that reason; "" while beliefs come. A new belief
+  // publishes its own state again.
+  std::string CheckStale(const ros::Time& now, const std::string& why);
+  // The reason CheckStale gave, while no belief has come since ("" otherwise).
+  const std::string& stale() const { return stale_; }
+
  private:
   void PublishPose(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
                    const PlaceDecider& decider);
@@ -84,6 +97,11 @@ class RecognitionPublisher {
   // and the last belief's place and P(off).
   std::optional<bool> localized_;
   ros::Time localized_since_, last_stamp_;
+  // When the last belief was published (the node's clock), the recent intervals between
+  // beliefs (seconds), and why the robot is not localised without beliefs ("" while they come).
+  ros::Time last_belief_time_;
+  std::vector<double> intervals_;
+  std::string stale_;
   int localized_place_ = -1;
   double off_map_probability_ = 0;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false

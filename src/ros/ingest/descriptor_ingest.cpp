@@ -4,6 +4,8 @@
 #include <sensor_msgs/image_encodings.h>
 #include <xmlrpcpp/XmlRpcException.h>
 
+#include <bsf_vpr/InputDropped.h>
+
 #include <chrono>
 #include <cmath>
 
@@ -110,6 +112,7 @@ void DescriptorIngest::Start() {
   }
   // What this ingest will send, latched: the fusion node checks its sets against it now.
   format_pub_ = nh_.advertise<DescriptorFormat>(names::kDescriptorFormatTopic, 1, /*latch=*/true);
+  dropped_pub_ = nh_.advertise<InputDropped>(names::kInputDroppedTopic, 100);
   DescriptorFormat format;
   format.descriptor_type = params_.descriptor_type;
   if (params_.input == IngestInput::kImage) {
@@ -155,31 +158,41 @@ void DescriptorIngest::UpdateSubscription() {
   }
 }
 
-void DescriptorIngest::Reject(const std::string& why) {
-  MutexLock lock(&mutex_);
-  ++rejected_;
-  last_rejection_ = why;
+void DescriptorIngest::Reject(const std::string& cause, const std::string& why,
+                              const std_msgs::Header& header) {
+  {
+    MutexLock lock(&mutex_);
+    ++rejected_;
+    ++dropped_by_cause_[cause];
+    last_rejection_ = why;
+  }
   ROS_ERROR_THROTTLE(1.0, "bsf_vpr: descriptor_ingest dropped an input: %s", why.c_str());
+  auto msg = boost::make_shared<InputDropped>();
+  msg->header = header;
+  if (msg->header.stamp.isZero()) msg->header.stamp = ros::Time::now();
+  msg->cause = cause;
+  msg->detail = why;
+  dropped_pub_.publish(msg);
 }
 
 void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
   NoteSequence("", msg->header.seq);  // image_transport does not say who published
   auto out = boost::make_shared<Descriptor>();
   const std::string problem = ImageProblem(*msg);
-  if (!problem.empty()) return Reject("bad image: " + problem);
+  if (!problem.empty()) return Reject("bad image", "bad image: " + problem, msg->header);
   double seconds = 0;  // in Describe
   try {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
         cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
     const std::string uniform = UniformImageProblem(cv->image);
-    if (!uniform.empty()) return Reject("image " + uniform);
+    if (!uniform.empty()) return Reject("uniform image", "image " + uniform, msg->header);
     const auto t0 = std::chrono::steady_clock::now();
     const Eigen::VectorXf d = describer_->Describe(cv->image);
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out->data.assign(d.data(), d.data() + d.size());
   } catch (const std::exception& e) {
-    Reject(std::string("cannot describe image: ") + e.what());
+    Reject("cannot describe", std::string("cannot describe image: ") + e.what(), msg->header);
     return;
   }
   if (describe_time_pub_.getNumSubscribers() > 0) {
@@ -199,6 +212,7 @@ void DescriptorIngest::OnAnyDescriptor(
   {
     MutexLock lock(&mutex_);
     heard_[event.getPublisherName()] = type;
+    ++received_;
   }
   try {
     if (type == ros::message_traits::DataType<Descriptor>::value()) {
@@ -212,14 +226,17 @@ void DescriptorIngest::OnAnyDescriptor(
       return ValidateAndPublish(out);
     }
   } catch (const std::exception& e) {
-    return Reject(std::string("bad descriptor message: ") + e.what());
+    return Reject("bad descriptor", std::string("bad descriptor message: ") + e.what(),
+                  std_msgs::Header());
   }
   {
     MutexLock lock(&mutex_);
     wrong_type_ = type;
   }
-  Reject("the input topic carries " + type +
-         "; expected bsf_vpr/Descriptor or std_msgs/Float32MultiArray");
+  Reject("wrong message type",
+         "the input topic carries " + type +
+             "; expected bsf_vpr/Descriptor or std_msgs/Float32MultiArray",
+         std_msgs::Header());
 }
 
 void DescriptorIngest::OnDescriptor(const Descriptor::ConstPtr& msg) {
@@ -229,7 +246,7 @@ void DescriptorIngest::OnDescriptor(const Descriptor::ConstPtr& msg) {
     // Nothing to change: the validated input itself goes on (no copy of the descriptor).
     double squared_norm = 0;
     const std::string problem = Problem(*msg, &squared_norm);
-    if (!problem.empty()) return Reject(problem);
+    if (!problem.empty()) return Reject("bad descriptor", problem, msg->header);
     return Published(msg);
   }
   // The output differs from the input: one copy, which then travels on without another.
@@ -256,23 +273,27 @@ std::string DescriptorIngest::Problem(const Descriptor& d, double* squared_norm)
 
 void DescriptorIngest::NoteSequence(const std::string& publisher, uint32_t seq) {
   MutexLock lock(&mutex_);
-  lost_ += sequence_gaps_.Note(publisher, seq);
+  const uint64_t lost = sequence_gaps_.Note(publisher, seq);
+  lost_ += lost;
+  lost_total_ += lost;
+  if (publisher.empty()) ++received_;  // an image (a descriptor is counted when heard)
 }
 
 void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
-  {
-    // Numbered here, so that the fusion node counts what its own queue loses (a nodelet in
-    // the same manager receives the message as it is, seq included).
-    MutexLock lock(&mutex_);
-    out->header.seq = next_seq_++;
-  }
   double sq = 0;
   const std::string problem = Problem(*out, &sq);
-  if (!problem.empty()) return Reject(problem);
+  if (!problem.empty()) return Reject("bad descriptor", problem, out->header);
   if (params_.l2_normalize) {
-    if (sq <= 0) return Reject("cannot L2-normalise a zero descriptor");
+    if (sq <= 0) return Reject("bad descriptor", "cannot L2-normalise a zero descriptor", out->header);
     const float inv = static_cast<float>(1.0 / std::sqrt(sq));
     for (float& v : out->data) v *= inv;
+  }
+  {
+    // Numbered here, once it is sure to go, so that the fusion node counts what its own
+    // queue loses (a nodelet in the same manager receives the message as it is, seq
+    // included) and nothing else.
+    MutexLock lock(&mutex_);
+    out->header.seq = next_seq_++;
   }
   Published(out);
 }
@@ -328,6 +349,11 @@ void DescriptorIngest::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   status.add("dropped: bad", rejected_);
   status.add("dropped: queue overflow", lost_);
   status.add("subscribed", static_cast<bool>(image_sub_ || descriptor_sub_));
+  // Since start, every input by its fate: what was sent is received + lost.
+  status.add("received since start", received_);
+  status.add("published since start", published_);
+  status.add("dropped: queue overflow since start", lost_total_);
+  for (const auto& [cause, n] : dropped_by_cause_) status.add("dropped since start: " + cause, n);
   rejected_ = 0;
   lost_ = 0;
   wrong_type_.clear();

@@ -84,7 +84,10 @@ class DescriptorIngest {
   // Why `d` cannot pass ("" if it can); `squared_norm` receives its squared L2 norm.
   std::string Problem(const Descriptor& d, double* squared_norm) const;
   void Published(const Descriptor::ConstPtr& out);
-  void Reject(const std::string& why) EXCLUDES(mutex_);
+  // Drops an input: counted by `cause` ("uniform image", "bad descriptor", ...), logged
+  // (throttled) and sent on input_dropped with the input's `header`.
+  void Reject(const std::string& cause, const std::string& why, const std_msgs::Header& header)
+      EXCLUDES(mutex_);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) EXCLUDES(mutex_);
 
   ros::NodeHandle nh_, pnh_;
@@ -97,10 +100,17 @@ class DescriptorIngest {
   ros::Publisher pub_;
   ros::Publisher describe_time_pub_;  // images only
   ros::Publisher format_pub_;         // DescriptorFormat, latched
+  ros::Publisher dropped_pub_;        // InputDropped, one per input dropped
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Timer diagnostics_timer_;
   long published_ GUARDED_BY(mutex_) = 0;
   long rejected_ GUARDED_BY(mutex_) = 0;
+  // Since start: every input heard, and its fate: published (published_), dropped by cause,
+  // or lost to a full queue before this node saw it (lost_total_): received_ + lost_total_ is
+  // what was sent, each counted once.
+  long received_ GUARDED_BY(mutex_) = 0;
+  std::map<std::string, long> dropped_by_cause_ GUARDED_BY(mutex_);
+  uint64_t lost_total_ GUARDED_BY(mutex_) = 0;
   // Inputs lost to a full queue before this node saw them (header.seq gaps), since the
   // last diagnostics; and the number of the next descriptor made here (header.seq).
   uint64_t lost_ GUARDED_BY(mutex_) = 0;

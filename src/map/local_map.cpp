@@ -145,6 +145,7 @@ void LocalMap::DropChangedSets() {
     map_.Remove(name);
     if (options_.fingerprints) fingerprints_.erase(fingerprints_.begin() + u);
     dropped_[name] = why;
+    last_dropped_ = name;
     any = true;
     Log(LogLevel::kError, "reference set '" + name + "' unloaded: its file " + why +
                               " while memory-mapped; no belief uses its rows from now on: "
@@ -401,7 +402,8 @@ std::string LocalMap::DescriptorTypeMismatch(const std::string& type) const {
 std::string LocalMap::Problem() const {
   MutexLock lock(&mutex_);
   if (!dropped_.empty()) {
-    const auto& [name, why] = *dropped_.begin();
+    const auto last = dropped_.find(last_dropped_);
+    const auto& [name, why] = last != dropped_.end() ? *last : *dropped_.begin();
     return "reference set '" + name + "' was unloaded: its file " + why +
            " while memory-mapped; load it again" +
            (dropped_.size() > 1 ? " (and " + std::to_string(dropped_.size() - 1) + " more)" : "");

@@ -24,10 +24,12 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Float32MultiArray, String
 
 from bsf_vpr.msg import Belief, Descriptor, Match
-from bsf_vpr.srv import LoadReferenceSet
+from bsf_vpr.srv import ListReferenceSets, LoadReferenceSet
+from rosgraph_msgs.msg import Log
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import attach_fusion_services, wait_for, write_reference_set  # noqa: E402
+from rostest_util import (attach_fusion_services, run_tool, wait_for,  # noqa: E402
+                          write_reference_set)
 
 NS = "/bsf_vpr/"
 
@@ -485,6 +487,96 @@ class Attacks(unittest.TestCase):
             self.still_serving()  # 4096-d queries are recognised though the recording refuses them
         finally:
             self.assertTrue(self.stop(discard=True).success)
+
+    def test_a_mapped_file_rewritten_in_place_is_dropped_and_never_used(self):
+        """Found attacking the node: with memory_map, `cp other.npy mapped.npy` switched the
+        live map to the new rows silently, bytes written in place gave wrong accepted matches,
+        and `truncate` killed the node (SIGBUS). Each, while descriptors stream at 20 Hz: no
+        descriptor sent after the change is decided with the set, the set is unloaded, the
+        log and the diagnostics name it and its file, and the node goes on serving."""
+        data = os.path.join(rospy.get_param("~scratch"), "mapped")
+        wait_for(lambda: os.path.isdir(data), 60, "the mapped node's data directory")
+        rng = np.random.default_rng(5)
+        rows = rng.standard_normal((300, 64)).astype(np.float32)
+        other = rng.standard_normal((300, 64)).astype(np.float32)
+        load = rospy.ServiceProxy("/mapped/load_reference_set", LoadReferenceSet)
+        listing = rospy.ServiceProxy("/mapped/list_reference_sets", ListReferenceSets)
+        publisher = rospy.Publisher("/mapped/descriptor", Descriptor, queue_size=100)
+        beliefs, logs = [], []
+        subs = [rospy.Subscriber("/mapped/belief", Belief, beliefs.append),
+                rospy.Subscriber("/rosout", Log, logs.append),
+                rospy.Subscriber("/rosout_agg", Log, logs.append)]
+        wait_for(lambda: publisher.get_num_connections() > 0, 30, "the mapped node")
+        write_reference_set(data, "raw", rows)
+        write_reference_set(data, "raw_other", other)
+        run_tool("bsf_store_set", "--set", os.path.join(data, "raw_other.yaml"),
+                 "--out", os.path.join(data, "other_int8.yaml"))
+        other_npy = [f for f in os.listdir(data) if f.startswith("other_int8.int8.")][0]
+        # A set that stays, so that beliefs go on once the attacked one is gone.
+        r = load(path="other_int8.yaml", name="stays", condition="")
+        self.assertTrue(r.success, r.message)
+        try:
+            for k, how in enumerate(("copied over", "bytes in place", "truncated")):
+                name = "m%d" % k
+                run_tool("bsf_store_set", "--set", os.path.join(data, "raw.yaml"),
+                         "--out", os.path.join(data, name + ".yaml"))
+                npy = os.path.join(data, [f for f in os.listdir(data)
+                                          if f.startswith(name + ".int8.")][0])
+                r = load(path=name + ".yaml", name=name, condition="")
+                self.assertTrue(r.success, r.message)
+                stop, changed_at = threading.Event(), {}
+                sent = []
+
+                def stream():
+                    i = 0
+                    while not stop.is_set():
+                        msg = Descriptor()
+                        msg.header.stamp = rospy.Time.now()
+                        msg.data = list(map(float, rows[i % 300] + 0.05 * rng.standard_normal(64)))
+                        sent.append(msg.header.stamp)
+                        publisher.publish(msg)
+                        i += 1
+                        time.sleep(0.05)
+                streamer = threading.Thread(target=stream)
+                streamer.start()
+                try:
+                    wait_for(lambda: sum(name in b.used_sets for b in beliefs) >= 10, 20,
+                             "beliefs using '%s'" % name)
+                    since = len(self.diagnostics)
+                    if how == "copied over":
+                        shutil.copyfile(os.path.join(data, other_npy), npy)  # same size
+                    elif how == "bytes in place":
+                        with open(npy, "r+b") as f:
+                            f.seek(os.path.getsize(npy) // 2)
+                            f.write(os.urandom(4096))
+                    else:
+                        os.truncate(npy, 100)
+                    changed_at["t"] = rospy.Time.now()
+                    wait_for(lambda: sum(b.header.stamp > changed_at["t"] for b in beliefs) >= 10,
+                             20, "beliefs after the change (%s)" % how)
+                finally:
+                    stop.set()
+                    streamer.join()
+                after = [b for b in beliefs if b.header.stamp > changed_at["t"]]
+                self.assertTrue(after)
+                for b in after:
+                    self.assertNotIn(name, b.used_sets, "%s: a belief used the changed rows" % how)
+                    self.assertNotIn(name, b.selected_sets, how)
+                self.assertNotIn(name, [s.name for s in listing().sets], how)
+                self.diagnosed(since, 1, "'%s' was unloaded" % name, "mapped")
+                wait_for(lambda: any("'%s' unloaded" % name in m.msg and
+                                     os.path.basename(npy) in m.msg for m in logs), 10,
+                         "an error naming '%s' and its file (heard: %s)" % (
+                             name, [m.msg[:80] for m in logs[-5:]]))
+                # Still serving: another set loads and answers.
+                r = load(path="other_int8.yaml", name="after_" + name, condition="")
+                self.assertTrue(r.success, r.message)
+                self.assertIn("after_" + name, [s.name for s in listing().sets])
+                print("%s: %d beliefs after the change, none with the set; %s" % (
+                    how, len(after), [m.msg for m in logs if name in m.msg][:1]))
+        finally:
+            for sub in subs:
+                sub.unregister()
 
     def test_distance_defaults_to_the_sets_own(self):
         # The gp node was started without a distance and with a cosine set.

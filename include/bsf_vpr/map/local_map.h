@@ -168,6 +168,7 @@ class LocalMap : public MapBackend {
   // The sets unloaded because their file changed in place, with why, until a set of the
   // same name is loaded again.
   std::map<std::string, std::string> dropped_ GUARDED_BY(mutex_);
+  std::string last_dropped_ GUARDED_BY(mutex_);  // Problem() names it
   // Last: destroyed first, so that no build calls back into a map being destroyed.
   JointBuilder joint_builder_{[this](JointBuilder::Result r) { JointBuilt(std::move(r)); }};
   LatestJob index_job_;

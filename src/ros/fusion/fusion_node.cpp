@@ -485,12 +485,12 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
           : "";
   if (!format_mismatch_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, format_mismatch_);
-  } else if (!publisher_->stale().empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "not localised: " + publisher_->stale());
   } else if (rejected_ > 0 && processed_ == 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "every descriptor dropped (%d): %s",
                     rejected_, last_rejection_.c_str());
+  } else if (!publisher_->stale().empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "not localised: " + publisher_->stale());
   } else if (lost_ > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                     "dropped %lu descriptor(s) to a full queue (queue_size %d): they arrive "

@@ -69,7 +69,7 @@ void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
 }
 
 std::string RecognitionPublisher::CheckStale(const ros::Time& now, const std::string& why) {
-  if (last_belief_time_.isZero() || !stale_.empty()) return stale_;
+  if (last_belief_time_.isZero()) return "";
   const double silent = (now - last_belief_time_).toSec();
   double timeout = options_.localization_timeout_s;
   if (intervals_.size() >= 5) {
@@ -81,11 +81,18 @@ std::string RecognitionPublisher::CheckStale(const ros::Time& now, const std::st
   if (!(silent > timeout)) return "";
   char head[64];
   std::snprintf(head, sizeof head, "no belief for %.1f s: ", silent);
+  const bool first = stale_.empty();
   stale_ = head + why;
-  const bool was_localized = localized_.value_or(false);
-  localized_ = false;
-  if (was_localized) localized_since_ = now;
-  localized_place_ = -1;
+  // Published when the robot stops being localised and again when the reason changes (the
+  // latched message says the latest), not for the time alone.
+  if (!first && why == stale_why_) return stale_;
+  stale_why_ = why;
+  const bool was_localized = localized_.value_or(false) && first;
+  if (first) {
+    localized_ = false;
+    if (was_localized) localized_since_ = now;
+    localized_place_ = -1;
+  }
   last_stamp_ = now;
   auto msg = boost::make_shared<Localization>();
   msg->header.stamp = now;

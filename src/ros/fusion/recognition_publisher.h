@@ -80,8 +80,8 @@ class RecognitionPublisher {
   // Called periodically: once no belief has been published for the timeout
   // (options.localization_timeout_s, or 3 of the recent intervals between beliefs if longer)
   // after one was, publishes "not localised" with "no belief for X s: " + `why` (what the
-  // caller knows of the inputs) and returns that reason; "" while beliefs come. A new belief
-  // publishes its own state again.
+  // caller knows of the inputs), again whenever `why` changes, and returns that reason; ""
+  // while beliefs come. A new belief publishes its own state again.
   std::string CheckStale(const ros::Time& now, const std::string& why);
   // The reason CheckStale gave, while no belief has come since ("" otherwise).
   const std::string& stale() const { return stale_; }
@@ -101,7 +101,7 @@ class RecognitionPublisher {
   // beliefs (seconds), and why the robot is not localised without beliefs ("" while they come).
   ros::Time last_belief_time_;
   std::vector<double> intervals_;
-  std::string stale_;
+  std::string stale_, stale_why_;
   int localized_place_ = -1;
   double off_map_probability_ = 0;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false

@@ -1,8 +1,12 @@
 #!/usr/bin/python3
 """rostest: launch/bsf_vpr.launch and launch/replay.launch, each started with roslaunch as a
-subprocess on this test's master (one at a time), as a user starts them."""
+subprocess on this test's master (one at a time, or two robots side by side), as a user
+starts them; every launch file in launch/ read as roslaunch reads it, with paths that hold
+quotes, spaces and $, and in another namespace (ns:=)."""
 import contextlib
+import glob
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -12,6 +16,9 @@ import unittest
 
 import rosbag
 import rosgraph
+import roslaunch.config
+import roslaunch.xmlloader
+import rosnode
 import rospy
 import rostest
 import yaml
@@ -23,15 +30,21 @@ from rostest_util import service_is_up, wait_for  # noqa: E402
 from bsf_vpr.srv import ListReferenceSets  # noqa: E402
 
 NS = "/bsf_vpr/"
+# An apostrophe, double quotes, spaces and a dollar sign: a path with any of them once broke
+# every launch ("Invalid <param> tag: No closing quotation": roslaunch splits a command line
+# with shlex, and the launch files quoted the path with '').
+ODD = "it's \"odd\" $HOME"
 
 
 class Roslaunch:
-    """`roslaunch bsf_vpr LAUNCH ARGS` in the background, its output in a temporary file."""
+    """`roslaunch bsf_vpr LAUNCH ARGS` in the background, its output in a temporary file;
+    `env` is added to this process's environment."""
 
-    def __init__(self, launch, args):
+    def __init__(self, launch, args, env=None):
         self.command = ["roslaunch", "bsf_vpr", launch] + ["%s:=%s" % kv for kv in args.items()]
         self.log = tempfile.NamedTemporaryFile(prefix="roslaunch_", suffix=".log")
-        self.proc = subprocess.Popen(self.command, stdout=self.log, stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen(self.command, stdout=self.log, stderr=subprocess.STDOUT,
+                                     env=dict(os.environ, **(env or {})))
 
     def output(self):
         with open(self.log.name, errors="replace") as f:
@@ -70,13 +83,41 @@ class Roslaunch:
 
 
 @contextlib.contextmanager
-def launched(launch, **args):
+def launched(launch, env=None, **args):
     """Runs a launch file for the duration of a `with` block."""
-    process = Roslaunch(launch, args)
+    process = Roslaunch(launch, args, env)
     try:
         yield process
     finally:
         process.stop()
+
+
+@contextlib.contextmanager
+def ros_home(path):
+    """ROS_HOME set to `path` in this process (and the commands roslaunch runs) for a block."""
+    old = os.environ.get("ROS_HOME")
+    os.environ["ROS_HOME"] = path
+    try:
+        yield
+    finally:
+        if old is None:
+            del os.environ["ROS_HOME"]
+        else:
+            os.environ["ROS_HOME"] = old
+
+
+def load_launch(path, args):
+    """The launch file as roslaunch reads it (its commands run, nothing starts)."""
+    config = roslaunch.config.ROSLaunchConfig()
+    loader = roslaunch.xmlloader.XmlLoader(resolve_anon=False)
+    loader.load(path, config, argv=["roslaunch"] + ["%s:=%s" % kv for kv in args.items()],
+                verbose=False)
+    return config
+
+
+def resolved(name, namespace):
+    """`name` as a node in `namespace` resolves it."""
+    return name if name.startswith("/") else rosgraph.names.ns_join(namespace, name)
 
 
 def advertised(topic):
@@ -105,14 +146,14 @@ class LaunchFiles(unittest.TestCase):
             yaml.safe_dump(params, f)
         return path
 
-    def check_pipeline(self, launch, sets, live):
-        """Waits for both nodes; checks the loaded sets and the live parameters (`live`, and
-        config/fusion.yaml's values for the others)."""
-        launch.wait_until(lambda: service_is_up(NS + "list_reference_sets"), 60, "fusion")
-        launch.wait_until(lambda: advertised(NS + "descriptor"), 60, "descriptor_ingest")
-        listed = rospy.ServiceProxy(NS + "list_reference_sets", ListReferenceSets)()
+    def check_pipeline(self, launch, sets, live, ns=NS):
+        """Waits for both nodes in `ns`; checks the loaded sets and the live parameters
+        (`live`, and config/fusion.yaml's values for the others)."""
+        launch.wait_until(lambda: service_is_up(ns + "list_reference_sets"), 60, "fusion")
+        launch.wait_until(lambda: advertised(ns + "descriptor"), 60, "descriptor_ingest")
+        listed = rospy.ServiceProxy(ns + "list_reference_sets", ListReferenceSets)()
         self.assertEqual([s.name for s in listed.sets], sets, launch.describe())
-        client = Client(NS + "fusion", timeout=30)
+        client = Client(ns + "fusion", timeout=30)
         try:
             config = client.get_configuration(timeout=30)
         finally:
@@ -215,6 +256,150 @@ class LaunchFiles(unittest.TestCase):
         # bsf_make_bag stamps the queries from 1000 s on; wall-clock times are ~1.7e9 s.
         self.assertTrue(all(1000 <= t < 1100 for t in times), times)
         self.assertFalse(rospy.has_param("/use_sim_time"))
+
+
+    def launch_cases(self, folder):
+        """Every launch file in launch/ with the arguments it needs (paths below `folder`),
+        and its variants: plain nodes, rviz, images, sharded or not."""
+        shards = {"shard_%d_config" % k: os.path.join(self.pkg, "config",
+                                                      "benchmark_shard_%d.yaml" % k)
+                  for k in range(3)}
+        replay = {"bag": os.path.join(folder, "in put.bag"),
+                  "results": os.path.join(folder, "results %s.bag" % ODD)}
+        cases = [("bsf_vpr.launch", {}),
+                 ("bsf_vpr.launch", {"use_nodelets": "false", "rviz": "true"}),
+                 ("replay.launch", replay),
+                 ("replay.launch", dict(replay, use_nodelets="false")),
+                 ("sharded.launch", dict(shards, rviz="true")),
+                 ("benchmark_pipeline.launch", {"data_directory": folder}),
+                 ("benchmark_pipeline.launch", {"data_directory": folder, "images": folder}),
+                 ("benchmark_sharded.launch", {"data_directory": folder}),
+                 ("benchmark_sharded.launch", {"data_directory": folder, "sharded": "false"})]
+        shipped = {os.path.basename(p) for p in glob.glob(os.path.join(self.pkg, "launch",
+                                                                        "*.launch"))}
+        self.assertEqual({launch for launch, _ in cases}, shipped)
+        return cases
+
+    def load(self, launch, args):
+        """load_launch of a shipped launch file; a failure names the file and its arguments."""
+        try:
+            return load_launch(os.path.join(self.pkg, "launch", launch), args)
+        except Exception as e:  # noqa: BLE001 (whatever roslaunch raises fails the test)
+            self.fail("roslaunch bsf_vpr %s %s: %s" % (launch, args, e))
+
+    def test_every_launch_file_takes_paths_with_quotes_spaces_and_dollar_signs(self):
+        # In ROS_HOME (the default data_directory) and in the paths given as arguments.
+        home = os.path.join(self.tmp, "ros home " + ODD)
+        folder = os.path.join(self.tmp, "data " + ODD)
+        os.makedirs(folder)
+        with ros_home(home):
+            for launch, args in self.launch_cases(folder):
+                where = "%s %s" % (launch, args)
+                config = self.load(launch, args)
+                wanted = args.get("data_directory", os.path.join(home, "bsf_vpr"))
+                folders = {k: p.value for k, p in config.params.items()
+                           if k.endswith("/data_directory")}
+                self.assertTrue(folders, where)
+                self.assertEqual(set(folders.values()), {wanted}, where)
+                if launch in ("bsf_vpr.launch", "replay.launch"):
+                    self.assertTrue(os.path.isdir(wanted), where)  # made by launch_path
+                if launch == "replay.launch":
+                    nodes = {n.name: n for n in config.nodes}
+                    self.assertEqual(config.params["/replay_monitor/results"].value,
+                                     args["results"], where)
+                    self.assertEqual(config.params["/replay_monitor/bag"].value, args["bag"])
+                    # Node arguments are split with shlex too: each path one word.
+                    self.assertEqual(shlex.split(nodes["record_results"].args)[:2],
+                                     ["-O", args["results"]], where)
+                    self.assertEqual(shlex.split(nodes["play"].args)[-1], args["bag"], where)
+
+    def test_ns_puts_every_name_of_every_launch_file_in_it(self):
+        folder = os.path.join(self.tmp, "ns_data")
+        os.makedirs(folder)
+        # A replay's player, recorder and monitor stay at the root: the clock and
+        # /use_sim_time are the master's, one replay at a time.
+        at_root = {"record_results", "play", "replay_monitor"}
+        for launch, args in self.launch_cases(folder):
+            for ns, wanted in (("robot1", "/robot1/"), ("/fleet/robot2", "/fleet/robot2/"),
+                               (None, NS)):
+                given = dict(args, ns=ns) if ns else args
+                where = "%s %s" % (launch, given)
+                config = self.load(launch, given)
+                root = at_root if launch == "replay.launch" else set()
+                self.assertLessEqual(root, {n.name for n in config.nodes}, where)
+                for node in config.nodes:
+                    self.assertEqual(node.namespace, "/" if node.name in root else wanted,
+                                     where + ": " + node.name)
+                    for source, target in node.remap_args:
+                        # Topics of the pipeline in its namespace; the camera's anywhere.
+                        self.assertFalse(resolved(target, node.namespace).startswith(NS)
+                                         and wanted != NS, "%s: %s remaps %s to %s"
+                                         % (where, node.name, source, target))
+                        if source.startswith(NS):  # rviz's absolute topics, taken along
+                            self.assertEqual(resolved(target, node.namespace),
+                                             wanted + source[len(NS):], where)
+                    if node.name == "rviz":
+                        self.assertEqual(len(node.remap_args), 2, where)
+                for key, param in config.params.items():
+                    if key not in ("/use_sim_time",) and not key.startswith("/replay_monitor/"):
+                        self.assertTrue(key.startswith(wanted), "%s: %s" % (where, key))
+                    if isinstance(param.value, str) and param.value.startswith("/"):
+                        self.assertFalse(param.value.startswith(NS) and wanted != NS,
+                                         "%s: %s is %s" % (where, key, param.value))
+                if launch == "replay.launch":
+                    nodes = {n.name: n for n in config.nodes}
+                    self.assertEqual(shlex.split(nodes["record_results"].args)[2:],
+                                     [wanted + "belief", wanted + "match", "/vpr/ground_truth",
+                                      "/vpr/query_pose"], where)
+                    self.assertEqual(config.params["/replay_monitor/belief_topic"].value,
+                                     wanted + "belief", where)
+                    self.assertIn("/replay_monitor/ready", nodes["play"].launch_prefix, where)
+                shards = config.params.get(wanted + "fusion/shards")
+                if launch == "sharded.launch" or (launch == "benchmark_sharded.launch"
+                                                  and args.get("sharded") != "false"):
+                    # Relative: the combiner resolves them in its namespace.
+                    self.assertEqual(shards.value, ["shard_0", "shard_1", "shard_2"], where)
+                    self.assertLessEqual({wanted + "shard_%d" % k for k in range(3)},
+                                         {node.namespace + node.name for node in config.nodes})
+
+    def test_two_robots_run_side_by_side_each_in_its_ns(self):
+        # The second robot also reads its data_directory from a ROS_HOME with quotes, spaces
+        # and $, as it starts for real.
+        home = os.path.join(self.tmp, "robot1 home " + ODD)
+        winter = self.write_config("winter_only.yaml", {
+            "reference_sets": [{"name": "winter", "path": "winter.yaml"}], "distance": "cosine"})
+        med = self.write_config("med.yaml", {"method": "med"})
+        with launched("bsf_vpr.launch", config=winter, data_directory=self.fixture,
+                      input="descriptor", input_topic="/test/descriptor") as first, \
+                launched("bsf_vpr.launch", env={"ROS_HOME": home}, ns="robot1", config=med,
+                         input="descriptor", input_topic="/test/robot1_descriptor") as second:
+            self.check_pipeline(first, ["winter"], {"distance": "cosine"})
+            self.check_pipeline(second, [], {"method": "med"}, ns="/robot1/")
+            # Neither took the other's names: both still run (a node started under a name
+            # already registered makes the other one leave), the first one still answers.
+            self.check_pipeline(first, ["winter"], {"distance": "cosine"})
+            self.assertIsNone(second.proc.poll(), second.describe())
+            nodes = set(rosnode.get_node_names())
+            for ns in (NS, "/robot1/"):
+                self.assertLessEqual({ns + n for n in ("bsf_vpr_manager", "descriptor_ingest",
+                                                        "fusion")}, nodes)
+            self.assertEqual(rospy.get_param("/robot1/fusion/data_directory"),
+                             os.path.join(home, "bsf_vpr"))
+            self.assertTrue(os.path.isdir(os.path.join(home, "bsf_vpr")))
+            self.assertTrue(advertised("/robot1/belief"))
+        # A sharded map in its ns: the combiner finds its shards there (its list names them).
+        one = self.write_config("shard_winter.yaml", {
+            "reference_sets": [{"name": "winter", "path": "winter.yaml"}], "distance": "cosine"})
+        empty = self.write_config("shard_empty.yaml", {"distance": "cosine"})
+        with launched("sharded.launch", ns="robot2", data_directory=self.fixture,
+                      shard_0_config=empty, shard_1_config=one, shard_2_config=empty,
+                      input="descriptor", input_topic="/test/robot2_descriptor") as launch:
+            service = "/robot2/list_reference_sets"
+            launch.wait_until(lambda: service_is_up(service), 60, "the combiner")
+            proxy = rospy.ServiceProxy(service, ListReferenceSets)
+            launch.wait_until(lambda: proxy().sets, 60, "the combiner to take shard_1's set")
+            self.assertEqual([(s.name, s.shard) for s in proxy().sets],
+                             [("winter", "/robot2/shard_1")], launch.describe())
 
 
 if __name__ == "__main__":

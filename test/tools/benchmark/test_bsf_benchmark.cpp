@@ -2,6 +2,8 @@
 // found): every section runs on tiny shapes; no timing is asserted.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -84,15 +86,47 @@ std::vector<double> BsfRow(const std::string& out) {
   return v;
 }
 
-// query,match: the first two columns of each line of a matches file.
-std::vector<std::string> QueryAndMatch(const std::string& path) {
+// query, match and confidence of each line of a matches file (its header skipped).
+struct MatchRow {
+  std::string query, match;
+  double confidence = 0;
+};
+std::vector<MatchRow> Matches(const std::string& path) {
   std::ifstream in(path);
-  std::vector<std::string> out;
-  for (std::string line; std::getline(in, line);) {
-    const size_t second = line.find(',', line.find(',') + 1);
-    out.push_back(line.substr(0, second));
+  std::vector<MatchRow> out;
+  std::string line;
+  std::getline(in, line);  // the header
+  while (std::getline(in, line)) {
+    std::stringstream fields(line);
+    MatchRow row;
+    std::string confidence;
+    std::getline(fields, row.query, ',');
+    std::getline(fields, row.match, ',');
+    std::getline(fields, confidence, ',');
+    row.confidence = std::stod(confidence);
+    out.push_back(row);
   }
   return out;
+}
+
+// The same match for every query, but where the two best places tie to float32's rounding:
+// there the order of a sum decides, which differs between OpenBLAS's kernels (found on an
+// Intel Xeon, family 6 model 167: Nordland-100 grey levels, query 80, places 55 and 54 at
+// confidence -2.9329187 and -2.932909). Such ties are at most 1% of the queries.
+void ExpectSameMatches(const std::vector<MatchRow>& a, const std::vector<MatchRow>& b,
+                       const std::string& method) {
+  ASSERT_EQ(a.size(), b.size()) << method;
+  size_t ties = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].query, b[k].query) << method;
+    if (a[k].match == b[k].match) continue;
+    const double scale = std::max(1.0, std::abs(a[k].confidence));
+    EXPECT_NEAR(a[k].confidence, b[k].confidence, 1e-5 * scale)
+        << method << ": query " << a[k].query << " matched " << a[k].match << " and "
+        << b[k].match << ", not a tie";
+    ++ties;
+  }
+  EXPECT_LE(ties, a.size() / 100) << method << ": " << ties << " ties in " << a.size();
 }
 
 // bsf_evaluate --methods bsf --off-map false `method` and numpy_bsf `method` on `inputs` give
@@ -115,9 +149,9 @@ std::vector<double> ExpectNumPyGivesBsfEvaluatesResults(const std::string& input
   EXPECT_EQ(b.size(), 6u) << numpy.output;
   for (size_t k = 0; k < a.size() && k < b.size(); ++k)
     EXPECT_NEAR(a[k], b[k], 1e-9) << method << "\n" << ours.output << numpy.output;
-  const std::vector<std::string> ma = QueryAndMatch(dir + "/ours/matches/bsf.csv");
-  EXPECT_GT(ma.size(), 100u) << method;
-  EXPECT_EQ(ma, QueryAndMatch(dir + "/numpy/matches/bsf.csv")) << method;
+  const std::vector<MatchRow> ma = Matches(dir + "/ours/matches/bsf.csv");
+  EXPECT_GE(ma.size(), 100u) << method;
+  ExpectSameMatches(ma, Matches(dir + "/numpy/matches/bsf.csv"), method);
   return a;
 }
 

@@ -60,7 +60,7 @@ enum class MethodKind {
 const EnumNames<MethodKind>& MethodKindNames();
 
 // What bsf (fusion adaptive) adds to the sets' hypotheses: a joint representation of them
-// as one more, or nothing (the fusion of 2026-12-03).
+// as one more, or nothing (the sets alone).
 enum class FusionJoint { kNone, kMeanDescriptor, kSubspace, kDiscriminant };
 const EnumNames<FusionJoint>& FusionJointNames();
 std::optional<JointKind> ToJointKind(FusionJoint joint);

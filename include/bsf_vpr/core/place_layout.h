@@ -51,10 +51,15 @@ void CheckPlaceRows(const std::string& who, const std::vector<int>& place_ids,
                     const std::vector<PlacePose>& poses, const std::string& images,
                     const std::vector<std::string>& image_files);
 
+// How far apart two sets may put one place before a set is refused (place_pose_tolerance_m):
+// the default of every map, written once.
+constexpr double kDefaultPlacePoseToleranceM = 25;
+
 class PlaceLayout {
  public:
   // Two sets that put one place more than this far apart (metres, planar) do not share a
-  // place index: Add refuses the second. Default 25 m; +infinity turns the check off.
+  // place index: Add refuses the second. Default kDefaultPlacePoseToleranceM; +infinity turns
+  // the check off.
   void SetPlacePoseTolerance(double metres) { place_pose_tolerance_m_ = metres; }
   double place_pose_tolerance_m() const { return place_pose_tolerance_m_; }
   // Throws std::invalid_argument naming the place and the distance when set `name` puts a
@@ -94,7 +99,7 @@ class PlaceLayout {
   std::optional<double> median_spacing_;
   int num_places_ = 0;
   int dimension_ = 0;
-  double place_pose_tolerance_m_ = 25;
+  double place_pose_tolerance_m_ = kDefaultPlacePoseToleranceM;
 };
 
 }  // namespace bsf_vpr

@@ -29,7 +29,7 @@ struct LocalMapOptions {
   // The distance, or nullopt: the one the first sets declare (euclidean if none does).
   std::optional<DistanceMetric> metric;
   StoragePrecision storage = StoragePrecision::kFloat32;
-  double place_pose_tolerance_m = 25;
+  double place_pose_tolerance_m = kDefaultPlacePoseToleranceM;
   FirstStageOptions first_stage;
   // Map each set's descriptor .npy instead of reading it, where the file holds the rows at
   // `storage` (ReadSetOptions::memory_map; bsf_store_set writes them so): a set then costs its

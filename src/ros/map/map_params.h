@@ -9,6 +9,7 @@
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "src/ros/common/param_util.h"
 
 namespace bsf_vpr {
@@ -29,7 +30,7 @@ struct MapParams {
   std::optional<DistanceMetric> distance;
   StoragePrecision storage = StoragePrecision::kFloat32;  // of every set loaded
   bool memory_map = false;             // map .npy files held at `storage` instead of reading them
-  double place_pose_tolerance_m = 25;  // sets disagreeing more on a place's pose are refused
+  double place_pose_tolerance_m = kDefaultPlacePoseToleranceM;  // sets disagreeing more on a place's pose are refused
 
   bool distance_given() const { return distance.has_value(); }
 };

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/mutex.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/map/map_backend.h"
 #include "bsf_vpr/map/shard_join.h"
 
@@ -56,7 +57,7 @@ struct ShardedMapOptions {
   int queue_size = 100;             // queries pending at most
   // The distance the node is configured with (nullopt: the shards').
   std::optional<DistanceMetric> metric;
-  double place_pose_tolerance_m = 25;
+  double place_pose_tolerance_m = kDefaultPlacePoseToleranceM;
 };
 
 class ShardedMap : public MapBackend {

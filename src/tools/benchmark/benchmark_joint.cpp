@@ -33,7 +33,7 @@ std::vector<const StoredReferenceSet*> SetsOf(const ReferenceMap& map) {
 void QueryCost(int repeats, int m, int n, int d) {
   RecognizerOptions with;
   RecognizerOptions without = with;
-  without.method_options.fusion_joint = FusionJoint::kNone;  // the default of 2026-12-03
+  without.method_options.fusion_joint = FusionJoint::kNone;  // the sets alone
   // The first query of the default builds the discriminant (untimed in the rounds).
   const PairedQueryTimes t = TimePairedQueries(with, without, repeats, m, n, d, 300, 17);
   std::printf(

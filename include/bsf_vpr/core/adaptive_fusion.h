@@ -1,48 +1,12 @@
-// The default fusion of bsf (FusionRule::kAdaptive; docs/method.md, "Fusion that adapts"):
-// Bayesian model averaging, over the stream of queries, of the ways the sets of one
-// descriptor can relate to the query.
-//
-// Within a descriptor group of sets u = 1..M, each hypothesis h says how the query's
-// distances D depend on its place i, as a likelihood L_h(i) of mean 1 over the places:
-//
-//   single u   the query shows set u's condition; the others tell nothing:  L_u(i)
-//   mixture    it shows one of them, which is uncertain (FuseMixture):      sum_u w_u L_u(i) / W
-//   product    every set is independent evidence:                           prod_u L_u(i) / mean
-//
-// with L_u the training-free likelihood with the group's pooled non-match statistics and w_u
-// the condition weights (ConditionWeights). Which hypothesis holds is not told by one query:
-// each is scored by how well it predicted the queries so far. Hypothesis h carries its own
-// belief over places, filtered along the route like +filter (TemporalFilterOptions, or the
-// odometry step), and its predictive likelihood of query t is
-//
-//   p_h(t) = sum_i P_h(X_t = i | D_1..D_{t-1}) L_h(i; D_t),
-//
-// which is 1 for a hypothesis that tells nothing, above 1 where it put its mass on places the
-// route reaches, and far below 1 for a confident hypothesis that is wrong. With forgetting
-// lambda = 1 - 1 / fusion_memory_queries, s_h(t) = lambda s_h(t - 1) + log p_h(t), and
-//
-//   P(X_t = i | D_t)  proportional to  P(X_t = i) prod_g sum_h a_h L_h(i),  a_h = softmax_h s_h(t).
-//
-// Nothing is fitted: every hypothesis starts equal, and a stream without order (queries
-// that do not follow a route) leaves the scores near 0 and the hypotheses near equal.
-// Groups of one set need no state for the hypotheses: the three coincide.
-//
-// Places near every query (hubs). The likelihood takes a query's distances to the places it
-// does not show as alike across places; an image near every query (a washed-out frame, say)
-// breaks that and poses as the match query after query. With place_means, each place's
-// distances are first corrected by how near that place has been to the queries so far:
-//
-//   D'_u(i) = D_u(i) - n / (n + n0) (mu_u(i) - mean_j mu_u(j)),
-//
-// (the correction rounded to float once, when the mean changes), mu_u(i) the mean of set u's
-// distance to place i over the n queries in it (in double), n0 =
-// place_prior_queries (a place's own mean counts half after n0 queries). A query counts only
-// if its distances (over the places) correlate below kSameScene (0.99) with those of the last
-// query counted: a robot standing still sends the same scene again and again, which must not
-// teach the place it stands at to be a hub. A counted query enters the means kPlaceMeansLag
-// (10) counted queries later, so that the places just behind the robot, which its recent
-// queries nearly matched, are not yet marked as near. Only sets that give a distance to
-// every place (in order) are corrected and counted.
+// The default fusion of bsf (FusionRule::kAdaptive): Bayesian model averaging, over the
+// stream of queries, of the ways the sets of one descriptor group can relate to the query
+// (each set alone, their mixture, their product, and a joint representation of them when
+// the map has one). Each hypothesis keeps its own belief filtered along the route and is
+// weighted by how well it predicted the queries so far (forgetting over
+// fusion_memory_queries); nothing is fitted. With place_means, each place's distances are
+// first corrected by how near that place has been to the queries so far (hubs). The
+// equations and constants: docs/method.md, "Fusion that adapts" and "Places near every
+// query (hubs)".
 //
 // Not thread-safe: one instance per stream of queries (MethodRunner holds it).
 #pragma once

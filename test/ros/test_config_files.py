@@ -7,8 +7,6 @@ import sys
 import tempfile
 import unittest
 
-import roslaunch.config
-import roslaunch.xmlloader
 import rosgraph
 import rospy
 import rostest
@@ -16,6 +14,7 @@ import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rostest_util import wait_for  # noqa: E402
+from test_launch_files import load_launch  # noqa: E402
 
 from bsf_vpr.srv import ListReferenceSets  # noqa: E402
 
@@ -57,14 +56,6 @@ class ConfigFiles(unittest.TestCase):
                              sum((p[1] for p in master.getSystemState()[0]), [])),
                  60, "descriptor_ingest to advertise its output")
         self.assertEqual(rospy.get_param("/cfg_ingest/descriptor_ingest/patch_size_px"), 8)
-
-    @staticmethod
-    def load_launch(path, args):
-        config = roslaunch.config.ROSLaunchConfig()
-        loader = roslaunch.xmlloader.XmlLoader(resolve_anon=False)
-        loader.load(path, config, argv=["roslaunch"] + ["%s:=%s" % kv for kv in args.items()],
-                    verbose=False)
-        return config
 
     def test_the_shard_nodelet_serves_its_sets_distances(self):
         from bsf_vpr.msg import Descriptor, ShardDistances, ShardInfo
@@ -134,7 +125,7 @@ class ConfigFiles(unittest.TestCase):
                 self.pkg, "config", "benchmark_shard_%d.yaml" % k) for k in range(3)}
             if path.endswith("/sharded.launch"):
                 args = shards
-            config = self.load_launch(path, args)
+            config = load_launch(path, args)
             names = {n.name for n in config.nodes}
             self.assertIn("fusion", names, path)
             self.assertIn("descriptor_ingest", names, path)
@@ -155,7 +146,7 @@ class ConfigFiles(unittest.TestCase):
                                      ({"input": "descriptor", "input_topic": "/d"},
                                       "/camera/image_raw"),
                                      ({"input_topic": "/cam"}, "/cam")):
-                    parsed = self.load_launch(path, dict(args, **given))
+                    parsed = load_launch(path, dict(args, **given))
                     fusion = [n for n in parsed.nodes if n.name == "fusion"][0]
                     self.assertIn(["image", image], [list(r) for r in fusion.remap_args], given)
             if "data_directory" not in args:  # not in the package's source folder
@@ -167,7 +158,7 @@ class ConfigFiles(unittest.TestCase):
                     old_home = os.environ.get("ROS_HOME")
                     os.environ["ROS_HOME"] = tmp
                     try:
-                        moved = self.load_launch(path, args)
+                        moved = load_launch(path, args)
                     finally:
                         if old_home is None:
                             del os.environ["ROS_HOME"]
@@ -181,21 +172,21 @@ class ConfigFiles(unittest.TestCase):
                 if node.package != "rosbag":
                     self.assertIn(node.namespace + node.name + "/", config.clear_params, path)
         for use_nodelets in ("true", "false"):
-            config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
+            config = load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
                                       {"use_nodelets": use_nodelets})
             types = {n.type for n in config.nodes}
             self.assertEqual("nodelet" in types, use_nodelets == "true")
             # A missing data_directory is created when the launch file is read.
             with tempfile.TemporaryDirectory() as tmp:
                 wanted = os.path.join(tmp, "new", "data")
-                config = self.load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
+                config = load_launch(os.path.join(self.pkg, "launch", "bsf_vpr.launch"),
                                           {"use_nodelets": use_nodelets, "data_directory": wanted})
                 self.assertEqual(config.params["/bsf_vpr/fusion/data_directory"].value, wanted)
                 self.assertTrue(os.path.isdir(wanted))
 
     def fusion_params(self, launch, args):
         """The fusion node's private parameters as `launch` with `args` sets them."""
-        params = self.load_launch(os.path.join(self.pkg, "launch", launch), args).params
+        params = load_launch(os.path.join(self.pkg, "launch", launch), args).params
         ns = "/bsf_vpr/fusion/"
         return {k[len(ns):]: p.value for k, p in params.items() if k.startswith(ns)}
 

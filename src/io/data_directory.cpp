@@ -144,6 +144,19 @@ void AppendFilesBelow(int dir_fd, const std::string& prefix, std::vector<std::st
   }
 }
 
+// Creates a new temporary for the file `name` in the folder open as `dir_fd`
+// (".<name>.bsf_tmp.<8 of a-z0-9>", never an existing file), opened for writing (`access`:
+// O_WRONLY or O_RDWR); its name in *tmp. -1 with errno set when it cannot.
+int CreateTemporary(int dir_fd, const std::string& name, int access, std::string* tmp) {
+  int raw = -1;
+  for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
+    *tmp = "." + name.substr(0, 200) + kTempMarker + RandomChars(8);
+    raw = openat(dir_fd, tmp->c_str(), access | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (raw < 0 && errno != EEXIST) break;
+  }
+  return raw;
+}
+
 }  // namespace
 
 DataDirectory::DataDirectory(const std::string& path, bool create) {
@@ -301,13 +314,7 @@ void DataDirectory::WriteAtomically(const std::string& relative, const std::stri
   const Fd dir = OpenParent(root.get(), parts, relative, true);
   const std::string& name = parts.back();
   std::string tmp;
-  int raw = -1;
-  for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
-    tmp = "." + name.substr(0, 200) + kTempMarker + RandomChars(8);
-    raw =
-        openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-    if (raw < 0 && errno != EEXIST) break;
-  }
+  const int raw = CreateTemporary(dir.get(), name, O_WRONLY, &tmp);
   if (raw < 0)
     throw std::runtime_error(SystemError("create a temporary file for", relative, errno));
   int err = 0;
@@ -401,12 +408,7 @@ DataDirectory::LockedFile DataDirectory::CreateLocked(const std::string& relativ
   // Written whole under a temporary name, then linked to its own: a file of this name is
   // never seen half-written, whenever the process is killed.
   std::string tmp;
-  int raw = -1;
-  for (int attempt = 0; attempt < 16 && raw < 0; ++attempt) {
-    tmp = "." + name.substr(0, 200) + kTempMarker + RandomChars(8);
-    raw = openat(dir.get(), tmp.c_str(), O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-    if (raw < 0 && errno != EEXIST) break;
-  }
+  const int raw = CreateTemporary(dir.get(), name, O_RDWR, &tmp);
   if (raw < 0) throw std::runtime_error(SystemError("create", relative, errno));
   Fd file(raw);
   int err = flock(file.get(), LOCK_EX) != 0 ? errno : WriteAll(file.get(), bytes);

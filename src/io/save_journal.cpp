@@ -139,6 +139,23 @@ struct Removal {
   std::vector<std::string> removed, kept;
 };
 
+// Removes the temporaries a killed write of `files` left (a half-written copy of one),
+// adding them to r->removed. Never throws.
+void RemoveTemporariesOf(const DataDirectory& dir, const std::vector<std::string>& files,
+                         Removal* r) {
+  try {
+    for (const std::string& t : dir.Temporaries()) {
+      for (const std::string& f : files) {
+        if (!DataDirectory::IsTemporaryOf(t, f)) continue;
+        dir.Remove(t);
+        r->removed.push_back(QuotedForMessage(t) + " (a half-written copy)");
+        break;
+      }
+    }
+  } catch (const std::exception&) {
+  }
+}
+
 // Removes those of `files` (with their `proofs`) that `named` does not name, then the
 // temporaries of `files` and the folders left empty; but only when every one of them that
 // exists is proved (bytes as the journal says): a journal that lists a file it cannot prove
@@ -173,18 +190,7 @@ Removal RemoveProven(const DataDirectory& dir, const std::vector<std::string>& f
       r.kept.push_back(QuotedForMessage(f) + " (" + e.what() + ")");
     }
   }
-  // The temporaries a killed write of these files left (a half-written copy of one).
-  try {
-    for (const std::string& t : dir.Temporaries()) {
-      for (const std::string& f : files) {
-        if (!DataDirectory::IsTemporaryOf(t, f)) continue;
-        dir.Remove(t);
-        r.removed.push_back(QuotedForMessage(t) + " (a half-written copy)");
-        break;
-      }
-    }
-  } catch (const std::exception&) {
-  }
+  RemoveTemporariesOf(dir, files, &r);
   for (const std::string& f : folders) {
     try {
       dir.RemoveEmptyFolder(f);
@@ -362,14 +368,7 @@ std::vector<std::string> RecoverInterruptedSaves(const DataDirectory& dir,
       Removal r =
           saved ? RemoveProven(dir, f.replaced, f.replaced_proofs, f.replaced_folders, named)
                 : RemoveProven(dir, f.created, f.created_proofs, f.created_folders, named);
-      if (!saved && r.kept.empty()) {
-        // A half-written YAML: the temporary of its write.
-        for (const std::string& t : dir.Temporaries()) {
-          if (!DataDirectory::IsTemporaryOf(t, f.yaml)) continue;
-          dir.Remove(t);
-          r.removed.push_back(QuotedForMessage(t) + " (a half-written copy)");
-        }
-      }
+      if (!saved && r.kept.empty()) RemoveTemporariesOf(dir, {f.yaml}, &r);  // a half-written YAML
       if (!r.kept.empty()) {
         // Files it lists that are not what it says: it may not be ours; it stays with them.
         report.push_back("left " + QuotedForMessage(journal) + " and the files it lists whose " +

@@ -111,13 +111,14 @@ MapBackend::Query LocalMap::Ask(const QueryDescriptor& descriptor) {
   DropChangedSets();
   const RowMatrixXf row = QueryRow(descriptor);
   query.layout = layout_;
-  query.distances = ReadDistances(row);
-  DropChangedSets();  // the next query's layout is without them
+  bool changed = false;
+  query.distances = ReadDistances(row, &changed);
+  if (changed) DropChangedSets();  // the next query's layout is without them
   query.seconds = SecondsSince(start);
   return query;
 }
 
-QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row) {
+QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row, bool* changed) {
   QueryDistances distances = DistancesOf(row);
   if (joint_ && joint_->num_places() == map_.num_places()) {
     distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
@@ -128,6 +129,7 @@ QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row) {
     if (map_.set(u).RowsChanged().empty()) continue;
     distances.SetAbsent(u);
     distances.ClearJoint();
+    *changed = true;
   }
   return distances;
 }
@@ -436,7 +438,8 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
     DropChangedSets();
     if (map_.num_sets() == 0) return out;
     const RowMatrixXf row = QueryRow(descriptor);
-    QueryDistances distances = ReadDistances(row);
+    bool changed = false;
+    QueryDistances distances = ReadDistances(row, &changed);
     // A set whose codes are being built (or whose rows changed) is left out: the combiner
     // takes it for absent.
     for (int u = 0; u < map_.num_sets(); ++u) {
@@ -452,7 +455,7 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
       out.joint_sets = joint_->set_names();
       out.joint_distances = distances.joint()->distances;
     }
-    DropChangedSets();
+    if (changed) DropChangedSets();
   } catch (const std::exception& e) {
     out = ShardAnswer();
     out.error = e.what();

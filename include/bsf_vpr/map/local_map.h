@@ -114,8 +114,8 @@ class LocalMap : public MapBackend {
   QueryDistances DistancesOf(const RowMatrixXf& row) REQUIRES(mutex_);
   // The query's distances and, if the map has one for these places, its joint distances;
   // the sets whose rows changed while they were read (a mapped file rewritten in place) are
-  // absent, and then so is the joint.
-  QueryDistances ReadDistances(const RowMatrixXf& row) REQUIRES(mutex_);
+  // absent, and then so is the joint, and *changed is set.
+  QueryDistances ReadDistances(const RowMatrixXf& row, bool* changed) REQUIRES(mutex_);
   // Unloads the sets whose rows changed under the map (StoredReferenceSet::RowsChanged: a
   // mapped file rewritten or truncated in place), naming them and the file in an error and in
   // Problem(); a joint representation they are part of goes with them.

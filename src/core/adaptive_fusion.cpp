@@ -338,7 +338,7 @@ void AdaptiveFusion::Fuse(const Query& query, const AdaptiveFusionOptions& optio
   // The likelihoods: every source's, with its group's pooled non-match statistics.
   SourceLikelihoods(sources.corrected,
                     PooledSourceStats(sources.sets, sources.set_stats, sources.stats, groups),
-                    query.num_places, options.likelihood, &log_l_, &lin_l_);
+                    query.num_places, query.likelihood, &log_l_, &lin_l_);
   // The fusion: per group its hypotheses averaged by their scores; the groups multiply.
   internal::StartFromPrior(query.log_prior, query.num_places, out);
   out->set_weights.assign(sources.sets.size(), 0.0);
@@ -361,8 +361,8 @@ void AdaptiveFusion::Fuse(const Query& query, const AdaptiveFusionOptions& optio
   for (size_t u = 0; u < sources.sets.size(); ++u) {
     if (out->set_weights[u] > 0) out->used_sets.push_back(static_cast<int>(u));
   }
-  // The decision.
-  internal::Decide(options.threshold, options.top_k, out);
+  // The posterior and its best place (the decision is the caller's: decision.h).
+  internal::NormalizePosterior(out);
   // The state changes only once the belief is decided: a query that throws leaves it as it was.
   if (update_state) Commit(query.num_places, sources, options.place_prior_queries, &pending);
 }
@@ -445,7 +445,7 @@ AdaptiveFusion::GroupState AdaptiveFusion::FuseGroup(const Query& query, const S
   const std::vector<const Eigen::ArrayXd*> l = HypothesisLikelihoods(
       members, mixture_weight, exponent,
       with_joint ? std::optional<size_t>(query.sets.size()) : std::nullopt, query.num_places);
-  ScoreHypotheses(records, l, options, query.step_places, query.num_places, &next);
+  ScoreHypotheses(records, l, options, query.filter, query.step_places, query.num_places, &next);
   std::vector<double> a = AverageHypotheses(next, l, query.num_places, out);
   for (size_t j = 0; j < m; ++j) {
     const size_t u = static_cast<size_t>(members[j]);
@@ -565,6 +565,7 @@ std::vector<const Eigen::ArrayXd*> AdaptiveFusion::HypothesisLikelihoods(
 void AdaptiveFusion::ScoreHypotheses(const Records& records,
                                      const std::vector<const Eigen::ArrayXd*>& likelihoods,
                                      const AdaptiveFusionOptions& options,
+                                     const TemporalFilterOptions& filter,
                                      std::optional<double> step_places, int num_places,
                                      GroupState* next) {
   const double lambda = 1.0 - 1.0 / options.memory_queries;
@@ -573,7 +574,7 @@ void AdaptiveFusion::ScoreHypotheses(const Records& records,
   for (const Hypothesis* from : records.of) {
     any_prior = any_prior || (from != nullptr && from->posterior.size() == num_places);
   }
-  const MotionStep step = any_prior ? MotionStepOf(options.filter, step_places) : MotionStep{};
+  const MotionStep step = any_prior ? MotionStepOf(filter, step_places) : MotionStep{};
   const auto one = [&](int k) {
     const size_t h = static_cast<size_t>(k);
     Hypothesis& to = next->hypotheses[h];

@@ -56,42 +56,6 @@ bool CoversEachPlaceInOrder(const SetDistances& d, int num_places) {
 
 }  // namespace internal
 
-double Threshold::LogOdds() const {
-  if (kind == Kind::kLogOdds) return value;
-  return std::log(value) - std::log1p(-value);
-}
-
-Threshold Threshold::As(Kind to) const {
-  if (to == kind) return *this;
-  Threshold t;
-  t.kind = to;
-  t.value = to == Kind::kLogOdds ? LogOdds() : 1.0 / (1.0 + std::exp(-value));
-  return t;
-}
-
-void Threshold::Validate() const {
-  if (kind == Kind::kProbability && !(value > 0 && value < 1)) {
-    throw std::invalid_argument(
-        "threshold as a probability (threshold_kind probability) must lie in (0, 1), got " +
-        std::to_string(value));
-  }
-  if (kind == Kind::kLogOdds && !std::isfinite(value)) {
-    throw std::invalid_argument("threshold as log-odds (threshold_kind log_odds) must be finite");
-  }
-}
-
-const EnumNames<Threshold::Kind>& ThresholdKindNames() {
-  static const EnumNames<Threshold::Kind> kNames{{Threshold::Kind::kProbability, "probability"},
-                                                 {Threshold::Kind::kLogOdds, "log_odds"}};
-  return kNames;
-}
-
-Threshold::Kind ParseThresholdKind(const std::string& name) {
-  return ThresholdKindNames().Parse(name, "threshold_kind");
-}
-
-std::string ToString(Threshold::Kind kind) { return ThresholdKindNames().Name(kind); }
-
 double LogOddsOfBest(const Eigen::VectorXd& log_p, int best) {
   double other_max = -INFINITY;
   for (Eigen::Index i = 0; i < log_p.size(); ++i) {
@@ -176,7 +140,7 @@ void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int n
   }
 }
 
-void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
+void NormalizePosterior(PlaceBelief* out) {
   if (out->log_posterior.hasNaN()) {
     // Only values out of range can get here (descriptors are checked on the way in); a NaN
     // belief must never be published, let alone accepted.
@@ -196,8 +160,6 @@ void Decide(const Threshold& threshold, int top_k, PlaceBelief* out) {
   l_best = max_l;
   // Where the other places lie so far below that the sum underflows, LogOddsOfBest rescales.
   out->confidence = rest > 1e-300 ? -std::log(rest) : LogOddsOfBest(out->log_posterior, out->match);
-  out->accepted = out->confidence > threshold.LogOdds();
-  out->top_places = TopK(out->log_posterior, top_k);
   // Normalise: log P(X = i | D^S) = l_i - logsumexp(l), logsumexp(l) = l_best + log(1 + rest).
   out->log_posterior.array() -= max_l + std::log1p(rest);
   out->cost = -out->log_posterior;
@@ -368,8 +330,7 @@ std::string ToString(FusionRule rule) { return FusionRuleNames().Name(rule); }
 
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-               const Threshold& threshold, int top_k, PlaceBelief* out,
-               const std::vector<DistanceStats>* set_stats) {
+               PlaceBelief* out, const std::vector<DistanceStats>* set_stats) {
   if (set_stats != nullptr && set_stats->size() != sets.size()) {
     throw std::invalid_argument("FuseBayes: " + std::to_string(set_stats->size()) +
                                 " set statistics for " + std::to_string(sets.size()) + " sets");
@@ -387,13 +348,13 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
     internal::AddAtPlaces(sets.at(static_cast<size_t>(use[i])), ll[i], num_places,
                           &out->log_posterior);
   }
-  internal::Decide(threshold, top_k, out);
+  internal::NormalizePosterior(out);
 }
 
 void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double>& weights,
                  int num_places, const LikelihoodOptions& likelihood,
-                 const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
-                 PlaceBelief* out, const std::vector<DistanceStats>& set_stats) {
+                 const Eigen::VectorXd* log_prior, PlaceBelief* out,
+                 const std::vector<DistanceStats>& set_stats) {
   const internal::Groups groups = internal::GroupSets(sets, weights);
   const std::vector<Eigen::VectorXd> columns =
       internal::PooledLogLikelihoods(sets, groups, num_places, likelihood, set_stats);
@@ -406,12 +367,11 @@ void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double
       out->log_posterior.array() += internal::LogMixture(columns, c, weights);
     }
   }
-  internal::Decide(threshold, top_k, out);
+  internal::NormalizePosterior(out);
 }
 
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
-                             int num_places, double max_match_distance, int top_k,
-                             PlaceBelief* out) {
+                             int num_places, PlaceBelief* out) {
   Eigen::VectorXd sum = Eigen::VectorXd::Zero(num_places);
   Eigen::VectorXi covered = Eigen::VectorXi::Zero(num_places);
   for (int u : use) {
@@ -426,11 +386,10 @@ void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::v
   for (int i = 0; i < num_places; ++i) {
     neg_mean(i) = covered(i) > 0 ? -sum(i) / covered(i) : -INFINITY;
   }
-  out->top_places = TopK(neg_mean, top_k);
-  if (out->top_places.empty()) throw std::invalid_argument("no reference set covers any place");
-  out->match = out->top_places.front();
+  const std::vector<int> best = TopK(neg_mean, 1);
+  if (best.empty()) throw std::invalid_argument("no reference set covers any place");
+  out->match = best.front();
   out->confidence = neg_mean(out->match);
-  out->accepted = std::isfinite(out->confidence) && -out->confidence <= max_match_distance;
   out->log_posterior.resize(0);
   out->cost = -neg_mean;
 }

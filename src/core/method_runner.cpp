@@ -107,41 +107,39 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
                       : RunOnAvailable(method_, sets, *available, num_places, options_, log_prior,
                                        stream, joint);
   if (update_state && method_.temporal_filter) last_log_posterior_ = b.log_posterior;
-  // log(P(off) / P(on)), or -inf without the hypothesis.
-  double log_off_odds = -std::numeric_limits<double>::infinity();
+  Evidence evidence;
+  evidence.kind = method_.IsBayesian() ? Evidence::Kind::kPosterior : Evidence::Kind::kDistance;
   if (options_.off_map.enabled && method_.IsBayesian() && b.log_posterior.size() == num_places) {
-    Eigen::VectorXd log_likelihood = b.log_posterior;  // the query's, without the prior's
-    if (log_prior != nullptr && log_prior->size() == num_places) {
-      for (int i = 0; i < num_places; ++i) {
-        const double p = (*log_prior)(i);
-        log_likelihood(i) = p > -std::numeric_limits<double>::infinity()
-                                ? log_likelihood(i) - p
-                                : -std::numeric_limits<double>::infinity();
-      }
-    }
-    log_off_odds = off_map_.Update(log_likelihood, options_.off_map, options_.filter, step_places,
-                                   update_state);
-    b.off_map_probability = 1 / (1 + std::exp(-log_off_odds));
-    b.confidence = ConfidenceWithOffMap(b.confidence, log_off_odds);
-    b.accepted = b.confidence > options_.threshold.LogOdds();
+    evidence.log_off_odds = OffMapOdds(b.log_posterior, log_prior, step_places, update_state);
+    b.off_map_probability = 1 / (1 + std::exp(-evidence.log_off_odds));
   }
   if (method_.sequence) {
     SequenceMatcher what_if = sequence_;  // a query that must leave no trace
     SequenceMatcher& matcher = update_state ? sequence_ : what_if;
     if (matcher.queries() > 0 && b.cost.size() != num_places) matcher.Reset();
     b.cost = matcher.Push(b.cost);
-    const Eigen::VectorXd score = -b.cost;
-    b.top_places = TopK(score, options_.top_k);
-    b.accepted = false;
-    b.confidence = -std::numeric_limits<double>::infinity();
-    if (!b.top_places.empty()) {
-      b.match = b.top_places.front();
-      b.confidence = ConfidenceWithOffMap(
-          SequenceMatchLogOdds(b.cost, b.match, matcher.velocities()), log_off_odds);
-      b.accepted = b.confidence > options_.threshold.LogOdds();
+    evidence.kind = Evidence::Kind::kSequence;
+    evidence.sequence_velocities = matcher.velocities();
+  }
+  Decide(options_.decision, evidence, &b);
+  return b;
+}
+
+double MethodRunner::OffMapOdds(const Eigen::VectorXd& log_posterior,
+                                const Eigen::VectorXd* log_prior,
+                                std::optional<double> step_places, bool update_state) {
+  const Eigen::Index n = log_posterior.size();
+  Eigen::VectorXd log_likelihood = log_posterior;  // the query's, without the prior's
+  if (log_prior != nullptr && log_prior->size() == n) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double p = (*log_prior)(i);
+      log_likelihood(i) = p > -std::numeric_limits<double>::infinity()
+                              ? log_likelihood(i) - p
+                              : -std::numeric_limits<double>::infinity();
     }
   }
-  return b;
+  return off_map_.Update(log_likelihood, options_.off_map, options_.filter, step_places,
+                         update_state);
 }
 
 }  // namespace bsf_vpr

@@ -217,12 +217,12 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "sets' likelihoods multiply)",
               FusionRuleNames(), kLive)
           .Add(
-              "fusion_memory_queries", [](auto& o) -> auto& { return o.fusion_memory_queries; },
+              "fusion_memory_queries", [](auto& o) -> auto& { return o.adaptive.memory_queries; },
               "fusion adaptive: the queries over which a hypothesis's predictions count (its "
               "score forgets by 1 - 1 / this per query)",
               "queries", AtLeast(1), kLive)
           .Add(
-              "fusion_place_means", [](auto& o) -> auto& { return o.fusion_place_means; },
+              "fusion_place_means", [](auto& o) -> auto& { return o.adaptive.place_means; },
               "fusion adaptive: correct each place's distances by its mean distance to the "
               "queries so far, so that a reference image near every query (a hub) stops posing "
               "as the match; a query showing the same scene as the last one counted (a robot "
@@ -230,7 +230,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "", {}, kLive)
           .Add(
               "fusion_place_prior_queries",
-              [](auto& o) -> auto& { return o.fusion_place_prior_queries; },
+              [](auto& o) -> auto& { return o.adaptive.place_prior_queries; },
               "fusion adaptive with fusion_place_means: the queries counted after which a "
               "place's own mean counts half (the correction is n / (n + this) of it)",
               "queries", AtLeast(1), kLive)
@@ -251,22 +251,22 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
               "(exactly the paper)",
               LikelihoodVariantNames(), kLive)
           .Add(
-              "threshold", [](auto& o) -> auto& { return o.threshold.value; },
+              "threshold", [](auto& o) -> auto& { return o.decision.threshold.value; },
               "threshold h on the match, given as threshold_kind says (a probability in (0, 1) "
               "or finite log-odds); gates the Bayesian methods and every +seq method",
               "", Finite(), kLive)
           .AddChoice(
-              "threshold_kind", [](auto& o) -> auto& { return o.threshold.kind; },
+              "threshold_kind", [](auto& o) -> auto& { return o.decision.threshold.kind; },
               "how threshold is given: probability (a posterior in (0, 1)) or log_odds "
               "(log(p / (1 - p)), any finite number)",
               ThresholdKindNames(), kLive)
           .Add(
-              "max_match_distance", [](auto& o) -> auto& { return o.max_match_distance; },
+              "max_match_distance", [](auto& o) -> auto& { return o.decision.max_match_distance; },
               "distance methods (nn:<set>, med, med_selective): the largest (mean) distance of "
               "an accepted match, in the distance's units (0: only an identical image)",
               "distance units", AtLeast(0), kLive)
           .Add(
-              "top_k", [](auto& o) -> auto& { return o.top_k; },
+              "top_k", [](auto& o) -> auto& { return o.decision.top_k; },
               "ranked places kept per query (recall@K needs K)", "places", AtLeast(1))
           .Include(
               SequenceOptionsTable(), [](auto& o) -> auto& { return o.sequence; })
@@ -279,7 +279,7 @@ const OptionTable<MethodOptions>& MethodOptionsTable() {
 
 void MethodOptions::Validate() const {
   MethodOptionsTable().CheckValues(*this);  // each field's bounds, the parts' fields too
-  threshold.Validate();                     // the rules across fields
+  decision.threshold.Validate();            // the rules across fields
   joint.Validate();
   sequence.Validate();
 }
@@ -344,6 +344,75 @@ const JointDistances* FindJoint(const std::vector<JointDistances>* joint, JointK
   return nullptr;
 }
 
+// bsf with fusion adaptive: the hypotheses of each group averaged by their scores.
+void RunAdaptive(const std::vector<SetDistances>& sets, int num_places,
+                 const MethodOptions& options, const Eigen::VectorXd* log_prior,
+                 const FusionStream* stream, const JointDistances* source, PlaceBelief* out) {
+  const std::vector<double> weights =
+      ConditionWeights(sets, out->selection.set_stats, options.selection);
+  const FusionStream none;
+  const FusionStream& s = stream ? *stream : none;
+  AdaptiveFusion::Query query(sets, out->selection.set_stats, weights, num_places);
+  query.set_ids = s.set_ids;
+  query.joint = source ? &source->distances : nullptr;
+  query.log_prior = log_prior;
+  query.step_places = s.step_places;
+  query.likelihood = options.likelihood;
+  query.filter = options.filter;
+  AdaptiveFusion first;  // without a stream: the first query of one
+  (s.state ? s.state : &first)->Fuse(query, options.adaptive, s.update_state, out);
+}
+
+// The methods of one source built from every set (union_nn, the joint representations).
+void RunOnSharedPlaces(const Method& method, const std::vector<SetDistances>& sets,
+                       int num_places, const MethodOptions& options,
+                       const Eigen::VectorXd* log_prior, const JointDistances* source,
+                       PlaceBelief* out) {
+  std::vector<float> union_values;
+  std::vector<SetDistances> one(1);
+  if (method.kind == MethodKind::kUnionNn) {
+    union_values = UnionDistances(sets, num_places);
+    one[0].values = union_values.data();
+    one[0].count = num_places;
+  } else if (source == nullptr) {
+    throw std::invalid_argument(
+        "method '" + method.Name() + "' needs the " + ToString(*method.JointNeeded(options)) +
+        " representation of the sets, which is not built (it needs the sets' descriptors, of "
+        "sets that share places)");
+  } else {
+    one[0] = source->distances;
+  }
+  out->used_sets.resize(sets.size());
+  std::iota(out->used_sets.begin(), out->used_sets.end(), 0);
+  out->set_weights.assign(sets.size(), 1.0);
+  FuseBayes(one, {0}, num_places, options.likelihood, log_prior, out);
+}
+
+// The sets a method of the paper fuses (nn:, bayes:, med, bayes_full, med_selective, bsf).
+std::vector<int> SetsUsed(const Method& method, const std::vector<SetDistances>& sets,
+                          const Selection& selection) {
+  switch (method.kind) {
+    case MethodKind::kNearestNeighbour:
+    case MethodKind::kBayesSingle:
+      if (method.set_index < 0 || method.set_index >= static_cast<int>(sets.size())) {
+        throw std::invalid_argument("method '" + method.Name() + "' refers to a set index " +
+                                    std::to_string(method.set_index) + " that is not loaded");
+      }
+      return {method.set_index};
+    case MethodKind::kMed:
+    case MethodKind::kBayesFull: {
+      std::vector<int> all(sets.size());
+      std::iota(all.begin(), all.end(), 0);
+      return all;
+    }
+    case MethodKind::kMedSelective:
+    case MethodKind::kBsf:
+      return selection.selected;
+    default:
+      throw std::logic_error("RunMethod: a method of the joint sources reached the sets' path");
+  }
+}
+
 }  // namespace
 
 PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& sets, int num_places,
@@ -359,47 +428,11 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
   // are reported with every belief. The mixture selects within each descriptor group.
   out.selection = SelectReferenceSets(sets, options.selection, mixture);
   if (adaptive) {
-    const std::vector<double> weights =
-        ConditionWeights(sets, out.selection.set_stats, options.selection);
-    const FusionStream none;
-    const FusionStream& s = stream ? *stream : none;
-    AdaptiveFusion::Query query(sets, out.selection.set_stats, weights, num_places);
-    query.set_ids = s.set_ids;
-    query.joint = source ? &source->distances : nullptr;
-    query.log_prior = log_prior;
-    query.step_places = s.step_places;
-    AdaptiveFusionOptions adaptive_options;
-    adaptive_options.memory_queries = options.fusion_memory_queries;
-    adaptive_options.place_means = options.fusion_place_means;
-    adaptive_options.place_prior_queries = options.fusion_place_prior_queries;
-    adaptive_options.filter = options.filter;
-    adaptive_options.likelihood = options.likelihood;
-    adaptive_options.threshold = options.threshold;
-    adaptive_options.top_k = options.top_k;
-    AdaptiveFusion first;  // without a stream: the first query of one
-    (s.state ? s.state : &first)->Fuse(query, adaptive_options, s.update_state, &out);
+    RunAdaptive(sets, num_places, options, log_prior, stream, source, &out);
     return out;
   }
   if (method.NeedsSharedPlaces()) {  // one source built from every set
-    std::vector<float> union_values;
-    std::vector<SetDistances> one(1);
-    if (method.kind == MethodKind::kUnionNn) {
-      union_values = UnionDistances(sets, num_places);
-      one[0].values = union_values.data();
-      one[0].count = num_places;
-    } else if (source == nullptr) {
-      throw std::invalid_argument("method '" + method.Name() + "' needs the " +
-                                  ToString(*joint_kind) +
-                                  " representation of the sets, which is not built (it needs "
-                                  "the sets' descriptors, of sets that share places)");
-    } else {
-      one[0] = source->distances;
-    }
-    out.used_sets.resize(sets.size());
-    std::iota(out.used_sets.begin(), out.used_sets.end(), 0);
-    out.set_weights.assign(sets.size(), 1.0);
-    FuseBayes(one, {0}, num_places, options.likelihood, log_prior, options.threshold, options.top_k,
-              &out);
+    RunOnSharedPlaces(method, sets, num_places, options, log_prior, source, &out);
     return out;
   }
   if (mixture) {
@@ -407,32 +440,11 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     for (size_t u = 0; u < sets.size(); ++u) {
       if (out.set_weights[u] > 0) out.used_sets.push_back(static_cast<int>(u));
     }
-    FuseMixture(sets, out.set_weights, num_places, options.likelihood, log_prior, options.threshold,
-                options.top_k, &out, out.selection.set_stats);
+    FuseMixture(sets, out.set_weights, num_places, options.likelihood, log_prior, &out,
+                out.selection.set_stats);
     return out;
   }
-  std::vector<int> use;
-  switch (method.kind) {
-    case MethodKind::kNearestNeighbour:
-    case MethodKind::kBayesSingle:
-      if (method.set_index < 0 || method.set_index >= static_cast<int>(sets.size())) {
-        throw std::invalid_argument("method '" + method.Name() + "' refers to a set index " +
-                                    std::to_string(method.set_index) + " that is not loaded");
-      }
-      use = {method.set_index};
-      break;
-    case MethodKind::kMed:
-    case MethodKind::kBayesFull:
-      use.resize(sets.size());
-      std::iota(use.begin(), use.end(), 0);
-      break;
-    case MethodKind::kMedSelective:
-    case MethodKind::kBsf:
-      use = out.selection.selected;
-      break;
-    default:
-      throw std::logic_error("RunMethod: a method of the joint sources reached the sets' path");
-  }
+  const std::vector<int> use = SetsUsed(method, sets, out.selection);
   out.used_sets = use;
   out.set_weights.assign(sets.size(), 0.0);
   for (int u : use) out.set_weights.at(static_cast<size_t>(u)) = 1.0;
@@ -440,10 +452,9 @@ PlaceBelief RunMethod(const Method& method, const std::vector<SetDistances>& set
     // The statistics selection computed for every set are the likelihood's too: an input,
     // taken aside rather than read out of the belief FuseBayes fills.
     const std::vector<DistanceStats> set_stats = out.selection.set_stats;
-    FuseBayes(sets, use, num_places, options.likelihood, log_prior, options.threshold,
-              options.top_k, &out, &set_stats);
+    FuseBayes(sets, use, num_places, options.likelihood, log_prior, &out, &set_stats);
   } else {
-    FuseMinEnsembleDistance(sets, use, num_places, options.max_match_distance, options.top_k, &out);
+    FuseMinEnsembleDistance(sets, use, num_places, &out);
   }
   return out;
 }

@@ -82,8 +82,8 @@ class Oracle {
       const Eigen::ArrayXf v = Eigen::Map<const Eigen::ArrayXf>(raw[u].values, n);
       PlaceMean& pm = means_[u];
       const bool count = pm.recent.empty() || Pearson(v, pm.recent.back()) < 0.99;
-      if (o_.fusion_place_means && pm.queries > 0) {
-        const double shrink = pm.queries / (pm.queries + o_.fusion_place_prior_queries);
+      if (o_.adaptive.place_means && pm.queries > 0) {
+        const double shrink = pm.queries / (pm.queries + o_.adaptive.place_prior_queries);
         corrected[u].resize(static_cast<size_t>(n));
         const double centre = pm.mean.mean();
         for (int i = 0; i < n; ++i) {
@@ -92,7 +92,7 @@ class Oracle {
         }
         sets[u].values = corrected[u].data();
       }
-      if (o_.fusion_place_means && count) {  // in the mean 10 counted queries later
+      if (o_.adaptive.place_means && count) {  // in the mean 10 counted queries later
         pm.recent.push_back(v);
         if (pm.recent.size() > 10) {
           if (pm.queries == 0) pm.mean = Eigen::ArrayXd::Zero(n);
@@ -151,7 +151,7 @@ class Oracle {
       }
     }
     log_post_.resize(l.size());
-    const double lambda = 1 - 1 / o_.fusion_memory_queries;
+    const double lambda = 1 - 1 / o_.adaptive.memory_queries;
     std::vector<double> a(l.size());
     for (size_t h = 0; h < l.size(); ++h) {
       const Eigen::VectorXd post = log_prior[h] + l[h];
@@ -213,7 +213,6 @@ TEST(AdaptiveFusion, MatchesItsEquationsOverAStream) {
 
 TEST(AdaptiveFusion, LearnsToTrustTheSetThatTracksTheRouteAndToMultiplyIndependentOnes) {
   AdaptiveFusionOptions options;
-  options.top_k = 5;
   const auto weights_after = [&](const Stream& s) {
     AdaptiveFusion f;
     MethodOptions mo;
@@ -243,7 +242,6 @@ TEST(AdaptiveFusion, TheJointHypothesisIsTrustedWhereItPredictsTheQueries) {
     AdaptiveFusion f;
     MethodOptions mo;
     AdaptiveFusionOptions options;
-    options.top_k = 5;
     *right = 0;
     for (int t = 0; t < static_cast<int>(s.d.size()); ++t) {
       std::vector<SetDistances> views = s.Views(t);
@@ -294,7 +292,7 @@ TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
   // so are the singles and the mixture: the belief is bayes: of that set.
   const Stream s(50, 8, {2.0}, 0.0, 11);
   MethodOptions o;
-  o.fusion_place_means = false;  // the hypotheses alone
+  o.adaptive.place_means = false;  // the hypotheses alone
   MethodRunner runner(ParseMethod("bsf", Names(2)), o);
   for (int t = 0; t < 8; ++t) {
     std::vector<SetDistances> twice = s.Views(t);
@@ -309,7 +307,7 @@ TEST(AdaptiveFusion, SetsThatSayTheSameShareOneVote) {
 TEST(AdaptiveFusion, GroupsOfOneSetMultiplyAsBayesFull) {
   const Stream s(40, 5, {2.0, 1.0, 0.5}, 0.2, 13);
   MethodOptions o;
-  o.fusion_place_means = false;  // the hypotheses alone
+  o.adaptive.place_means = false;  // the hypotheses alone
   MethodRunner runner(ParseMethod("bsf", Names(3)), o);
   for (int t = 0; t < 5; ++t) {
     std::vector<SetDistances> views = s.Views(t);
@@ -330,7 +328,7 @@ TEST(AdaptiveFusion, AWhatIfQueryLeavesTheStateAndThreadsLeaveTheBits) {
     SetDistanceThreads(threads);
     MethodRunner runner(bsf, {});
     MethodOptions other;
-    other.fusion_place_prior_queries = 3;
+    other.adaptive.place_prior_queries = 3;
     MethodRunner what_if_runner(bsf, other);
     std::vector<PlaceBelief> out;
     for (int t = 0; t < 14; ++t) {
@@ -428,7 +426,7 @@ double RecallFrom(MethodRunner* runner, const Stream& s, int from) {
 TEST(AdaptiveFusion, APlaceNearEveryQueryStopsPosingAsTheMatch) {
   const Stream s = WithAHub(80, 80, 7, 29);
   MethodOptions off;
-  off.fusion_place_means = false;
+  off.adaptive.place_means = false;
   MethodRunner plain(ParseMethod("bsf", Names(2)), off);
   MethodRunner corrected(ParseMethod("bsf", Names(2)), {});
   const double without = RecallFrom(&plain, s, 20);

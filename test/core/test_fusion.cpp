@@ -6,6 +6,7 @@
 #include <random>
 
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/decision.h"
 #include "bsf_vpr/core/fusion.h"
 #include "test/core/test_util.h"
 
@@ -26,7 +27,8 @@ PlaceBelief Fuse(const std::vector<SetDistances>& v, int n,
   PlaceBelief b;
   std::vector<int> use(v.size());
   std::iota(use.begin(), use.end(), 0);
-  FuseBayes(v, use, n, {}, prior, {}, 10, &b);
+  FuseBayes(v, use, n, {}, prior, &b);
+  Decide(DecisionOptions{}, Evidence{}, &b);
   return b;
 }
 
@@ -143,33 +145,6 @@ TEST(Fusion, ParallelLikelihoodsGiveBitwiseTheSameBelief) {
   EXPECT_TRUE((one.log_posterior.array() == many.log_posterior.array()).all());
 }
 
-TEST(Fusion, ThresholdAcceptsAboveH) {
-  Fixture f(2, 200, 7);
-  PlaceBelief b;
-  Threshold low = Threshold{Threshold::Kind::kLogOdds, -1e9};
-  FuseBayes(f.views, {0, 1}, 200, {}, nullptr, low, 5, &b);
-  EXPECT_TRUE(b.accepted);
-  Threshold high = Threshold{Threshold::Kind::kProbability, 0.999999};
-  FuseBayes(f.views, {0, 1}, 200, {}, nullptr, high, 5, &b);
-  EXPECT_EQ(b.accepted, b.confidence > high.LogOdds());
-  EXPECT_NEAR((Threshold{Threshold::Kind::kProbability, 0.5}.LogOdds()), 0.0, 1e-12);
-  EXPECT_NEAR((Threshold{Threshold::Kind::kProbability, 0.9}.LogOdds()), std::log(9.0), 1e-12);
-  EXPECT_THROW((Threshold{Threshold::Kind::kProbability, 1.0}.Validate()), std::invalid_argument);
-  EXPECT_EQ(ParseThresholdKind("log_odds"), Threshold::Kind::kLogOdds);
-  EXPECT_EQ(ToString(Threshold::Kind::kProbability), "probability");
-  EXPECT_THROW(ParseThresholdKind("logodds"), std::invalid_argument);
-  // The same threshold in the other kind's units, both ways.
-  const Threshold p{Threshold::Kind::kProbability, 0.9};
-  const Threshold l = p.As(Threshold::Kind::kLogOdds);
-  EXPECT_EQ(l.kind, Threshold::Kind::kLogOdds);
-  EXPECT_NEAR(l.value, std::log(9.0), 1e-12);
-  EXPECT_NEAR(l.As(Threshold::Kind::kProbability).value, 0.9, 1e-12);
-  EXPECT_EQ(p.As(Threshold::Kind::kProbability).value, 0.9);
-  EXPECT_THROW(
-      (Threshold{Threshold::Kind::kLogOdds, 40}.As(Threshold::Kind::kProbability).Validate()),
-      std::invalid_argument);  // rounds to 1
-}
-
 TEST(Fusion, RefusesABadPrior) {
   Fixture f(1, 20, 8);
   Eigen::VectorXd wrong_size = Eigen::VectorXd::Zero(19);
@@ -190,8 +165,8 @@ TEST(Fusion, RefusesPlaceIdsOutsideTheMap) {
   std::vector<int> ids = {0, 12};
   const std::vector<SetDistances> v = {{d.data(), ids.data(), 2}};
   PlaceBelief b;
-  EXPECT_THROW(FuseBayes(v, {0}, 10, {}, nullptr, {}, 5, &b), std::invalid_argument);
-  EXPECT_THROW(FuseMinEnsembleDistance(v, {0}, 10, 0.0, 5, &b), std::invalid_argument);
+  EXPECT_THROW(FuseBayes(v, {0}, 10, {}, nullptr, &b), std::invalid_argument);
+  EXPECT_THROW(FuseMinEnsembleDistance(v, {0}, 10, &b), std::invalid_argument);
 }
 
 TEST(Fusion, TopKOrdersByScoreAndBreaksTiesTowardsSmallerIndex) {

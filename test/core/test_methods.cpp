@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/core/methods.h"
 #include "test/core/enum_names_check.h"
 #include "test/core/test_util.h"
@@ -21,6 +22,12 @@ struct Data {
     for (const auto& x : d) views.push_back({x.data(), nullptr, n});
   }
 };
+
+// One query run and decided (RunMethod fuses; the runner decides).
+PlaceBelief Decided(const Method& m, const std::vector<SetDistances>& views, int n,
+                    const MethodOptions& o, const std::vector<JointDistances>* joint = nullptr) {
+  return MethodRunner(m, o).Step(views, n, nullptr, std::nullopt, true, nullptr, joint);
+}
 
 TEST(Methods, MedEqualsEquationMed) {
   for (uint64_t seed = 1; seed <= 30; ++seed) {
@@ -67,11 +74,11 @@ TEST(Methods, SelectedAndUsedSetsAreKeptApart) {
   // Explicit statistics give the same posterior as computing them inside.
   PlaceBelief with, without;
   const Selection s = SelectReferenceSets(data.views, {});
-  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, {}, 5, &with, &s.set_stats);
-  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, {}, 5, &without);
+  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, &with, &s.set_stats);
+  FuseBayes(data.views, {0, 1}, 120, {}, nullptr, &without);
   EXPECT_TRUE(with.log_posterior.isApprox(without.log_posterior));
   const std::vector<DistanceStats> short_stats(1);
-  EXPECT_THROW(FuseBayes(data.views, {0}, 120, {}, nullptr, {}, 5, &with, &short_stats),
+  EXPECT_THROW(FuseBayes(data.views, {0}, 120, {}, nullptr, &with, &short_stats),
                std::invalid_argument);
 }
 
@@ -169,19 +176,19 @@ TEST(Methods, DistanceMethodsAreGatedByMaxMatchDistance) {
   Data data(100, 5);
   for (const std::string name : {"nn:winter", "med", "med_selective"}) {
     const Method m = ParseMethod(name, kNames);
-    const PlaceBelief strict = RunMethod(m, data.views, 100, {});  // default 0
+    const PlaceBelief strict = Decided(m, data.views, 100, {});  // default 0
     EXPECT_FALSE(strict.accepted) << name;
     const double distance = -strict.confidence;
     MethodOptions o;
-    o.max_match_distance = distance;  // exactly the match's distance: accepted
-    EXPECT_TRUE(RunMethod(m, data.views, 100, o).accepted) << name;
-    o.max_match_distance = distance * 0.999;
-    EXPECT_FALSE(RunMethod(m, data.views, 100, o).accepted) << name;
+    o.decision.max_match_distance = distance;  // exactly the match's distance: accepted
+    EXPECT_TRUE(Decided(m, data.views, 100, o).accepted) << name;
+    o.decision.max_match_distance = distance * 0.999;
+    EXPECT_FALSE(Decided(m, data.views, 100, o).accepted) << name;
   }
   MethodOptions bad;
-  bad.max_match_distance = -1;
+  bad.decision.max_match_distance = -1;
   EXPECT_THROW(bad.Validate(), std::invalid_argument);
-  bad.max_match_distance = NAN;
+  bad.decision.max_match_distance = NAN;
   EXPECT_THROW(bad.Validate(), std::invalid_argument);
 }
 
@@ -191,7 +198,7 @@ TEST(Methods, ANanDistanceNeverGivesAnAcceptedBelief) {
   data.d[1][7] = NAN;
   data.d[2][7] = NAN;
   MethodOptions o;
-  o.threshold = Threshold{Threshold::Kind::kLogOdds, -1000};
+  o.decision.threshold = Threshold{Threshold::Kind::kLogOdds, -1000};
   try {
     const PlaceBelief b = RunMethod(ParseMethod("bayes_full", kNames), data.views, 50, o);
     EXPECT_FALSE(b.log_posterior.hasNaN());
@@ -375,7 +382,7 @@ TEST(Methods, UnionNnIsBayesOnEachPlacesSmallestDistance) {
   for (int i = 0; i < 60; ++i) smallest[i] = std::min({data.d[0][i], data.d[1][i], data.d[2][i]});
   std::vector<SetDistances> one = {{smallest.data(), nullptr, 60}};
   PlaceBelief expected;
-  FuseBayes(one, {0}, 60, {}, nullptr, {}, 10, &expected);
+  FuseBayes(one, {0}, 60, {}, nullptr, &expected);
   EXPECT_EQ(b.match, expected.match);
   EXPECT_DOUBLE_EQ(b.confidence, expected.confidence);
   EXPECT_EQ(b.used_sets, (std::vector<int>{0, 1, 2}));
@@ -409,14 +416,17 @@ TEST(Methods, TheJointMethodsAreBayesOnTheirRepresentation) {
     const PlaceBelief b = RunMethod(m, data.views, 50, {}, nullptr, nullptr, &joint);
     std::vector<SetDistances> one = {joint[0].distances};
     PlaceBelief expected;
-    FuseBayes(one, {0}, 50, {}, nullptr, {}, 10, &expected);
+    FuseBayes(one, {0}, 50, {}, nullptr, &expected);
     EXPECT_EQ(b.match, expected.match);
     EXPECT_DOUBLE_EQ(b.confidence, expected.confidence);
-    EXPECT_EQ(b.accepted, expected.confidence > MethodOptions().threshold.LogOdds());
+    MethodOptions places_only;  // the confidence among the places alone, as RunMethod's
+    places_only.off_map.enabled = false;
+    EXPECT_EQ(Decided(m, data.views, 50, places_only, &joint).accepted,
+              expected.confidence > MethodOptions().decision.threshold.LogOdds());
     // +filter carries its posterior; the threshold gates it as it gates bayes:.
     MethodOptions strict;
-    strict.threshold.value = 0.999999;
-    EXPECT_FALSE(RunMethod(m, data.views, 50, strict, nullptr, nullptr, &joint).accepted);
+    strict.decision.threshold.value = 0.999999;
+    EXPECT_FALSE(Decided(m, data.views, 50, strict, &joint).accepted);
     EXPECT_NO_THROW(ParseMethod(std::string(name) + "+filter+seq", kNames));
   }
   // bsf asks for the joint representation of fusion_joint (adaptive only), and fuses the

@@ -101,7 +101,7 @@ TEST(Options, OneDefaultThresholdEverywhere) {
   // core and the evaluator but 0.9 in the node).
   const OptionInfo& info = MethodOptionsTable().Find("threshold")->info;
   EXPECT_EQ(info.default_value, OptionValue(0.9));
-  EXPECT_EQ(MethodOptions().threshold.value, 0.9);
+  EXPECT_EQ(MethodOptions().decision.threshold.value, 0.9);
   EXPECT_EQ(MethodOptionsTable().Find("threshold_kind")->info.default_value,
             OptionValue(std::string("probability")));
 }
@@ -115,7 +115,7 @@ TEST(Options, FlagsTakeDashesOrUnderscores) {
   EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--sequence-use-partial", "false", &o));
   EXPECT_FALSE(o.sequence.use_partial_sequences);
   EXPECT_TRUE(MethodOptionsTable().SetFromFlag("--threshold-kind", "log_odds", &o));
-  EXPECT_EQ(o.threshold.kind, Threshold::Kind::kLogOdds);
+  EXPECT_EQ(o.decision.threshold.kind, Threshold::Kind::kLogOdds);
   EXPECT_FALSE(MethodOptionsTable().SetFromFlag("--gamma", "0.5", &o));  // not an option
   EXPECT_FALSE(MethodOptionsTable().SetFromFlag("gamma_fraction", "0.5", &o));
   EXPECT_EQ(o.selection.gamma_fraction, 0.5);
@@ -148,7 +148,7 @@ TEST(Options, BadValuesNameTheOptionAndChangeNothing) {
   ExpectThrowsWith([&] { t.SetFromFlag("--filter-step-mean-places", "nan", &o); },
                    "--filter-step-mean-places");
   EXPECT_EQ(o.selection.gamma_fraction, MethodOptions().selection.gamma_fraction);
-  EXPECT_EQ(o.top_k, MethodOptions().top_k);
+  EXPECT_EQ(o.decision.top_k, MethodOptions().decision.top_k);
 }
 
 TEST(Options, SourcesAreTypedAndTracked) {
@@ -167,8 +167,8 @@ TEST(Options, LiveOnlyLeavesTheOthers) {
   MapOptionSource source({{"top_k", 3LL}, {"threshold", 0.5}});
   MethodOptions o;
   MethodOptionsTable().Apply(source, &o, /*live_only=*/true);
-  EXPECT_EQ(o.top_k, MethodOptions().top_k);  // top_k is not live
-  EXPECT_EQ(o.threshold.value, 0.5);
+  EXPECT_EQ(o.decision.top_k, MethodOptions().decision.top_k);  // top_k is not live
+  EXPECT_EQ(o.decision.threshold.value, 0.5);
   for (const OptionInfo& info : MethodOptionsTable().Infos(/*live_only=*/true)) {
     EXPECT_TRUE(info.live) << info.name;
   }
@@ -316,7 +316,7 @@ TEST(Options, ValidateEnforcesTheTableBoundsOfOptionsBuiltInCode) {
   // NaN names the range, also where the table has none to say ("threshold must be , got
   // nan" before).
   o = MethodOptions();
-  o.threshold.value = std::nan("");
+  o.decision.threshold.value = std::nan("");
   ExpectThrowsWith([&] { o.Validate(); }, "threshold must be a finite number, got nan");
   OptionInfo free;
   free.name = "free";

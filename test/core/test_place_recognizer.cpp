@@ -84,7 +84,7 @@ TEST(PlaceRecognizer, ReconfiguringKeepsOnlyTheStateTheChangeLeavesValid) {
   const Recognition carried = r.Recognize(next, false);
   // A new threshold (or gamma, likelihood, filter step) keeps the filter and the sequence.
   RecognizerOptions h = opt;
-  h.method_options.threshold = Threshold{Threshold::Kind::kProbability, 0.999};
+  h.method_options.decision.threshold = Threshold{Threshold::Kind::kProbability, 0.999};
   r.SetOptions(h);
   const Recognition after_h = r.Recognize(next, false);
   EXPECT_TRUE(after_h.belief.cost.isApprox(carried.belief.cost));

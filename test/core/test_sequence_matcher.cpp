@@ -131,7 +131,7 @@ TEST(SequenceMatcher, SeqMethodsAreGatedByTheThreshold) {
   std::mt19937_64 rng(9);
   std::uniform_real_distribution<float> u(0.5f, 1.5f);
   MethodOptions o;
-  o.threshold = Threshold{Threshold::Kind::kProbability, 0.99};
+  o.decision.threshold = Threshold{Threshold::Kind::kProbability, 0.99};
   for (const std::string name : {"bsf+seq", "nn:a+seq", "med+seq", "bsf+filter+seq"}) {
     MethodRunner runner(ParseMethod(name, names), o);
     int accepted_noise = 0, accepted_route = 0;

@@ -21,7 +21,7 @@
 
 namespace bsf_vpr {
 
-// How AdaptiveFusion::Fuse fuses and decides a query.
+// How AdaptiveFusion scores its hypotheses and keeps the places' means (MethodOptions::adaptive).
 struct AdaptiveFusionOptions {
   // The queries over which a hypothesis's predictions count: lambda = 1 - 1 / memory.
   double memory_queries = 10;
@@ -29,11 +29,6 @@ struct AdaptiveFusionOptions {
   // (above), and the queries n0 after which that mean counts half.
   bool place_means = true;
   double place_prior_queries = 20;
-  TemporalFilterOptions filter;  // how each hypothesis's belief moves between queries
-  // Each set's likelihood, and the decision from the belief: as FuseBayes takes them.
-  LikelihoodOptions likelihood;
-  Threshold threshold;
-  int top_k = 10;  // how many ranked places the belief keeps
 };
 
 class AdaptiveFusion {
@@ -62,9 +57,12 @@ class AdaptiveFusion {
     // The progress since the previous query (odometry: it moves every hypothesis's belief,
     // as +filter's); nullopt: the filter's mean step.
     std::optional<double> step_places;
+    LikelihoodOptions likelihood;   // each source's likelihood, as FuseBayes computes it
+    TemporalFilterOptions filter;   // how each hypothesis's belief moves between queries
   };
 
-  // Fuses one query as described above and fills `out` as FuseBayes does, plus set_weights:
+  // Fuses one query as described above and fills `out` as FuseBayes does (the posterior and
+  // its best place, for the decision), plus set_weights:
   // per set, the weight its likelihood has, a_u + a_mixture w_u / W + a_product c_u. A set
   // missing from a query has no hypothesis in it, and when it is back its hypothesis starts
   // again (uniform belief, the mean score). Without update_state, or if it throws, the
@@ -168,6 +166,7 @@ class AdaptiveFusion {
   static void ScoreHypotheses(const Records& records,
                               const std::vector<const Eigen::ArrayXd*>& likelihoods,
                               const AdaptiveFusionOptions& options,
+                              const TemporalFilterOptions& filter,
                               std::optional<double> step_places, int num_places, GroupState* next);
   static std::vector<double> AverageHypotheses(
       const GroupState& next, const std::vector<const Eigen::ArrayXd*>& likelihoods, int num_places,

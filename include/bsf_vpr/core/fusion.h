@@ -15,26 +15,6 @@
 
 namespace bsf_vpr {
 
-// The threshold h of the paper on a Bayesian method's belief in its best place. Given as a
-// posterior probability p in (0, 1) or directly as log-odds log(p / (1 - p)). A match is
-// accepted when the confidence (log-odds) exceeds LogOdds().
-struct Threshold {
-  enum class Kind { kProbability, kLogOdds };
-  Kind kind = Kind::kProbability;
-  double value = 0.9;
-
-  double LogOdds() const;
-  // The same threshold given as `to` says (log-odds 2.197 is probability 0.9). A large
-  // log-odds becomes a probability that rounds to 1, which Validate() refuses.
-  Threshold As(Kind to) const;
-  // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
-  void Validate() const;
-};
-// The kinds' names (threshold_kind).
-const EnumNames<Threshold::Kind>& ThresholdKindNames();
-Threshold::Kind ParseThresholdKind(const std::string& name);  // throws naming the choices
-std::string ToString(Threshold::Kind kind);
-
 // How bsf fuses the sets it relies on (MethodOptions::fusion; docs/method.md, "Fusion that
 // adapts").
 enum class FusionRule {
@@ -60,6 +40,9 @@ std::string ToString(FusionRule rule);
 
 // The outcome of one query under one method.
 struct PlaceBelief {
+  // The fusion rules fill log_posterior and cost, with the posterior's best place and its
+  // log-odds in match and confidence; the decision (decision.h) alone sets accepted and
+  // top_places and gives match and confidence their final values.
   int match = -1;  // the place decided on
   // Higher means more sure. Bayesian methods: the log-odds of the match,
   // log P(match) - log P(any other place), from the unnormalised log posterior (stays
@@ -106,14 +89,13 @@ void ValidateLogPrior(const Eigen::VectorXd& log_prior, int num_places);
 
 // Bayesian fusion of the sets `use` (indices into `sets`): unnormalised log posterior
 // sum_{u in use} log P(D^u | X = i) + log P(X = i). `log_prior` null means uniform.
-// Fills match, confidence, accepted, top_places, log_posterior and cost of `out` (nothing
-// else of `out` is read or written). `set_stats`, if given, holds every set's
+// Fills log_posterior (normalised), cost, and the posterior's best place and log-odds in
+// match and confidence, of `out` (nothing else of `out` is read or written). `set_stats`, if given, holds every set's
 // ComputeDistanceStats, already computed for selection (one entry per set of `sets`);
 // null computes them for the used sets.
 void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& use, int num_places,
                const LikelihoodOptions& likelihood, const Eigen::VectorXd* log_prior,
-               const Threshold& threshold, int top_k, PlaceBelief* out,
-               const std::vector<DistanceStats>* set_stats = nullptr);
+               PlaceBelief* out, const std::vector<DistanceStats>* set_stats = nullptr);
 
 // Bayesian fusion by FusionRule::kMixture: with w_u = weights[u] (sets of weight 0 are left
 // out) and, per group g of sets (SetDistances::group), mu_g and sigma_g the mean and
@@ -125,16 +107,15 @@ void FuseBayes(const std::vector<SetDistances>& sets, const std::vector<int>& us
 // as FuseBayes does.
 void FuseMixture(const std::vector<SetDistances>& sets, const std::vector<double>& weights,
                  int num_places, const LikelihoodOptions& likelihood,
-                 const Eigen::VectorXd* log_prior, const Threshold& threshold, int top_k,
-                 PlaceBelief* out, const std::vector<DistanceStats>& set_stats);
+                 const Eigen::VectorXd* log_prior, PlaceBelief* out,
+                 const std::vector<DistanceStats>& set_stats);
 
 // Minimum ensemble distance over the sets `use`: the place with the smallest mean distance
 // over the used sets that cover it (with full coverage exactly Eq. MED: argmin of the sum).
-// Places no used set covers cannot be matched. Fills match, confidence (minus the mean
-// distance), accepted (mean distance <= max_match_distance, in the distance's units) and
-// top_places.
+// Places no used set covers cannot be matched. Fills cost (the mean distance per place,
+// +infinity where no used set covers it), match and confidence (minus its mean distance);
+// throws std::invalid_argument when no place is covered.
 void FuseMinEnsembleDistance(const std::vector<SetDistances>& sets, const std::vector<int>& use,
-                             int num_places, double max_match_distance, int top_k,
-                             PlaceBelief* out);
+                             int num_places, PlaceBelief* out);
 
 }  // namespace bsf_vpr

@@ -1,7 +1,7 @@
 // Runs one method query after query, carrying what its +filter and +seq suffixes need from
-// one query to the next (the previous posterior, the last L cost vectors), and the adaptive
-// fusion's hypotheses. The offline
-// evaluator and the online recogniser both use it, so a replay gives the offline results.
+// one query to the next (the previous posterior, the last L cost vectors), the adaptive
+// fusion's hypotheses and the off-map tracker; then decides (decision.h). The offline
+// evaluator and the online decider both use it, so a replay gives the offline results.
 //
 // Not thread-safe: callers serialise access.
 #pragma once
@@ -47,6 +47,10 @@ class MethodRunner {
   const Method& method() const { return method_; }
 
  private:
+  // The off-map tracker's log(P(off) / P(on)) after this query's posterior.
+  double OffMapOdds(const Eigen::VectorXd& log_posterior, const Eigen::VectorXd* log_prior,
+                    std::optional<double> step_places, bool update_state);
+
   Method method_;
   MethodOptions options_;
   SequenceMatcher sequence_;

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/adaptive_fusion.h"
+#include "bsf_vpr/core/decision.h"
 #include "bsf_vpr/core/fusion.h"
 #include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/off_map.h"
@@ -110,23 +111,14 @@ struct MethodOptions {
   SelectionOptions selection;
   LikelihoodOptions likelihood;
   FusionRule fusion = FusionRule::kAdaptive;  // how bsf fuses the sets (fusion.h)
-  // fusion adaptive: the queries over which a hypothesis's predictions count (adaptive_fusion.h)
-  double fusion_memory_queries = 10;
-  // fusion adaptive: each place's distances corrected by its mean distance to the queries so
-  // far (places near every query, hubs), that mean counting half after
-  // fusion_place_prior_queries queries (adaptive_fusion.h)
-  bool fusion_place_means = true;
-  double fusion_place_prior_queries = 20;
-  // fusion adaptive: the joint representation added as one more hypothesis (adaptive_fusion.h)
+  // fusion adaptive: how its hypotheses are scored and the places' means kept
+  // (fusion_memory_queries, fusion_place_means, fusion_place_prior_queries)
+  AdaptiveFusionOptions adaptive;
   FusionJoint fusion_joint = FusionJoint::kDiscriminant;
   JointOptions joint;  // how the joint representations are built
-  // What makes a match accepted (PlaceBelief::accepted), per kind of method:
-  Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
-  // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of
-  // an accepted match, in the distance's own units (not squared). The default 0 accepts
-  // only a query identical to a reference: set it for the descriptor and distance in use.
-  double max_match_distance = 0;
-  int top_k = 10;                // how many ranked places to return (recall@K needs K)
+  // What accepts a match and how many places are ranked (threshold, threshold_kind,
+  // max_match_distance, top_k): read by the decision alone (decision.h)
+  DecisionOptions decision;
   SequenceOptions sequence;      // for +seq methods
   TemporalFilterOptions filter;  // for +filter methods
   // Bayesian methods: the hypothesis that the query shows no place of the map (off_map.h)

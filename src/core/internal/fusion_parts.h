@@ -32,9 +32,10 @@ void StartFromPrior(const Eigen::VectorXd* log_prior, int num_places, PlaceBelie
 void AddAtPlaces(const SetDistances& d, const std::vector<double>& values, int num_places,
                  Eigen::VectorXd* to);
 
-// The decision from an unnormalised log posterior in out->log_posterior: match, confidence,
-// accepted, top places; then normalises it and sets the cost.
-void Decide(const Threshold& threshold, int top_k, PlaceBelief* out);
+// Normalises the log posterior in out->log_posterior and sets the cost, with the posterior's
+// best place and its log-odds (from the unnormalised values) in match and confidence, for
+// the decision (decision.h).
+void NormalizePosterior(PlaceBelief* out);
 
 // The descriptor groups of `sets` (SetDistances::group), in order of first appearance:
 // per group all its sets (`members`, for the pooled statistics) and those of non-zero

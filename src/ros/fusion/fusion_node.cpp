@@ -133,7 +133,7 @@ void FusionNode::StartParts() {
   // it in the background).
   map_->WaitForJoint();
   if (!method.IsBayesian() && !method.sequence &&
-      params_.recognizer.method_options.max_match_distance == 0) {
+      params_.recognizer.method_options.decision.max_match_distance == 0) {
     ROS_WARN(
         "bsf_vpr: method %s is gated by max_match_distance, which is 0: only a query "
         "identical to a reference is accepted; set it to the largest distance to accept",
@@ -435,17 +435,11 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   RecognizerOptions o = in_force;
   try {
     table.Apply(source, &o, /*live_only=*/true);  // refuses values out of the table's bounds
-    // threshold_kind switched alone: the same threshold in the other kind's units.
-    Threshold& h = o.method_options.threshold;
-    const Threshold& before = in_force.method_options.threshold;
-    if (h.kind != before.kind && h.value == before.value) {
-      h = before.As(h.kind);
-      if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
-        throw std::invalid_argument(
-            "threshold_kind probability: log-odds " + std::to_string(before.value) +
-            " is a probability that rounds to 1; send threshold_kind probability with a "
-            "threshold below 1 (e.g. 0.999999), or keep log_odds");
-      }
+    Threshold& h = o.method_options.decision.threshold;
+    const Threshold& before = in_force.method_options.decision.threshold;
+    const bool kind_alone = h.kind != before.kind && h.value == before.value;
+    h = ThresholdAsAsked(before, h);  // threshold_kind switched alone: the same threshold
+    if (kind_alone) {
       ROS_INFO("bsf_vpr: threshold %g (%s) is %g as %s", before.value,
                ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
     }

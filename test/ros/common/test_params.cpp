@@ -60,7 +60,7 @@ TEST(FusionParams, DefaultsAreTheTables) {
   RosParamSource none(XmlRpc::XmlRpcValue(), "/bsf_vpr");
   const FusionParams p = LoadFusionParams(none);
   EXPECT_EQ(p.recognizer.method, "bsf");
-  EXPECT_EQ(p.recognizer.method_options.threshold.value, 0.9);
+  EXPECT_EQ(p.recognizer.method_options.decision.threshold.value, 0.9);
   EXPECT_EQ(p.recognizer.metric, DistanceMetric::kEuclidean);
   EXPECT_FALSE(p.distance_given());
   EXPECT_EQ(p.queue_size, 100);
@@ -88,10 +88,10 @@ TEST(FusionParams, ReadsEveryKind) {
   EXPECT_EQ(p.recognizer.method, "bsf+filter");
   EXPECT_EQ(m.selection.gamma_fraction, 1.0);
   EXPECT_EQ(m.selection.rule, SelectionRule::kStandardized);
-  EXPECT_EQ(m.threshold.kind, Threshold::Kind::kLogOdds);
-  EXPECT_EQ(m.threshold.value, 8.0);
+  EXPECT_EQ(m.decision.threshold.kind, Threshold::Kind::kLogOdds);
+  EXPECT_EQ(m.decision.threshold.value, 8.0);
   EXPECT_FALSE(m.sequence.use_partial_sequences);
-  EXPECT_EQ(m.top_k, 3);
+  EXPECT_EQ(m.decision.top_k, 3);
   EXPECT_TRUE(p.distance_given());
   EXPECT_EQ(p.recognizer.metric, DistanceMetric::kCosine);
   EXPECT_EQ(p.storage, StoragePrecision::kInt8);
@@ -226,8 +226,8 @@ TEST(Reconfigure, TheCfgIsTheTable) {
   RecognizerOptions o;
   table.Apply(source, &o, /*live_only=*/true);
   EXPECT_TRUE(source.Unread().empty());
-  EXPECT_EQ(o.method_options.threshold.value, 5);
-  EXPECT_EQ(o.method_options.threshold.kind, Threshold::Kind::kLogOdds);
+  EXPECT_EQ(o.method_options.decision.threshold.value, 5);
+  EXPECT_EQ(o.method_options.decision.threshold.kind, Threshold::Kind::kLogOdds);
   EXPECT_EQ(o.method_options.sequence.length, 7);
   dynamic_reconfigure::Config back = ConfigFromValues(table.Values(o, true));
   FusionConfig shown;

@@ -1,0 +1,77 @@
+// The decision: the one step that turns what a method found (a posterior over places, a
+// distance method's mean distances, a sequence's costs), with the off-map tracker's odds,
+// into the match, its confidence, whether it is accepted and the ranked places. Nothing
+// else sets PlaceBelief::accepted or top_places, or reads threshold, threshold_kind,
+// max_match_distance and top_k (docs/method.md, "Confidence and acceptance").
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "bsf_vpr/core/enum_names.h"
+#include "bsf_vpr/core/fusion.h"
+
+namespace bsf_vpr {
+
+// The threshold h of the paper on a Bayesian method's belief in its best place. Given as a
+// posterior probability p in (0, 1) or directly as log-odds log(p / (1 - p)). A match is
+// accepted when the confidence (log-odds) exceeds LogOdds().
+struct Threshold {
+  enum class Kind { kProbability, kLogOdds };
+  Kind kind = Kind::kProbability;
+  double value = 0.9;
+
+  double LogOdds() const;
+  // The same threshold given as `to` says (log-odds 2.197 is probability 0.9). A large
+  // log-odds becomes a probability that rounds to 1, which Validate() refuses.
+  Threshold As(Kind to) const;
+  // Throws std::invalid_argument: a probability must lie in (0, 1), log-odds be finite.
+  void Validate() const;
+};
+// The kinds' names (threshold_kind).
+const EnumNames<Threshold::Kind>& ThresholdKindNames();
+Threshold::Kind ParseThresholdKind(const std::string& name);  // throws naming the choices
+std::string ToString(Threshold::Kind kind);
+
+// A change of threshold asked for live (dynamic_reconfigure): `asked` as the request left it,
+// `before` the one in force. threshold_kind switched alone (the value unchanged) means the
+// same threshold in the other kind's units; anything else is taken as asked. Throws
+// std::invalid_argument when the switch gives a probability that rounds to 1.
+Threshold ThresholdAsAsked(const Threshold& before, const Threshold& asked);
+
+// What accepts a match and how many places are ranked (MethodOptions::decision).
+struct DecisionOptions {
+  Threshold threshold;  // h: Bayesian methods and every +seq method (probability or log-odds)
+  // Distance methods (nn:, med, med_selective) without +seq: the largest (mean) distance of
+  // an accepted match, in the distance's own units (not squared). The default 0 accepts
+  // only a query identical to a reference: set it for the descriptor and distance in use.
+  double max_match_distance = 0;
+  int top_k = 10;  // how many ranked places to return (recall@K needs K)
+};
+
+// What the decision is made from, besides the belief the method filled.
+struct Evidence {
+  enum class Kind {
+    // belief.log_posterior (normalised), with the posterior's best place and its log-odds in
+    // belief.match and belief.confidence (NormalizePosterior)
+    kPosterior,
+    // belief.cost: a distance method's mean distance per place, its best place and minus
+    // its distance in belief.match and belief.confidence
+    kDistance,
+    // belief.cost: the best sequence's cost ending at each place (SequenceMatcher::Push)
+    kSequence,
+  };
+  Kind kind = Kind::kPosterior;
+  // log(P(off) / P(on)) from the off-map tracker; -infinity without the hypothesis.
+  double log_off_odds = -std::numeric_limits<double>::infinity();
+  // kSequence: the velocities each place's sequence was searched over
+  // (SequenceMatcher::velocities).
+  int sequence_velocities = 1;
+};
+
+// Decides: sets match, confidence, accepted and top_places of `belief` (see PlaceBelief).
+void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief);
+
+}  // namespace bsf_vpr

@@ -1,0 +1,87 @@
+#include "bsf_vpr/core/decision.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "bsf_vpr/core/off_map.h"
+#include "bsf_vpr/core/sequence_matcher.h"
+
+namespace bsf_vpr {
+
+double Threshold::LogOdds() const {
+  if (kind == Kind::kLogOdds) return value;
+  return std::log(value) - std::log1p(-value);
+}
+
+Threshold Threshold::As(Kind to) const {
+  if (to == kind) return *this;
+  Threshold t;
+  t.kind = to;
+  t.value = to == Kind::kLogOdds ? LogOdds() : 1.0 / (1.0 + std::exp(-value));
+  return t;
+}
+
+void Threshold::Validate() const {
+  if (kind == Kind::kProbability && !(value > 0 && value < 1)) {
+    throw std::invalid_argument(
+        "threshold as a probability (threshold_kind probability) must lie in (0, 1), got " +
+        std::to_string(value));
+  }
+  if (kind == Kind::kLogOdds && !std::isfinite(value)) {
+    throw std::invalid_argument("threshold as log-odds (threshold_kind log_odds) must be finite");
+  }
+}
+
+const EnumNames<Threshold::Kind>& ThresholdKindNames() {
+  static const EnumNames<Threshold::Kind> kNames{{Threshold::Kind::kProbability, "probability"},
+                                                 {Threshold::Kind::kLogOdds, "log_odds"}};
+  return kNames;
+}
+
+Threshold::Kind ParseThresholdKind(const std::string& name) {
+  return ThresholdKindNames().Parse(name, "threshold_kind");
+}
+
+std::string ToString(Threshold::Kind kind) { return ThresholdKindNames().Name(kind); }
+
+Threshold ThresholdAsAsked(const Threshold& before, const Threshold& asked) {
+  if (asked.kind == before.kind || asked.value != before.value) return asked;
+  const Threshold h = before.As(asked.kind);
+  if (h.kind == Threshold::Kind::kProbability && !(h.value < 1)) {
+    throw std::invalid_argument(
+        "threshold_kind probability: log-odds " + std::to_string(before.value) +
+        " is a probability that rounds to 1; send threshold_kind probability with a "
+        "threshold below 1 (e.g. 0.999999), or keep log_odds");
+  }
+  return h;
+}
+
+void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief) {
+  PlaceBelief& b = *belief;
+  switch (evidence.kind) {
+    case Evidence::Kind::kPosterior:
+      b.confidence = ConfidenceWithOffMap(b.confidence, evidence.log_off_odds);
+      b.accepted = b.confidence > options.threshold.LogOdds();
+      b.top_places = TopK(b.log_posterior, options.top_k);
+      return;
+    case Evidence::Kind::kDistance:
+      b.accepted = std::isfinite(b.confidence) && -b.confidence <= options.max_match_distance;
+      b.top_places = TopK(-b.cost, options.top_k);
+      return;
+    case Evidence::Kind::kSequence: {
+      b.top_places = TopK(-b.cost, options.top_k);
+      b.accepted = false;
+      b.confidence = -std::numeric_limits<double>::infinity();
+      if (b.top_places.empty()) return;
+      b.match = b.top_places.front();
+      b.confidence = ConfidenceWithOffMap(
+          SequenceMatchLogOdds(b.cost, b.match, evidence.sequence_velocities),
+          evidence.log_off_odds);
+      b.accepted = b.confidence > options.threshold.LogOdds();
+      return;
+    }
+  }
+  throw std::logic_error("Decide: unknown kind of evidence");
+}
+
+}  // namespace bsf_vpr

@@ -107,6 +107,8 @@ class FusionNode {
   RecognizerOptions OptionsInForce() const REQUIRES(mutex_);
   void OnReconfigure(FusionConfig& config, uint32_t level) EXCLUDES(mutex_);
   void Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) EXCLUDES(mutex_);
+  // The diagnostics' level and summary: the most pressing problem, or OK.
+  void DiagnoseSummary(diagnostic_updater::DiagnosticStatusWrapper& status) REQUIRES(mutex_);
   void RejectMessage(const std::string& why) REQUIRES(mutex_);
   // An input the ingest dropped (InputDropped): why no belief may follow.
   void OnInputDropped(const InputDropped::ConstPtr& msg) EXCLUDES(mutex_);

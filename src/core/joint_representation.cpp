@@ -259,6 +259,64 @@ MatrixXd PrincipalDirections(const RowMatrixXf& all, int k) {
   return q * small.eigenvectors().rowwise().reverse().leftCols(k);
 }
 
+// The within- and between-place scatters of the rows `y` (R x k, centred on their mean),
+// row j at place row_places[j].
+struct Scatters {
+  MatrixXd within, between;
+  int places_seen = 0;  // places with a row
+};
+Scatters PlaceScatters(const MatrixXd& y, const std::vector<int>& row_places, int num_places) {
+  const Eigen::Index k = y.cols();
+  MatrixXd place_sum = MatrixXd::Zero(num_places, k);
+  std::vector<int> n(static_cast<size_t>(num_places), 0);
+  for (Eigen::Index j = 0; j < y.rows(); ++j) {
+    const int place = row_places[static_cast<size_t>(j)];
+    place_sum.row(place) += y.row(j);
+    ++n[static_cast<size_t>(place)];
+  }
+  Scatters s;
+  s.within = MatrixXd::Zero(k, k);
+  s.between = MatrixXd::Zero(k, k);
+  MatrixXd centred = y;
+  for (Eigen::Index j = 0; j < y.rows(); ++j) {
+    const int place = row_places[static_cast<size_t>(j)];
+    centred.row(j) -= place_sum.row(place) / static_cast<double>(n[static_cast<size_t>(place)]);
+  }
+  s.within.selfadjointView<Eigen::Lower>().rankUpdate(centred.transpose());
+  s.within = s.within.selfadjointView<Eigen::Lower>();
+  for (int place = 0; place < num_places; ++place) {
+    const int m = n[static_cast<size_t>(place)];
+    if (m == 0) continue;
+    const Eigen::VectorXd mean = place_sum.row(place).transpose() / m;
+    s.between.noalias() += m * mean * mean.transpose();  // mu is 0 after centring
+    ++s.places_seen;
+  }
+  return s;
+}
+
+// The discriminant's directions (k x d): S_b w = lambda (S_w + ridge I) w, through the
+// Cholesky factor L of S_w + ridge I: L^-1 S_b L^-T v = lambda v, w = L^-T v (so that
+// w^T (S_w + ridge I) w = 1), the d largest.
+MatrixXd DiscriminantDirections(const Scatters& s, const JointOptions& options) {
+  const Eigen::Index k = s.within.rows();
+  double ridge = options.discriminant_ridge * s.within.trace() / static_cast<double>(k);
+  if (!(ridge > 0)) ridge = 1e-9 * std::max(1.0, s.between.trace() / static_cast<double>(k));
+  MatrixXd a = s.within;
+  a.diagonal().array() += ridge;
+  const Eigen::LLT<MatrixXd> llt(a);
+  if (llt.info() != Eigen::Success) {
+    throw std::runtime_error("the discriminant's within-place scatter is not positive definite");
+  }
+  MatrixXd b = llt.matrixL().solve(s.between);
+  b = llt.matrixL().solve(b.transpose()).transpose();
+  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(b);
+  const Eigen::Index d =
+      std::min<Eigen::Index>({static_cast<Eigen::Index>(options.discriminant_dimensions), k,
+                              static_cast<Eigen::Index>(std::max(1, s.places_seen - 1))});
+  const MatrixXd v = eig.eigenvectors().rowwise().reverse().leftCols(d);
+  return llt.matrixU().solve(v);  // L^T w = v
+}
+
 }  // namespace
 
 JointRepresentation JointRepresentation::Build(JointKind kind,
@@ -286,60 +344,17 @@ JointRepresentation JointRepresentation::Build(JointKind kind,
   // The discriminant's scatters, on the rows of every stride-th place.
   const int stride = (num_places + kJointScatterPlaces - 1) / kJointScatterPlaces;
   NormalisedRows x = Normalise(sets, [stride](int p) { return p % stride == 0; });
-  std::vector<Eigen::Index> sample(static_cast<size_t>(x.rows.rows()));
-  std::iota(sample.begin(), sample.end(), 0);
   RowMatrixXf& c = x.rows;
   const Eigen::RowVectorXf mu = c.colwise().mean();
   c.rowwise() -= mu;
   const MatrixXd p = PrincipalDirections(c, kJointPrincipalDirections);  // D x k
-  const Eigen::Index k = p.cols();
   // The sampled rows in those directions, and the scatters there.
   // R x k: in double where the rows are few (the bits of the studies' cases), a float GEMM
   // where they are many.
   const MatrixXd y = c.rows() <= 2048 ? MatrixXd(c.cast<double>() * p)
                                       : MatrixXd((c * p.cast<float>()).cast<double>());
-  MatrixXd place_sum = MatrixXd::Zero(num_places, k);
-  std::vector<int> n(static_cast<size_t>(num_places), 0);
-  for (size_t j = 0; j < sample.size(); ++j) {
-    const int place = x.places[static_cast<size_t>(sample[j])];
-    place_sum.row(place) += y.row(static_cast<Eigen::Index>(j));
-    ++n[static_cast<size_t>(place)];
-  }
-  MatrixXd within = MatrixXd::Zero(k, k), between = MatrixXd::Zero(k, k);
-  MatrixXd centred = y;
-  for (size_t j = 0; j < sample.size(); ++j) {
-    const int place = x.places[static_cast<size_t>(sample[j])];
-    centred.row(static_cast<Eigen::Index>(j)) -=
-        place_sum.row(place) / static_cast<double>(n[static_cast<size_t>(place)]);
-  }
-  within.selfadjointView<Eigen::Lower>().rankUpdate(centred.transpose());
-  within = within.selfadjointView<Eigen::Lower>();
-  for (int place = 0; place < num_places; ++place) {
-    const int m = n[static_cast<size_t>(place)];
-    if (m == 0) continue;
-    const Eigen::VectorXd mean = place_sum.row(place).transpose() / m;
-    between.noalias() += m * mean * mean.transpose();  // mu is 0 after centring
-  }
-  // S_b w = lambda (S_w + ridge I) w, through the Cholesky factor L of S_w + ridge I:
-  // L^-1 S_b L^-T v = lambda v, w = L^-T v (so that w^T (S_w + ridge I) w = 1).
-  double ridge = options.discriminant_ridge * within.trace() / static_cast<double>(k);
-  if (!(ridge > 0)) ridge = 1e-9 * std::max(1.0, between.trace() / static_cast<double>(k));
-  MatrixXd a = within;
-  a.diagonal().array() += ridge;
-  const Eigen::LLT<MatrixXd> llt(a);
-  if (llt.info() != Eigen::Success) {
-    throw std::runtime_error("the discriminant's within-place scatter is not positive definite");
-  }
-  MatrixXd b = llt.matrixL().solve(between);
-  b = llt.matrixL().solve(b.transpose()).transpose();
-  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(b);
-  int places_seen = 0;
-  for (int m : n) places_seen += m > 0 ? 1 : 0;
-  const Eigen::Index d =
-      std::min<Eigen::Index>({static_cast<Eigen::Index>(options.discriminant_dimensions), k,
-                              static_cast<Eigen::Index>(std::max(1, places_seen - 1))});
-  const MatrixXd v = eig.eigenvectors().rowwise().reverse().leftCols(d);
-  const MatrixXd w = llt.matrixU().solve(v);            // L^T w = v
+  const MatrixXd w =
+      DiscriminantDirections(PlaceScatters(y, x.places, num_places), options);  // k x d
   out.projection_ = (p * w).transpose().cast<float>();  // d x D
   out.mean_ = mu.transpose();
   // v_p = W^T (m_p - mu) for every place (the means of all its rows, not only the sampled).

@@ -49,19 +49,23 @@ void PlaceDecider::CheckRemovable(const std::string& name) const {
 
 void PlaceDecider::Reset() { runner_.reset(); }
 
-Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances& distances,
-                                 bool update_state, std::optional<double> step_places) {
+namespace {
+
+// Each set's distances as a view on its places (count 0 where absent: `available` false),
+// checked to fit the layout: 1 x N_u, finite and not negative.
+std::vector<SetDistances> SetViews(const PlaceLayout& layout, const QueryDistances& distances,
+                                   std::vector<bool>* available) {
   if (layout.num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
   if (distances.num_sets() != layout.num_sets()) {
     throw std::invalid_argument("distances for " + std::to_string(distances.num_sets()) +
                                 " set(s), the map holds " + std::to_string(layout.num_sets()));
   }
-  std::vector<bool> available(static_cast<size_t>(layout.num_sets()), true);
+  available->assign(static_cast<size_t>(layout.num_sets()), true);
   std::vector<SetDistances> views(static_cast<size_t>(layout.num_sets()));
   for (int u = 0; u < layout.num_sets(); ++u) {
     const SetLayout& set = layout.set(u);
     if (!distances.present(u)) {
-      available[static_cast<size_t>(u)] = false;  // count 0: never read
+      (*available)[static_cast<size_t>(u)] = false;  // count 0: never read
       continue;
     }
     const RowMatrixXf& d = distances.of(u);
@@ -81,6 +85,12 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
     view.count = static_cast<int>(d.cols());
     view.place_ids = set.place_ids.data();
   }
+  return views;
+}
+
+// The query's distances to the joint representation, if any, checked to cover every place.
+std::vector<JointDistances> JointViews(const PlaceLayout& layout,
+                                       const QueryDistances& distances) {
   std::vector<JointDistances> joint;
   if (const std::optional<QueryDistances::Joint>& j = distances.joint()) {
     const RowMatrixXf& d = j->distances;
@@ -93,6 +103,38 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
     }
     joint.push_back({j->kind, SetDistances{d.data(), nullptr, static_cast<int>(d.cols()), 0}});
   }
+  return joint;
+}
+
+// The set that supplied the match: the closest image of the match among the sets the method
+// relied on (a mixture's used sets of weight below 1 only when also selected); -1 if none.
+int ClosestSet(const PlaceBelief& belief, const std::vector<SetDistances>& views) {
+  const std::vector<int>& selected = belief.selection.selected;
+  float best = INFINITY;
+  int closest = -1;
+  for (int u : belief.used_sets) {
+    if (belief.set_weights.at(static_cast<size_t>(u)) < 1 &&
+        !std::binary_search(selected.begin(), selected.end(), u)) {
+      continue;
+    }
+    const SetDistances& d = views[static_cast<size_t>(u)];
+    for (int k = 0; k < d.count; ++k) {
+      if (d.PlaceAt(k) == belief.match && d.values[k] < best) {
+        best = d.values[k];
+        closest = u;
+      }
+    }
+  }
+  return closest;
+}
+
+}  // namespace
+
+Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances& distances,
+                                 bool update_state, std::optional<double> step_places) {
+  std::vector<bool> available;
+  const std::vector<SetDistances> views = SetViews(layout, distances, &available);
+  std::vector<JointDistances> joint = JointViews(layout, distances);
   if (!unresolved_.empty()) throw std::invalid_argument(unresolved_);
   // A new build of the joint representation: what was carried was scored with another.
   const uint64_t build = distances.joint() ? distances.joint()->build : 0;
@@ -113,24 +155,7 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
   out.belief = runner.Step(views, layout.num_places(), nullptr, step_places, update_state,
                            all ? nullptr : &available, &joint);
   out.missing_sets = distances.Absent();
-
-  // The set that supplied the match: the closest image of the match among the sets the
-  // method relied on (a mixture's used sets of weight below 1 only when also selected).
-  const std::vector<int>& selected = out.belief.selection.selected;
-  float best = INFINITY;
-  for (int u : out.belief.used_sets) {
-    if (out.belief.set_weights.at(static_cast<size_t>(u)) < 1 &&
-        !std::binary_search(selected.begin(), selected.end(), u)) {
-      continue;
-    }
-    const SetDistances& d = views[static_cast<size_t>(u)];
-    for (int k = 0; k < d.count; ++k) {
-      if (d.PlaceAt(k) == out.belief.match && d.values[k] < best) {
-        best = d.values[k];
-        out.closest_set = u;
-      }
-    }
-  }
+  out.closest_set = ClosestSet(out.belief, views);
   return out;
 }
 

@@ -16,6 +16,55 @@ Eigen::Vector3d Offset(const PlacePose& p, const PlacePose& mean) {
   return Eigen::Vector3d(p.x_m - mean.x_m, p.y_m - mean.y_m, WrapAngle(p.yaw_rad - mean.yaw_rad));
 }
 
+// What EstimatePose reads of the belief and the places' poses.
+struct Places {
+  const PlaceBelief& belief;
+  const std::vector<std::optional<PlacePose>>& poses;
+  const PlacePose& match_pose;
+  double neighbourhood_m;
+  bool has_posterior;  // the posterior given "on the map" (a NaN one counts as none)
+
+  int size() const { return static_cast<int>(poses.size()); }
+  const PlacePose& pose(int i) const { return *poses[static_cast<size_t>(i)]; }
+  bool Posed(int i) const {
+    return poses[static_cast<size_t>(i)] && IsFinite(*poses[static_cast<size_t>(i)]);
+  }
+  bool Near(int i) const {
+    return i == belief.match || PlanarDistance(pose(i), match_pose) <= neighbourhood_m;
+  }
+  double Weight(int i) const { return has_posterior ? std::exp(belief.log_posterior(i)) : 0.0; }
+};
+
+// Second moments about `mean`: in the neighbourhood (its posterior, normalised by m_near),
+// at the far places (their posterior mass, m_far), and over every posed place (`anywhere`,
+// with `off`: for off the map).
+struct Moments {
+  Eigen::Matrix3d in_near = Eigen::Matrix3d::Zero(), far = Eigen::Matrix3d::Zero(),
+                  anywhere = Eigen::Matrix3d::Zero();
+  double m_far = 0;
+};
+Moments SecondMoments(const Places& places, const PlacePose& mean, double m_near, bool off) {
+  Moments m;
+  int posed_places = 0;
+  for (int i = 0; i < places.size(); ++i) {
+    if (!places.Posed(i)) continue;
+    const Eigen::Vector3d d = Offset(places.pose(i), mean);
+    const Eigen::Matrix3d dd = d * d.transpose();
+    ++posed_places;
+    if (off) m.anywhere += dd;
+    const double w = places.Weight(i);
+    if (!(w > 0)) continue;
+    if (places.Near(i)) {
+      m.in_near += (w / m_near) * dd;
+    } else {
+      m.far += w * dd;
+      m.m_far += w;
+    }
+  }
+  if (posed_places > 0) m.anywhere /= posed_places;
+  return m;
+}
+
 }  // namespace
 
 std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
@@ -26,28 +75,20 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
   if (belief.match < 0 || belief.match >= n) return std::nullopt;
   const std::optional<PlacePose>& match_pose = place_poses[static_cast<size_t>(belief.match)];
   if (!match_pose || !IsFinite(*match_pose)) return std::nullopt;
-  const auto posed = [&](int i) {
-    return place_poses[static_cast<size_t>(i)] && IsFinite(*place_poses[static_cast<size_t>(i)]);
-  };
-  const auto near = [&](int i) {
-    return i == belief.match || PlanarDistance(*place_poses[static_cast<size_t>(i)], *match_pose) <=
-                                    options.neighbourhood_m;
-  };
-  // The posterior given "on the map" (a NaN one counts as none).
   const Eigen::VectorXd& log_p = belief.log_posterior;
-  const bool has_posterior =
-      log_p.size() == n && n > 0 && !log_p.hasNaN() && std::isfinite(log_p.maxCoeff());
-  const auto weight = [&](int i) { return has_posterior ? std::exp(log_p(i)) : 0.0; };
+  const Places places{belief, place_poses, *match_pose, options.neighbourhood_m,
+                      log_p.size() == n && n > 0 && !log_p.hasNaN() &&
+                          std::isfinite(log_p.maxCoeff())};
   double m_near = 0;
-  int places = 0;
+  int near_places = 0;
   double x = 0, y = 0, z = 0, c = 0, s = 0;
   for (int i = 0; i < n; ++i) {
-    if (!posed(i) || !near(i)) continue;
-    const double w = weight(i);
+    if (!places.Posed(i) || !places.Near(i)) continue;
+    const double w = places.Weight(i);
     if (!(w > 0) && i != belief.match) continue;
-    const PlacePose& p = *place_poses[static_cast<size_t>(i)];
+    const PlacePose& p = places.pose(i);
     m_near += w;
-    ++places;
+    ++near_places;
     x += w * p.x_m;
     y += w * p.y_m;
     z += w * p.z_m;
@@ -55,7 +96,7 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     s += w * std::sin(p.yaw_rad);
   }
   PoseEstimate e;
-  e.places = places;
+  e.places = near_places;
   if (centred_on_match || !(m_near > 0)) {
     e.mean = *match_pose;
   } else {
@@ -69,38 +110,19 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
   Eigen::Matrix3d floor = Eigen::Matrix3d::Zero();
   floor(0, 0) = floor(1, 1) = options.min_std_m * options.min_std_m;
   floor(2, 2) = options.min_std_yaw_rad * options.min_std_yaw_rad;
-  // Second moments about the mean: in the neighbourhood (its posterior, normalised), at the
-  // far places (their posterior mass), and over every posed place (off the map).
-  Eigen::Matrix3d in_near = Eigen::Matrix3d::Zero(), far = Eigen::Matrix3d::Zero(),
-                  anywhere = Eigen::Matrix3d::Zero();
-  double m_far = 0;
-  int posed_places = 0;
-  for (int i = 0; i < n; ++i) {
-    if (!posed(i)) continue;
-    const Eigen::Vector3d d = Offset(*place_poses[static_cast<size_t>(i)], e.mean);
-    const Eigen::Matrix3d dd = d * d.transpose();
-    ++posed_places;
-    if (p_off > 0) anywhere += dd;
-    const double w = weight(i);
-    if (!(w > 0)) continue;
-    if (near(i)) {
-      in_near += (w / m_near) * dd;
-    } else {
-      far += w * dd;
-      m_far += w;
-    }
-  }
-  if (posed_places > 0) anywhere /= posed_places;
-  if (!has_posterior) {
+  Moments m = SecondMoments(places, e.mean, m_near, p_off > 0);
+  if (!places.has_posterior) {
     m_near = 1;  // a distance method: the match alone, as sure as the floor says
-    m_far = 0;
+    m.m_far = 0;
   }
   // Places without a pose hold the rest of the posterior: they count as far, where the
   // neighbourhood is wrong, spread as the far places are (as the map's, if none is posed).
-  const double m_unposed = has_posterior ? std::max(0.0, 1 - m_near - m_far) : 0.0;
-  if (m_unposed > 0) far += m_unposed * (m_far > 0 ? Eigen::Matrix3d(far / m_far) : anywhere);
+  const double m_unposed = places.has_posterior ? std::max(0.0, 1 - m_near - m.m_far) : 0.0;
+  if (m_unposed > 0) {
+    m.far += m_unposed * (m.m_far > 0 ? Eigen::Matrix3d(m.far / m.m_far) : m.anywhere);
+  }
   // The place's own extent (the floor) holds wherever the robot is.
-  e.covariance = p_on * m_near * in_near + p_on * far + p_off * anywhere + floor;
+  e.covariance = p_on * m_near * m.in_near + p_on * m.far + p_off * m.anywhere + floor;
   e.wrong_probability = 1 - p_on * m_near;
   if (!IsFinite(e.mean) || !e.covariance.allFinite()) return std::nullopt;
   return e;

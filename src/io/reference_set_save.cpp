@@ -210,8 +210,13 @@ void SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
   SaveReferenceSet(dir, set, yaml_request, options);
 }
 
-SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
-                             const std::string& yaml_request, const SaveOptions& options) {
+namespace {
+
+// The YAML a save of `set` writes, below `dir`: refused (std::invalid_argument) for a set
+// that cannot be saved, a path that is no .yaml, a set in place without `replace`, or
+// images that do not match the rows.
+std::string CheckedSave(const DataDirectory& dir, const ReferenceSet& set,
+                        const std::string& yaml_request, const SaveOptions& options) {
   const std::string name_problem = SetNameProblem(set.name);
   if (!name_problem.empty()) throw std::invalid_argument(name_problem);
   set.Validate();
@@ -219,7 +224,7 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
     throw std::invalid_argument("reference set " + QuotedForMessage(set.name) + " is held by " +
                                 set.encoded->source + ": its file is the set; copy that");
   }
-  const std::string yaml = dir.Relative(yaml_request);
+  std::string yaml = dir.Relative(yaml_request);
   if (!EndsWith(yaml, ".yaml")) {
     throw std::invalid_argument("a reference set is saved as a .yaml, got " +
                                 QuotedForMessage(yaml_request));
@@ -233,6 +238,14 @@ SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
                                 std::to_string(options.images->size()) + " images for " +
                                 std::to_string(set.size()) + " rows");
   }
+  return yaml;
+}
+
+}  // namespace
+
+SavedImages SaveReferenceSet(const DataDirectory& dir, const ReferenceSet& set,
+                             const std::string& yaml_request, const SaveOptions& options) {
+  const std::string yaml = CheckedSave(dir, set, yaml_request, options);
   // Every file of the new set gets a name of its own (the descriptors by their content, the
   // images in a new folder), then the YAML that names them is renamed into place: that rename
   // is the one step that replaces the old set by the new one, so an interruption anywhere

@@ -123,6 +123,9 @@ class FusionNode {
   bool OnStartRecording(StartRecording::Request& req, StartRecording::Response& res)
       EXCLUDES(mutex_);
   bool OnStopRecording(StopRecording::Request& req, StopRecording::Response& res) EXCLUDES(mutex_);
+  // A stopped recording saved: loaded into the map, the answer filled.
+  void LoadRecorded(Recording::Saved saved, const std::string& summary,
+                    StopRecording::Response* res) EXCLUDES(mutex_);
   bool OnStatistics(GetSelectionStatistics::Request& req, GetSelectionStatistics::Response& res)
       EXCLUDES(mutex_);
 

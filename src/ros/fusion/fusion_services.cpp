@@ -232,31 +232,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
       }
       loading_.insert(saved.set.name);  // not to be loaded by another meanwhile
     }
-    res.path = saved.path;
-    res.num_places = saved.set.size();
-    const std::string name = saved.set.name;
-    const std::string what = "saved " + std::to_string(res.num_places) + " place(s) to " +
-                             res.path + " (" + summary + ")" +
-                             (saved.note.empty() ? "" : "; " + saved.note);
-    std::string not_loaded;
-    try {
-      map_->Add(std::move(saved.set), res.path);  // the map's own lock
-    } catch (const std::exception& e) {
-      not_loaded = e.what();
-    }
-    {
-      MutexLock lock(&mutex_);
-      loading_.erase(name);
-      AdoptLayout(map_->layout());
-    }
-    res.success = true;
-    if (!not_loaded.empty()) {
-      res.message = what + " but did not load them: " + not_loaded;
-      ROS_WARN("bsf_vpr: %s", res.message.c_str());
-      return true;
-    }
-    res.message = what + " and loaded them";
-    ROS_INFO("bsf_vpr: %s", res.message.c_str());
+    LoadRecorded(std::move(saved), summary, &res);
   } catch (const std::exception& e) {
     stopped.shutdown();
     res.success = false;
@@ -264,6 +240,35 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
     ROS_WARN("bsf_vpr: stop_recording: %s", e.what());
   }
   return true;
+}
+
+void FusionNode::LoadRecorded(Recording::Saved saved, const std::string& summary,
+                              StopRecording::Response* res) {
+  res->path = saved.path;
+  res->num_places = saved.set.size();
+  const std::string name = saved.set.name;
+  const std::string what = "saved " + std::to_string(res->num_places) + " place(s) to " +
+                           res->path + " (" + summary + ")" +
+                           (saved.note.empty() ? "" : "; " + saved.note);
+  std::string not_loaded;
+  try {
+    map_->Add(std::move(saved.set), res->path);  // the map's own lock
+  } catch (const std::exception& e) {
+    not_loaded = e.what();
+  }
+  {
+    MutexLock lock(&mutex_);
+    loading_.erase(name);
+    AdoptLayout(map_->layout());
+  }
+  res->success = true;
+  if (!not_loaded.empty()) {
+    res->message = what + " but did not load them: " + not_loaded;
+    ROS_WARN("bsf_vpr: %s", res->message.c_str());
+    return;
+  }
+  res->message = what + " and loaded them";
+  ROS_INFO("bsf_vpr: %s", res->message.c_str());
 }
 
 }  // namespace bsf_vpr

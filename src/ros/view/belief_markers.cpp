@@ -226,6 +226,87 @@ std::optional<Marker> TruePlacesMarker(const RouteLayout& layout,
   return truth;
 }
 
+namespace {
+
+// The match: a pin at its place (green accepted, orange not) and its label.
+void AddMatchMarkers(const RouteLayout& layout, const Belief& belief, const MarkerSizes& size,
+                     bool probabilistic, const BeliefViewOptions& options,
+                     visualization_msgs::MarkerArray* out) {
+  auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
+  const double pin_height = 1.1 * size.bar_height_m;
+  // A needle half the bar's width (the bar it stands in stays visible) with a round head above
+  // the bars.
+  Marker pin = Base(belief.header, options, "match", Marker::CYLINDER);
+  pin.pose.position = ToPoint(at(belief.match) + Eigen::Vector3d(0, 0, pin_height / 2));
+  pin.scale.x = pin.scale.y = size.bar_width_m / 2;
+  pin.scale.z = pin_height;
+  pin.color = belief.accepted ? kAccepted : kNotAccepted;
+  out->markers.push_back(pin);
+  Marker head = pin;
+  head.id = 1;
+  head.type = Marker::SPHERE;
+  head.pose.position.z = at(belief.match).z() + pin_height;
+  head.scale.x = head.scale.y = head.scale.z = size.pin_diameter_m;
+  out->markers.push_back(head);
+  std::string text;
+  for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
+    text += (text.empty() ? "" : "\n") + line;
+  }
+  const double lines = static_cast<double>(std::count(text.begin(), text.end(), '\n') + 1);
+  Eigen::Vector3d anchor = at(belief.match);
+  {
+    // The text is centred on its anchor: at an end of the route half of it would lie
+    // outside the view (the place number cut off). The anchor moves inwards until the
+    // longest line fits (a character is about 0.6 of the text's height wide).
+    size_t longest = 0;
+    for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
+      longest = std::max(longest, line.size());
+    }
+    const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
+    const double room = std::max(0.0, options.view_size_m / 2 - half_text);
+    for (int k : {0, 1}) {
+      anchor[k] = std::clamp(anchor[k], layout.centre[k] - room, layout.centre[k] + room);
+    }
+  }
+  out->markers.push_back(
+      Text(belief, options, "label", 0, text,
+           anchor + Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
+           size.label_height_m));
+}
+
+// The legend, the route's ends and numbers along it.
+void AddLegend(const RouteLayout& layout, const Belief& belief, const MarkerSizes& size,
+               const BeliefViewOptions& options, visualization_msgs::MarkerArray* out) {
+  const int n = static_cast<int>(layout.points.size());
+  auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
+  std::string legend =
+      (belief.posterior.empty()
+           ? std::string("bars: rank of the place (distance method)")
+           : std::string("bars: P(place)") + (options.log_scale ? ", log scale" : "")) +
+      "\npin: match (green accepted, orange not)\ncyan: true place";
+  if (layout.draw_scale < 1) {
+    char shrunk[120];
+    std::snprintf(shrunk, sizeof(shrunk), "\nroute %.0f m drawn %.3g times smaller", layout.extent_m,
+                  1 / layout.draw_scale);
+    legend += shrunk;
+  }
+  const Eigen::Vector3d below(0, -0.08 * layout.scale_m, 0);
+  out->markers.push_back(
+      Text(belief, options, "legend", 0, legend, layout.centre + 2 * below, size.legend_height_m));
+  out->markers.push_back(
+      Text(belief, options, "legend", 1, "0", at(0) + below / 2, size.legend_height_m));
+  out->markers.push_back(Text(belief, options, "legend", 2, std::to_string(n - 1),
+                             at(n - 1) + below / 2, size.legend_height_m));
+  // Numbers along the route, beside the places (0 and n - 1 are the legend's).
+  const int step = PlaceNumberStep(n);
+  for (int place = step, id = 0; place < n - 1; place += step, ++id) {
+    out->markers.push_back(Text(belief, options, "place_numbers", id, std::to_string(place),
+                               at(place) + below / 2, size.legend_height_m));
+  }
+}
+
+}  // namespace
+
 visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, const Belief& belief,
                                                   const std::vector<int>& true_places,
                                                   bool probabilistic,
@@ -277,75 +358,14 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
   out.markers.push_back(feet);
 
   if (belief.match >= 0 && belief.match < n) {
-    const double pin_height = 1.1 * size.bar_height_m;
-    // A needle half the bar's width (the bar it stands in stays visible) with a round head above
-    // the bars.
-    Marker pin = Base(belief.header, options, "match", Marker::CYLINDER);
-    pin.pose.position = ToPoint(at(belief.match) + Eigen::Vector3d(0, 0, pin_height / 2));
-    pin.scale.x = pin.scale.y = size.bar_width_m / 2;
-    pin.scale.z = pin_height;
-    pin.color = belief.accepted ? kAccepted : kNotAccepted;
-    out.markers.push_back(pin);
-    Marker head = pin;
-    head.id = 1;
-    head.type = Marker::SPHERE;
-    head.pose.position.z = at(belief.match).z() + pin_height;
-    head.scale.x = head.scale.y = head.scale.z = size.pin_diameter_m;
-    out.markers.push_back(head);
-    std::string text;
-    for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
-      text += (text.empty() ? "" : "\n") + line;
-    }
-    const double lines = static_cast<double>(std::count(text.begin(), text.end(), '\n') + 1);
-    Eigen::Vector3d anchor = at(belief.match);
-    {
-      // The text is centred on its anchor: at an end of the route half of it would lie
-      // outside the view (the place number cut off). The anchor moves inwards until the
-      // longest line fits (a character is about 0.6 of the text's height wide).
-      size_t longest = 0;
-      for (const std::string& line : BeliefLabelLines(belief, probabilistic)) {
-        longest = std::max(longest, line.size());
-      }
-      const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
-      const double room = std::max(0.0, options.view_size_m / 2 - half_text);
-      for (int k : {0, 1}) {
-        anchor[k] = std::clamp(anchor[k], layout.centre[k] - room, layout.centre[k] + room);
-      }
-    }
-    out.markers.push_back(
-        Text(belief, options, "label", 0, text,
-             anchor + Eigen::Vector3d(0, 0, pin_height + (lines / 2 + 0.5) * size.label_height_m),
-             size.label_height_m));
+    AddMatchMarkers(layout, belief, size, probabilistic, options, &out);
   }
 
   if (auto truth = TruePlacesMarker(layout, true_places, belief.header, options)) {
     out.markers.push_back(*truth);
   }
 
-  std::string legend =
-      (belief.posterior.empty()
-           ? std::string("bars: rank of the place (distance method)")
-           : std::string("bars: P(place)") + (options.log_scale ? ", log scale" : "")) +
-      "\npin: match (green accepted, orange not)\ncyan: true place";
-  if (layout.draw_scale < 1) {
-    char shrunk[120];
-    std::snprintf(shrunk, sizeof(shrunk), "\nroute %.0f m drawn %.3g times smaller", layout.extent_m,
-                  1 / layout.draw_scale);
-    legend += shrunk;
-  }
-  const Eigen::Vector3d below(0, -0.08 * layout.scale_m, 0);
-  out.markers.push_back(
-      Text(belief, options, "legend", 0, legend, layout.centre + 2 * below, size.legend_height_m));
-  out.markers.push_back(
-      Text(belief, options, "legend", 1, "0", at(0) + below / 2, size.legend_height_m));
-  out.markers.push_back(Text(belief, options, "legend", 2, std::to_string(n - 1),
-                             at(n - 1) + below / 2, size.legend_height_m));
-  // Numbers along the route, beside the places (0 and n - 1 are the legend's).
-  const int step = PlaceNumberStep(n);
-  for (int place = step, id = 0; place < n - 1; place += step, ++id) {
-    out.markers.push_back(Text(belief, options, "place_numbers", id, std::to_string(place),
-                               at(place) + below / 2, size.legend_height_m));
-  }
+  AddLegend(layout, belief, size, options, &out);
   return out;
 }
 

@@ -171,7 +171,7 @@ void SmallestRows(const float* values, int n, int k, std::vector<int>* rows) {
 
 }  // namespace
 
-ApproximateIndex::ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options)
+ApproximateIndex::ApproximateIndex(const ReferenceSets& map, const ApproximateOptions& options)
     : ApproximateIndex(map.sets(), options, DistanceThreads()) {}
 
 ApproximateIndex::ApproximateIndex(const std::vector<StoredReferenceSet>& sets,
@@ -345,7 +345,7 @@ RowMatrixXf ApproximateIndex::ProjectQueries(const RowMatrixXf& queries) const {
 
 std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
                                                      const RowMatrixXf& queries,
-                                                     const ReferenceMap& map, StageTimes* times,
+                                                     const ReferenceSets& map, StageTimes* times,
                                                      std::vector<bool>* covered) const {
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::time_point from) {
@@ -385,7 +385,7 @@ std::vector<RowMatrixXf> ApproximateIndex::Distances(DistanceMetric metric,
 }
 
 void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
-                                        const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                        const Eigen::VectorXf& qn, const ReferenceSets& map,
                                         const std::vector<const SetCodes*>& codes_of,
                                         std::vector<RowMatrixXf>* out) const {
   const int nq = static_cast<int>(queries.rows());
@@ -422,7 +422,7 @@ void ApproximateIndex::ApproximateStage(DistanceMetric metric, const RowMatrixXf
 // The kernels and formula of ComputeDistances on the candidate rows; each query prepared
 // alone gives the bits it has in a batch (distance_kernels.h).
 void ApproximateIndex::ExactStage(DistanceMetric metric, const RowMatrixXf& queries,
-                                  const Eigen::VectorXf& qn, const ReferenceMap& map,
+                                  const Eigen::VectorXf& qn, const ReferenceSets& map,
                                   const std::vector<const SetCodes*>& codes_of,
                                   std::vector<RowMatrixXf>* out) const {
   const int nq = static_cast<int>(queries.rows());

@@ -175,7 +175,7 @@ RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
 }
 
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
-                                          const ReferenceMap& map) {
+                                          const ReferenceSets& map) {
   std::vector<SetRows> sets;
   for (const StoredReferenceSet& set : map.sets()) sets.push_back(RowsOf(set));
   return ComputeAll(metric, queries, sets);

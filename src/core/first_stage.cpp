@@ -51,14 +51,14 @@ void DistanceStage::SetOptions(const FirstStageOptions& options) {
   kind_ = kind;
 }
 
-void DistanceStage::Prepare(const ReferenceMap& map) {
+void DistanceStage::Prepare(const ReferenceSets& map) {
   if (kind_ == FirstStageKind::kPca && !index_ && map.num_sets() > 0) {
     index_ = std::make_unique<ApproximateIndex>(map, options_.approximate);
   }
 }
 
 std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const RowMatrixXf& queries,
-                                                  const ReferenceMap& map) {
+                                                  const ReferenceSets& map) {
   // An empty map has no rows to project (ComputeDistances checks the queries alike).
   if (kind_ == FirstStageKind::kExact || map.num_sets() == 0) {
     return ComputeDistances(metric, queries, map);

@@ -289,7 +289,7 @@ std::string OptionsUsage(const std::vector<OptionInfo>& options) {
   return out;
 }
 
-std::optional<OptionValue> MapOptionSource::Get(const std::string& name, OptionType type) {
+std::optional<OptionValue> NamedValueSource::Get(const std::string& name, OptionType type) {
   for (const auto& [key, value] : values_) {
     if (key != name) continue;
     if (std::find(read_.begin(), read_.end(), name) == read_.end()) read_.push_back(name);
@@ -298,7 +298,7 @@ std::optional<OptionValue> MapOptionSource::Get(const std::string& name, OptionT
   return std::nullopt;
 }
 
-std::vector<std::string> MapOptionSource::Unread() const {
+std::vector<std::string> NamedValueSource::Unread() const {
   std::vector<std::string> out;
   for (const auto& kv : values_) {
     if (std::find(read_.begin(), read_.end(), kv.first) == read_.end()) out.push_back(kv.first);

@@ -111,7 +111,7 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors, std::st
   return set;
 }
 
-void ReferenceMap::Add(ReferenceSet set) {
+void ReferenceSets::Add(ReferenceSet set) {
   set.Validate();
   // The layout's checks first: a set the map refuses is not encoded.
   PlaceLayout next = layout_;
@@ -120,12 +120,12 @@ void ReferenceMap::Add(ReferenceSet set) {
   Insert(StoredReferenceSet(std::move(set), storage_), std::move(next));
 }
 
-StoredReferenceSet ReferenceMap::Store(ReferenceSet set, StoragePrecision precision) {
+StoredReferenceSet ReferenceSets::Store(ReferenceSet set, StoragePrecision precision) {
   set.Validate();
   return StoredReferenceSet(std::move(set), precision);
 }
 
-void ReferenceMap::Add(StoredReferenceSet set) {
+void ReferenceSets::Add(StoredReferenceSet set) {
   if (set.precision() != storage_) {
     throw std::invalid_argument("reference set '" + set.name() + "' is held at " +
                                 ToString(set.precision()) + ", the map stores " +
@@ -137,7 +137,7 @@ void ReferenceMap::Add(StoredReferenceSet set) {
   Insert(std::move(set), std::move(next));
 }
 
-SetLayout ReferenceMap::LayoutOf(const std::string& name, const std::string& condition,
+SetLayout ReferenceSets::LayoutOf(const std::string& name, const std::string& condition,
                                  const std::string& descriptor_type,
                                  const std::vector<int>& place_ids,
                                  const std::vector<PlacePose>& poses, const std::string& images,
@@ -154,7 +154,7 @@ SetLayout ReferenceMap::LayoutOf(const std::string& name, const std::string& con
   return layout;
 }
 
-void ReferenceMap::Insert(StoredReferenceSet stored, PlaceLayout next) {
+void ReferenceSets::Insert(StoredReferenceSet stored, PlaceLayout next) {
   // Everything that can throw happened aside (the layout's checks, encoding, copies); the
   // map changes only by moves here.
   sets_.reserve(sets_.size() + 1);
@@ -164,11 +164,11 @@ void ReferenceMap::Insert(StoredReferenceSet stored, PlaceLayout next) {
   layout_ = std::move(next);
 }
 
-void ReferenceMap::CheckPlacePoses(const ReferenceSet& set) const {
+void ReferenceSets::CheckPlacePoses(const ReferenceSet& set) const {
   layout_.CheckPlacePoses(set.name, set.place_ids, set.poses);
 }
 
-void ReferenceMap::CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descriptor) const {
+void ReferenceSets::CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descriptor) const {
   if (num_sets() == 0) throw std::invalid_argument("no reference set is loaded");
   if (descriptor.size() != dimension()) {
     throw std::invalid_argument("descriptor has dimension " + std::to_string(descriptor.size()) +
@@ -179,7 +179,7 @@ void ReferenceMap::CheckQuery(const Eigen::Ref<const Eigen::VectorXf>& descripto
   if (!problem.empty()) throw std::invalid_argument("descriptor " + problem);
 }
 
-bool ReferenceMap::Remove(const std::string& name) {
+bool ReferenceSets::Remove(const std::string& name) {
   const int u = IndexOf(name);
   if (u < 0) return false;
   layout_.Remove(name);  // builds its new place index aside

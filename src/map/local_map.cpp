@@ -42,8 +42,8 @@ LocalMap::LocalMap(LocalMapOptions options, const DataDirectory* data_dir, std::
       metric_(options_.metric.value_or(DistanceMetric::kEuclidean)),
       layout_(std::make_shared<NumberedLayout>(PlaceLayout(), 0)) {
   MutexLock lock(&mutex_);
-  map_.SetStoragePrecision(options_.storage);
-  map_.SetPlacePoseTolerance(options_.place_pose_tolerance_m);
+  sets_.SetStoragePrecision(options_.storage);
+  sets_.SetPlacePoseTolerance(options_.place_pose_tolerance_m);
   stage_.SetOptions(options_.first_stage);
 }
 
@@ -57,7 +57,7 @@ void LocalMap::LoadConfigured(const std::vector<ConfiguredSet>& configured) {
   for (const ConfiguredSet& e : configured) {
     ReferenceSet set = LoadReferenceSetFile(e.path, e.name, ReadOptionsOf(options_));
     if (!e.condition.empty()) set.condition = e.condition;
-    sets.emplace_back(ReferenceMap::Store(std::move(set), options_.storage), e.path);
+    sets.emplace_back(ReferenceSets::Store(std::move(set), options_.storage), e.path);
   }
   MutexLock lock(&mutex_);
   if (!options_.metric) {
@@ -76,8 +76,8 @@ void LocalMap::LoadConfigured(const std::vector<ConfiguredSet>& configured) {
   }
   for (auto& [set, path] : sets) {
     CheckSetDistance(set, metric_, path);
-    map_.Add(std::move(set));
-    const StoredReferenceSet& s = map_.sets().back();
+    sets_.Add(std::move(set));
+    const StoredReferenceSet& s = sets_.sets().back();
     if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(s));
     Log(LogLevel::kInfo, "loaded reference set '" + s.name() + "' (" + std::to_string(s.size()) +
                              " places, dimension " + std::to_string(s.dimension()) + ", " +
@@ -99,7 +99,7 @@ DistanceMetric LocalMap::metric() const {
 
 RowMatrixXf LocalMap::QueryRow(const QueryDescriptor& descriptor) const {
   const Eigen::Map<const Eigen::VectorXf> d = descriptor.view();
-  map_.CheckQuery(d);
+  sets_.CheckQuery(d);
   return d.transpose();
 }
 
@@ -120,13 +120,13 @@ MapBackend::Query LocalMap::Ask(const QueryDescriptor& descriptor) {
 
 QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row, bool* changed) {
   QueryDistances distances = DistancesOf(row);
-  if (joint_ && joint_->num_places() == map_.num_places()) {
+  if (joint_ && joint_->num_places() == sets_.num_places()) {
     distances.SetJoint({joint_->kind(), joint_build_, joint_->Distances(row)});
   }
   // Asked after the rows were read: a write in place changes a file's modification time
   // before its bytes, so rows read while (or after) it wrote are seen here.
-  for (int u = 0; u < map_.num_sets(); ++u) {
-    if (map_.set(u).RowsChanged().empty()) continue;
+  for (int u = 0; u < sets_.num_sets(); ++u) {
+    if (sets_.set(u).RowsChanged().empty()) continue;
     distances.SetAbsent(u);
     distances.ClearJoint();
     *changed = true;
@@ -136,15 +136,15 @@ QueryDistances LocalMap::ReadDistances(const RowMatrixXf& row, bool* changed) {
 
 void LocalMap::DropChangedSets() {
   bool any = false;
-  for (int u = map_.num_sets() - 1; u >= 0; --u) {
-    const std::string why = map_.set(u).RowsChanged();
+  for (int u = sets_.num_sets() - 1; u >= 0; --u) {
+    const std::string why = sets_.set(u).RowsChanged();
     if (why.empty()) continue;
-    const std::string name = map_.set(u).name();
+    const std::string name = sets_.set(u).name();
     if (joint_) {
       const std::vector<std::string>& in_joint = joint_->set_names();
       if (std::find(in_joint.begin(), in_joint.end(), name) != in_joint.end()) joint_.reset();
     }
-    map_.Remove(name);
+    sets_.Remove(name);
     if (options_.fingerprints) fingerprints_.erase(fingerprints_.begin() + u);
     dropped_[name] = why;
     last_dropped_ = name;
@@ -164,20 +164,20 @@ std::string LocalMap::Load(const LoadRequest& request, const SetCheck& check) {
   // Read, and encoded (a mapped set's norms read), without the lock: queries go on.
   ReferenceSet set = ReadRequestedSet(data_dir_, request, ReadOptionsOf(options_));
   if (check) check(set.name);
-  StoredReferenceSet stored = ReferenceMap::Store(std::move(set), options_.storage);
+  StoredReferenceSet stored = ReferenceSets::Store(std::move(set), options_.storage);
   MutexLock lock(&mutex_);
   return AddLocked(std::move(stored), data_dir_->Relative(request.path));
 }
 
 std::string LocalMap::Add(ReferenceSet set, const std::string& where) {
-  StoredReferenceSet stored = ReferenceMap::Store(std::move(set), options_.storage);
+  StoredReferenceSet stored = ReferenceSets::Store(std::move(set), options_.storage);
   MutexLock lock(&mutex_);
   return AddLocked(std::move(stored), where);
 }
 
 std::string LocalMap::AddLocked(StoredReferenceSet set, const std::string& where) {
   DistanceMetric metric = metric_;
-  if (!options_.metric && map_.num_sets() == 0 && !set.distance().empty()) {
+  if (!options_.metric && sets_.num_sets() == 0 && !set.distance().empty()) {
     // No distance configured and nothing loaded yet: the first set's own distance.
     metric = ParseDistanceMetric(set.distance());
   }
@@ -186,8 +186,8 @@ std::string LocalMap::AddLocked(StoredReferenceSet set, const std::string& where
   const int places = set.size();
   const std::string declared = set.distance();
   fingerprints_.reserve(fingerprints_.size() + 1);  // no throw once the set is in
-  map_.Add(std::move(set));
-  if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(map_.sets().back()));
+  sets_.Add(std::move(set));
+  if (options_.fingerprints) fingerprints_.push_back(SetFingerprint(sets_.sets().back()));
   dropped_.erase(name);
   if (metric != metric_) {
     metric_ = metric;
@@ -200,21 +200,21 @@ std::string LocalMap::AddLocked(StoredReferenceSet set, const std::string& where
 
 std::string LocalMap::Unload(const std::string& name) {
   MutexLock lock(&mutex_);
-  const int u = map_.IndexOf(name);
+  const int u = sets_.IndexOf(name);
   if (u < 0) {
     throw std::invalid_argument("no reference set named " + QuotedForMessage(name) + " is loaded" +
                                 (shard_.empty() ? "" : " on shard " + shard_));
   }
-  map_.Remove(name);
+  sets_.Remove(name);
   if (options_.fingerprints) fingerprints_.erase(fingerprints_.begin() + u);
   Changed();
   return "unloaded '" + name + "'" + (shard_.empty() ? "" : " from shard " + shard_);
 }
 
 void LocalMap::Changed() {
-  layout_ = std::make_shared<NumberedLayout>(map_.layout(), ++generations_);
+  layout_ = std::make_shared<NumberedLayout>(sets_.layout(), ++generations_);
   RequestJoint();
-  if (map_.num_sets() == 0) {
+  if (sets_.num_sets() == 0) {
     index_.reset();  // nothing to answer for; the next set starts a new basis
     index_status_ = "none built yet";
     return;
@@ -224,23 +224,23 @@ void LocalMap::Changed() {
 
 QueryDistances LocalMap::DistancesOf(const RowMatrixXf& row) {
   if (stage_.kind() == FirstStageKind::kExact) {
-    return QueryDistances::AllPresent(stage_.Distances(metric_, row, map_));
+    return QueryDistances::AllPresent(stage_.Distances(metric_, row, sets_));
   }
   if (!index_) {
     throw std::invalid_argument("the first stage's index is being built (" + index_status_ +
                                 "): no set answers until it is ready");
   }
   std::vector<bool> covered;
-  std::vector<RowMatrixXf> distances = index_->Distances(metric_, row, map_, nullptr, &covered);
-  QueryDistances out(map_.num_sets());
-  for (int u = 0; u < map_.num_sets(); ++u) {
+  std::vector<RowMatrixXf> distances = index_->Distances(metric_, row, sets_, nullptr, &covered);
+  QueryDistances out(sets_.num_sets());
+  for (int u = 0; u < sets_.num_sets(); ++u) {
     if (covered[static_cast<size_t>(u)]) out.Set(u, std::move(distances[static_cast<size_t>(u)]));
   }
   return out;
 }
 
 void LocalMap::RequestIndex() {
-  auto sets = std::make_shared<const std::vector<StoredReferenceSet>>(map_.sets());
+  auto sets = std::make_shared<const std::vector<StoredReferenceSet>>(sets_.sets());
   std::shared_ptr<const ApproximateIndex> base = index_;
   const uint64_t generation = layout_->generation;
   const ApproximateOptions options = stage_.options().approximate;
@@ -301,7 +301,7 @@ void LocalMap::IndexBuilt(IndexResult result) {
         "the pca first stage could not be built (" + result.error + "): exact search from now on");
     return;
   }
-  if (map_.num_sets() == 0 || result.generation < index_generation_) return;  // superseded
+  if (sets_.num_sets() == 0 || result.generation < index_generation_) return;  // superseded
   index_ = std::move(result.index);
   index_generation_ = result.generation;
   const bool current = result.generation == layout_->generation;
@@ -338,24 +338,24 @@ void LocalMap::SetJoint(std::optional<JointKind> kind, const JointOptions& optio
 }
 
 void LocalMap::RequestJoint() {
-  if (joint_ && joint_->num_places() != map_.num_places()) joint_.reset();
+  if (joint_ && joint_->num_places() != sets_.num_places()) joint_.reset();
   if (!joint_kind_) {
     joint_.reset();
     joint_status_ = "none asked for";
     return;
   }
   std::vector<const StoredReferenceSet*> sets;
-  for (const StoredReferenceSet& s : map_.sets()) sets.push_back(&s);
+  for (const StoredReferenceSet& s : sets_.sets()) sets.push_back(&s);
   try {
-    CheckJointSets(sets, map_.num_places());
+    CheckJointSets(sets, sets_.num_places());
   } catch (const std::invalid_argument& e) {
     joint_.reset();
     joint_status_ = std::string("none: ") + e.what();
     return;
   }
-  joint_status_ = "building " + ToString(*joint_kind_) + " of " + std::to_string(map_.num_sets()) +
+  joint_status_ = "building " + ToString(*joint_kind_) + " of " + std::to_string(sets_.num_sets()) +
                   " sets" + (joint_ ? " (the previous one answers meanwhile)" : "");
-  joint_builder_.Request(*joint_kind_, map_.sets(), map_.num_places(), joint_options_,
+  joint_builder_.Request(*joint_kind_, sets_.sets(), sets_.num_places(), joint_options_,
                          layout_->generation);
 }
 
@@ -365,7 +365,7 @@ void LocalMap::JointBuilt(JointBuilder::Result result) {
     return;  // the sets or the kind changed since: a newer request is on its way
   }
   const std::string took = Printed("%.2f s", result.seconds);
-  for (const StoredReferenceSet& s : map_.sets()) {
+  for (const StoredReferenceSet& s : sets_.sets()) {
     if (!s.RowsChanged().empty()) return;  // built from rows that changed: the set goes first
   }
   if (!result.joint) {
@@ -391,14 +391,14 @@ void LocalMap::JointBuilt(JointBuilder::Result result) {
 SetList LocalMap::List() const {
   MutexLock lock(&mutex_);
   SetList out;
-  for (const StoredReferenceSet& s : map_.sets()) out.sets.push_back(Summarize(s));
-  out.num_places = map_.num_places();
+  for (const StoredReferenceSet& s : sets_.sets()) out.sets.push_back(Summarize(s));
+  out.num_places = sets_.num_places();
   return out;
 }
 
 std::string LocalMap::DescriptorTypeMismatch(const std::string& type) const {
   MutexLock lock(&mutex_);
-  return TypeMismatch(type, map_.layout());
+  return TypeMismatch(type, sets_.layout());
 }
 
 std::string LocalMap::Problem() const {
@@ -433,19 +433,19 @@ StatusValues LocalMap::Diagnose() const {
 ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
   ShardAnswer out;
   MutexLock lock(&mutex_);
-  if (map_.num_sets() == 0) return out;  // a shard without sets answers with none
+  if (sets_.num_sets() == 0) return out;  // a shard without sets answers with none
   try {
     DropChangedSets();
-    if (map_.num_sets() == 0) return out;
+    if (sets_.num_sets() == 0) return out;
     const RowMatrixXf row = QueryRow(descriptor);
     bool changed = false;
     QueryDistances distances = ReadDistances(row, &changed);
     // A set whose codes are being built (or whose rows changed) is left out: the combiner
     // takes it for absent.
-    for (int u = 0; u < map_.num_sets(); ++u) {
+    for (int u = 0; u < sets_.num_sets(); ++u) {
       if (!distances.present(u)) continue;
       out.distances.push_back(distances.of(u));
-      out.set_names.push_back(map_.set(u).name());
+      out.set_names.push_back(sets_.set(u).name());
       out.fingerprints.push_back(options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u))
                                                        : 0);
     }
@@ -466,14 +466,14 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
 void LocalMap::ForEachSet(
     const std::function<void(const StoredReferenceSet& set, uint64_t fingerprint)>& visit) const {
   MutexLock lock(&mutex_);
-  for (int u = 0; u < map_.num_sets(); ++u) {
-    visit(map_.set(u), options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u)) : 0);
+  for (int u = 0; u < sets_.num_sets(); ++u) {
+    visit(sets_.set(u), options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u)) : 0);
   }
 }
 
 int LocalMap::num_sets() const {
   MutexLock lock(&mutex_);
-  return map_.num_sets();
+  return sets_.num_sets();
 }
 
 }  // namespace bsf_vpr

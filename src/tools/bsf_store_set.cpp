@@ -73,7 +73,7 @@ int Run(int argc, char** argv) {
       fs::remove(e.path(), ec);
     }
   }
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(precision);
   map.SetPlacePoseTolerance(std::numeric_limits<double>::infinity());
   map.Add(std::move(set));

@@ -33,8 +33,8 @@ RowMatrixXf LowRankRows(int rows, int cols, uint64_t seed) {
 }
 
 // Three sets of different sizes; D = 40 is not a multiple of the kernels' 8 or 16 lanes.
-ReferenceMap ThreeSets(StoragePrecision precision, int cols = 40) {
-  ReferenceMap map;
+ReferenceSets ThreeSets(StoragePrecision precision, int cols = 40) {
+  ReferenceSets map;
   map.SetStoragePrecision(precision);
   map.Add(MakeReferenceSet("a", LowRankRows(150, cols, 11)));
   map.Add(MakeReferenceSet("b", LowRankRows(90, cols, 21)));
@@ -81,7 +81,7 @@ TEST(ApproximateOptions, ValidateNamesTheBadField) {
     const ApproximateOptions options = bad;  // a structured binding cannot be captured (C++17)
     const std::string error = ErrorOf([&] { options.Validate(); });
     EXPECT_NE(error.find(std::string("ApproximateOptions.") + field), std::string::npos) << error;
-    const ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
+    const ReferenceSets map = ThreeSets(StoragePrecision::kFloat32);
     EXPECT_NE(ErrorOf([&] { ApproximateIndex(map, options); }).find(field), std::string::npos);
   }
 }
@@ -108,7 +108,7 @@ TEST(ApproximateIndex, RerankingEveryRowGivesExactSearchBitForBit) {
   for (const std::string& name : testing::AvailableKernels()) {
     ASSERT_TRUE(kernel.Set(name)) << name;
     for (StoragePrecision precision : kPrecisions) {
-      const ReferenceMap map = ThreeSets(precision);
+      const ReferenceSets map = ThreeSets(precision);
       // rerank = 150 is the largest set's size: every row of every set is re-ranked.
       for (int rerank : {150, 1000}) {
         const ApproximateIndex index(map, Options(4, rerank));
@@ -127,7 +127,7 @@ TEST(ApproximateIndex, RerankingEveryRowGivesExactSearchBitForBit) {
 }
 
 TEST(ApproximateIndex, ReranksTheSmallestApproximateDistancesOfEachSetAndQuery) {
-  const ReferenceMap map = ThreeSets(StoragePrecision::kInt8);
+  const ReferenceSets map = ThreeSets(StoragePrecision::kInt8);
   const RowMatrixXf queries = LowRankRows(5, 40, 51);
   const int rerank = 7;
   for (DistanceMetric metric : kMetrics) {
@@ -157,7 +157,7 @@ TEST(ApproximateIndex, EveryStoragePrecisionIsApproximatedClosely) {
   // Rows near a 6-dimensional subspace: 8 dimensions hold nearly all of them, and what is
   // left is the rows' noise and the int8 rounding of their projections.
   for (StoragePrecision precision : kPrecisions) {
-    const ReferenceMap map = ThreeSets(precision);
+    const ReferenceSets map = ThreeSets(precision);
     const ApproximateIndex index(map, Options(8, 0));
     EXPECT_EQ(index.dimensions(), 8);
     EXPECT_EQ(index.sample_rows(), 150 + 90 + 33);
@@ -176,12 +176,12 @@ TEST(ApproximateIndex, EveryStoragePrecisionIsApproximatedClosely) {
 }
 
 TEST(ApproximateIndex, CapsTheDimensionsAtTheSamplesRank) {
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(MakeReferenceSet("rank3", RandomMatrix(3, 8, 1) * RandomMatrix(8, 30, 2)));
   map.Add(MakeReferenceSet("more", RandomMatrix(20, 3, 3) * RandomMatrix(3, 30, 4)));
   EXPECT_EQ(ApproximateIndex(map, Options(16, 0, 3)).dimensions(), 3);  // 3 rows sampled
   EXPECT_EQ(ApproximateIndex(map, Options(16, 0)).dimensions(), 6);     // two rank-3 sets
-  ReferenceMap zero;
+  ReferenceSets zero;
   zero.Add(MakeReferenceSet("zero", RowMatrixXf::Zero(5, 30)));
   const ApproximateIndex index(zero, Options(16, 0));
   EXPECT_EQ(index.dimensions(), 1);  // no direction: one of zeros, approximate dots 0
@@ -192,7 +192,7 @@ TEST(ApproximateIndex, CapsTheDimensionsAtTheSamplesRank) {
 
 TEST(ApproximateIndex, ResultsDoNotDependOnTheThreadCount) {
   // Sets large enough to be cut into several parts, in the projection and the first stage.
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(StoragePrecision::kInt8);
   map.Add(MakeReferenceSet("large", LowRankRows(20000, 24, 71)));
   map.Add(MakeReferenceSet("small", LowRankRows(700, 24, 81)));
@@ -209,38 +209,38 @@ TEST(ApproximateIndex, ResultsDoNotDependOnTheThreadCount) {
 }
 
 TEST(ApproximateIndex, RefusesASetItHoldsNoCodesOf) {
-  ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
+  ReferenceSets map = ThreeSets(StoragePrecision::kFloat32);
   const ApproximateIndex index(map, Options(4, 10));
   const RowMatrixXf queries = LowRankRows(1, 40, 101);
-  const auto query = [&](const ReferenceMap& m) {
+  const auto query = [&](const ReferenceSets& m) {
     return ErrorOf([&] { index.Distances(DistanceMetric::kEuclidean, queries, m); });
   };
   EXPECT_EQ(query(map), "(nothing thrown)");
-  const ReferenceMap copy = map;  // the same sets, held elsewhere
+  const ReferenceSets copy = map;  // the same sets, held elsewhere
   EXPECT_EQ(query(copy), "(nothing thrown)");
 
-  ReferenceMap added = map;
+  ReferenceSets added = map;
   added.Add(MakeReferenceSet("d", LowRankRows(10, 40, 111)));
   EXPECT_NE(query(added).find("set 'd' is not in the index"), std::string::npos) << query(added);
 
-  ReferenceMap replaced = map;  // set "b" replaced by other rows of the same size
+  ReferenceSets replaced = map;  // set "b" replaced by other rows of the same size
   ASSERT_TRUE(replaced.Remove("b"));
   replaced.Add(MakeReferenceSet("b", LowRankRows(90, 40, 121)));
   EXPECT_NE(query(replaced).find("not the one the index was built from"), std::string::npos);
   EXPECT_NE(query(replaced).find("set 'b' changed"), std::string::npos) << query(replaced);
 
   // Fewer sets, in another order: the index holds codes of each, so it answers.
-  ReferenceMap fewer;
+  ReferenceSets fewer;
   fewer.Add(map.set(2).ToReferenceSet());
   fewer.Add(map.set(0).ToReferenceSet());
   EXPECT_EQ(query(fewer), "(nothing thrown)");
 
-  ReferenceMap swapped = map;  // same names, order and sizes; one set's rows differ
+  ReferenceSets swapped = map;  // same names, order and sizes; one set's rows differ
   ASSERT_TRUE(swapped.Remove("c"));
   swapped.Add(MakeReferenceSet("c", LowRankRows(33, 40, 131)));
   EXPECT_NE(query(swapped).find("set 'c' changed"), std::string::npos) << query(swapped);
 
-  ReferenceMap half;
+  ReferenceSets half;
   half.SetStoragePrecision(StoragePrecision::kFloat16);
   for (const StoredReferenceSet& set : map.sets()) half.Add(set.ToReferenceSet());
   EXPECT_NE(query(half).find("150 rows at float16, was 150 at float32"), std::string::npos)
@@ -248,7 +248,7 @@ TEST(ApproximateIndex, RefusesASetItHoldsNoCodesOf) {
 }
 
 TEST(ApproximateIndex, RefusesBadQueriesAndEmptyMaps) {
-  const ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
+  const ReferenceSets map = ThreeSets(StoragePrecision::kFloat32);
   const ApproximateIndex index(map, Options(4, 10));
   const std::string wrong_dimension =
       ErrorOf([&] { index.Distances(DistanceMetric::kCosine, RandomMatrix(1, 39, 1), map); });
@@ -261,7 +261,7 @@ TEST(ApproximateIndex, RefusesBadQueriesAndEmptyMaps) {
               index.Distances(DistanceMetric::kCosine, nan, map);
             }).find("query descriptor 1"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { ApproximateIndex(ReferenceMap(), Options(4, 10)); }).find("no sets"),
+  EXPECT_NE(ErrorOf([&] { ApproximateIndex(ReferenceSets(), Options(4, 10)); }).find("no sets"),
             std::string::npos);
 }
 
@@ -282,7 +282,7 @@ int CorrectAtOne(const RowMatrixXf& distances, int tolerance) {
 }
 
 struct RealData {
-  ReferenceMap map;
+  ReferenceSets map;
   RowMatrixXf queries;
   DistanceMetric metric;
   int tolerance;
@@ -372,7 +372,7 @@ TEST(ApproximateRealData, NordlandRecallWithinOnePointOfExactSearch) {
 // codes); 1 with as many dimensions as the rows' rank, less with fewer, the same on any
 // number of threads.
 TEST(ApproximateIndex, RetainedEnergyIsTheShareOfTheRowsNormsTheBasisKeeps) {
-  const ReferenceMap map = ThreeSets(StoragePrecision::kFloat32);
+  const ReferenceSets map = ThreeSets(StoragePrecision::kFloat32);
   double previous = 0;
   for (int dimensions : {1, 3, 6, 40}) {
     const ApproximateIndex index(map, Options(dimensions, 0));
@@ -416,12 +416,12 @@ namespace {
 // out when the caller asks which are covered.
 TEST(ApproximateIndex, ExtendedIndexKeepsTheBasisAndProjectsOnlyTheNewSet) {
   for (const StoragePrecision precision : kPrecisions) {
-    const ReferenceMap two = [&] {
-      ReferenceMap m = ThreeSets(precision);
+    const ReferenceSets two = [&] {
+      ReferenceSets m = ThreeSets(precision);
       m.Remove("c");
       return m;
     }();
-    const ReferenceMap three = ThreeSets(precision);
+    const ReferenceSets three = ThreeSets(precision);
     const ApproximateIndex base(two, Options(4, 7));
     const RowMatrixXf queries = LowRankRows(3, 40, 141);
     for (const DistanceMetric metric : kMetrics) {
@@ -439,7 +439,7 @@ TEST(ApproximateIndex, ExtendedIndexKeepsTheBasisAndProjectsOnlyTheNewSet) {
                          "the sets the base held");
       // The new set's codes are its projection onto the base's basis: a map of it alone,
       // extended from the base, gives the same bits.
-      ReferenceMap c_alone;
+      ReferenceSets c_alone;
       c_alone.SetStoragePrecision(precision);
       c_alone.Add(MakeReferenceSet("c", LowRankRows(33, 40, 31)));
       const ApproximateIndex only_c(base, c_alone.sets(), 1);
@@ -450,7 +450,7 @@ TEST(ApproximateIndex, ExtendedIndexKeepsTheBasisAndProjectsOnlyTheNewSet) {
 }
 
 TEST(ApproximateIndex, ABuildOnOneThreadGivesTheBitsOfAParallelOne) {
-  const ReferenceMap map = ThreeSets(StoragePrecision::kInt8);
+  const ReferenceSets map = ThreeSets(StoragePrecision::kInt8);
   const RowMatrixXf queries = LowRankRows(4, 40, 151);
   const ApproximateIndex pooled(map, Options(5, 9));
   const ApproximateIndex alone(map.sets(), Options(5, 9), /*threads=*/1);

@@ -54,7 +54,7 @@ TEST(DescriptorStore, ReducedPrecisionCutsTheBytesAndReleasesTheFloat32Matrix) {
   const RowMatrixXf d = testing::RandomMatrix(100, 64, 1);
   for (StoragePrecision p :
        {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
-    ReferenceMap map;
+    ReferenceSets map;
     map.SetStoragePrecision(p);
     map.Add(MakeReferenceSet("a", d));
     const StoredReferenceSet& set = map.set(0);
@@ -75,7 +75,7 @@ TEST(DescriptorStore, ReducedPrecisionCutsTheBytesAndReleasesTheFloat32Matrix) {
   EXPECT_EQ(ParseStoragePrecision("int8"), StoragePrecision::kInt8);
   EXPECT_THROW(ParseStoragePrecision("int4"), std::invalid_argument);
   // A value float16 cannot hold is refused by name and leaves the map unchanged.
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(StoragePrecision::kFloat16);
   map.Add(MakeReferenceSet("a", d));
   const void* held = map.set(0).data();
@@ -94,7 +94,7 @@ TEST(DescriptorStore, ReducedPrecisionDistancesStayCloseToFloat32) {
     const RowMatrixXf exact = ComputeDistances(m, q, MakeReferenceSet("a", r));
     for (auto [p, tolerance] : {std::pair{StoragePrecision::kFloat16, 1e-3f},
                                 std::pair{StoragePrecision::kInt8, 2e-2f}}) {
-      ReferenceMap map;
+      ReferenceSets map;
       map.SetStoragePrecision(p);
       map.Add(MakeReferenceSet("a", r));
       const RowMatrixXf reduced = ComputeDistances(m, q, map.set(0));
@@ -123,7 +123,7 @@ TEST(DescriptorStore, SimdKernelsGiveTheSameBits) {
         std::tuple{32, 5, 20}, std::tuple{36, 8, 65}, std::tuple{100, 1031, 70}}) {
     const RowMatrixXf q = testing::RandomMatrix(nq, d, 8);
     for (StoragePrecision p : {StoragePrecision::kFloat32, StoragePrecision::kFloat16}) {
-      ReferenceMap map;
+      ReferenceSets map;
       map.SetStoragePrecision(p);
       map.Add(MakeReferenceSet("a", testing::RandomMatrix(rows, d, 9)));
       for (DistanceMetric m : {DistanceMetric::kEuclidean, DistanceMetric::kCosine}) {
@@ -232,7 +232,7 @@ TEST(DescriptorStore, EveryKernelAndStorageIsBitwiseTheSameAloneAndInABatch) {
     EXPECT_EQ(DistanceKernel(), kernel);
     for (StoragePrecision p :
          {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
-      ReferenceMap map;
+      ReferenceSets map;
       map.SetStoragePrecision(p);
       map.Add(MakeReferenceSet("a", r));
       const testing::ScopedDistanceThreads threads(1);
@@ -291,7 +291,7 @@ TEST(DescriptorStore, Int8RowsGiveTheSameBitsOnEveryKernel) {
     refs.data = codes.data();
     refs.cols = d;
     refs.scale = 1.0f / 127;
-    ReferenceMap map;
+    ReferenceSets map;
     map.SetStoragePrecision(StoragePrecision::kInt8);
     map.Add(MakeReferenceSet("a", rows));
     std::vector<float> first;
@@ -329,7 +329,7 @@ TEST(DescriptorStore, SimdAndPortableKernelsAgreeToRounding) {
   SetDistanceKernel("auto");
   EXPECT_LT((portable - vector).cwiseAbs().maxCoeff(), 1e-4f * portable.cwiseAbs().maxCoeff());
   // int8 rows are summed exactly in integers: the two kernels agree to the bit.
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(StoragePrecision::kInt8);
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(30, 517, 7)));
   SetDistanceKernel("portable");

@@ -105,7 +105,7 @@ TEST(Distances, CosineMatchesNaiveLoopAndHandlesZeroVectors) {
 }
 
 TEST(Distances, MapVersionGivesOneMatrixPerSetAndRowViews) {
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(10, 8, 6)));
   ReferenceSet b;
   b.name = "b";

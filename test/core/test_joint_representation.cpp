@@ -22,13 +22,13 @@ using Eigen::VectorXd;
 // M sets of one route of n places in `dim` dimensions: place p has a direction of its own,
 // each set adds a condition offset of its own and noise. Set u covers the places in
 // `covered[u]` (all of them if empty).
-ReferenceMap Route(int sets, int n, int dim, uint64_t seed,
+ReferenceSets Route(int sets, int n, int dim, uint64_t seed,
                    std::vector<std::vector<int>> covered = {}) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<float> g(0.0f, 1.0f);
   RowMatrixXf place(n, dim);
   for (Eigen::Index i = 0; i < place.size(); ++i) place.data()[i] = g(rng);
-  ReferenceMap map;
+  ReferenceSets map;
   for (int u = 0; u < sets; ++u) {
     Eigen::RowVectorXf condition(dim);
     for (int k = 0; k < dim; ++k) condition(k) = 2.0f * g(rng);
@@ -51,14 +51,14 @@ ReferenceMap Route(int sets, int n, int dim, uint64_t seed,
   return map;
 }
 
-std::vector<const StoredReferenceSet*> Sets(const ReferenceMap& map) {
+std::vector<const StoredReferenceSet*> Sets(const ReferenceSets& map) {
   std::vector<const StoredReferenceSet*> out;
   for (const StoredReferenceSet& s : map.sets()) out.push_back(&s);
   return out;
 }
 
 // Every set's rows, normalised, with their places.
-void NormalisedRows(const ReferenceMap& map, MatrixXd* rows, std::vector<int>* places) {
+void NormalisedRows(const ReferenceSets& map, MatrixXd* rows, std::vector<int>* places) {
   int total = 0;
   for (const StoredReferenceSet& s : map.sets()) total += s.size();
   rows->resize(total, map.dimension());
@@ -75,7 +75,7 @@ void NormalisedRows(const ReferenceMap& map, MatrixXd* rows, std::vector<int>* p
 }
 
 TEST(JointRepresentation, MeanDescriptorIsTheCosineToThePlacesMean) {
-  const ReferenceMap map = Route(3, 30, 16, 1, {{}, {}, {0, 1, 2, 5, 9, 20}});
+  const ReferenceSets map = Route(3, 30, 16, 1, {{}, {}, {0, 1, 2, 5, 9, 20}});
   const JointRepresentation j =
       JointRepresentation::Build(JointKind::kMeanDescriptor, Sets(map), map.num_places());
   MatrixXd rows;
@@ -99,7 +99,7 @@ TEST(JointRepresentation, MeanDescriptorIsTheCosineToThePlacesMean) {
 
 TEST(JointRepresentation, SubspaceIsTheResidualOfTheBestReconstruction) {
   for (const int dim : {8, 40}) {  // fewer dimensions than references at a place, and more
-    const ReferenceMap map = Route(4, 12, dim, 2);
+    const ReferenceSets map = Route(4, 12, dim, 2);
     const JointRepresentation j =
         JointRepresentation::Build(JointKind::kSubspace, Sets(map), map.num_places());
     MatrixXd rows;
@@ -127,7 +127,7 @@ TEST(JointRepresentation, SubspaceIsTheResidualOfTheBestReconstruction) {
 
 // The discriminant's directions solve S_b w = lambda (S_w + r I) w with w^T (S_w + r I) w = 1,
 // for the largest lambdas, r = ridge x trace(S_w) / D; scatters of the normalised rows.
-void CheckDiscriminant(const ReferenceMap& map, int dims, double ridge) {
+void CheckDiscriminant(const ReferenceSets& map, int dims, double ridge) {
   JointOptions o;
   o.discriminant_dimensions = dims;
   o.discriminant_ridge = ridge;
@@ -190,7 +190,7 @@ TEST(JointRepresentation, DiscriminantSolvesItsGeneralisedEigenproblem) {
 TEST(JointRepresentation, DiscriminantWorksInTheReferencesSpan) {
   // 2 x 10 rows in 60 dimensions: the scatters live in the rows' span; there the defining
   // equation holds with the ridge of the span's dimension (checked through the Gram path).
-  const ReferenceMap map = Route(2, 10, 60, 5);
+  const ReferenceSets map = Route(2, 10, 60, 5);
   JointOptions o;
   o.discriminant_dimensions = 4;
   const JointRepresentation j =
@@ -219,7 +219,7 @@ TEST(JointRepresentation, DiscriminantWorksInTheReferencesSpan) {
 
 TEST(JointRepresentation, LargeDimensionsGoThroughThePrincipalDirections) {
   // D above kJointPrincipalDirections and more rows than D: the subspace iteration.
-  const ReferenceMap map = Route(2, 400, 600, 6);
+  const ReferenceSets map = Route(2, 400, 600, 6);
   const JointRepresentation j =
       JointRepresentation::Build(JointKind::kDiscriminant, Sets(map), map.num_places());
   EXPECT_EQ(j.discriminant_dimensions(), 64);
@@ -239,14 +239,14 @@ TEST(JointRepresentation, LargeDimensionsGoThroughThePrincipalDirections) {
 }
 
 TEST(JointRepresentation, RefusesSetsThatShareNoPlaceNamingThem) {
-  const ReferenceMap one = Route(1, 10, 8, 7);
+  const ReferenceSets one = Route(1, 10, 8, 7);
   try {
     JointRepresentation::Build(JointKind::kDiscriminant, Sets(one), one.num_places());
     FAIL() << "one set was taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("'set0'"), std::string::npos) << e.what();
   }
-  const ReferenceMap apart = Route(2, 10, 8, 8, {{0, 1, 2, 3, 4}, {5, 6, 7, 8, 9}});
+  const ReferenceSets apart = Route(2, 10, 8, 8, {{0, 1, 2, 3, 4}, {5, 6, 7, 8, 9}});
   for (const JointKind kind :
        {JointKind::kMeanDescriptor, JointKind::kSubspace, JointKind::kDiscriminant}) {
     try {
@@ -259,13 +259,13 @@ TEST(JointRepresentation, RefusesSetsThatShareNoPlaceNamingThem) {
   }
   JointOptions bad;
   bad.discriminant_ridge = -1;
-  const ReferenceMap map = Route(2, 10, 8, 9);
+  const ReferenceSets map = Route(2, 10, 8, 9);
   EXPECT_THROW(JointRepresentation::Build(JointKind::kDiscriminant, Sets(map), 10, bad),
                std::invalid_argument);
 }
 
 TEST(JointRepresentation, AQueryOfZerosIsFarFromEveryPlace) {
-  const ReferenceMap map = Route(2, 10, 8, 10);
+  const ReferenceSets map = Route(2, 10, 8, 10);
   for (const JointKind kind :
        {JointKind::kMeanDescriptor, JointKind::kSubspace, JointKind::kDiscriminant}) {
     const JointRepresentation j = JointRepresentation::Build(kind, Sets(map), 10);
@@ -277,7 +277,7 @@ TEST(JointRepresentation, AQueryOfZerosIsFarFromEveryPlace) {
 }
 
 TEST(JointBuilder, BuildsInTheBackgroundTheLatestRequestWinning) {
-  const ReferenceMap map = Route(3, 400, 256, 12);
+  const ReferenceSets map = Route(3, 400, 256, 12);
   std::mutex m;
   std::vector<JointBuilder::Result> results;
   JointBuilder builder([&](JointBuilder::Result r) {
@@ -313,7 +313,7 @@ TEST(JointBuilder, BuildsInTheBackgroundTheLatestRequestWinning) {
 }
 
 TEST(JointBuilder, IsDestroyedWhileBuilding) {
-  const ReferenceMap map = Route(3, 600, 300, 13);
+  const ReferenceSets map = Route(3, 600, 300, 13);
   bool called = false;
   {
     JointBuilder builder([&](JointBuilder::Result) { called = true; });
@@ -332,7 +332,7 @@ namespace {
 TEST(JointRepresentation, AQueryHasTheSameBitsAloneAndInABlock) {
   // The node decides a query alone, bsf_evaluate in blocks: a replay must match the offline
   // run bit for bit.
-  const ReferenceMap map = Route(3, 40, 24, 31);
+  const ReferenceSets map = Route(3, 40, 24, 31);
   const RowMatrixXf queries = Route(1, 17, 24, 32).set(0).ToReferenceSet().descriptors;
   for (const JointKind kind :
        {JointKind::kMeanDescriptor, JointKind::kSubspace, JointKind::kDiscriminant}) {

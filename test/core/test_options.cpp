@@ -70,7 +70,7 @@ void ExpectEachOptionOwnsItsMember(const OptionTable<S>& table) {
     if (!spec.get) continue;
     EXPECT_EQ(spec.get(defaults), spec.info.default_value) << spec.info.name;
     const OptionValue other = OtherValue(spec.info);
-    MapOptionSource source({{spec.info.name, other}});
+    NamedValueSource source({{spec.info.name, other}});
     S changed{};
     table.Apply(source, &changed);
     EXPECT_TRUE(source.Unread().empty());
@@ -152,7 +152,7 @@ TEST(Options, BadValuesNameTheOptionAndChangeNothing) {
 }
 
 TEST(Options, SourcesAreTypedAndTracked) {
-  MapOptionSource source({{"gamma_fraction", 1LL},  // a whole number for a double: fine
+  NamedValueSource source({{"gamma_fraction", 1LL},  // a whole number for a double: fine
                           {"top_k", 3.5},           // a double for an int: refused
                           {"unheard_of", true}},
                          "/bsf_vpr/");
@@ -164,7 +164,7 @@ TEST(Options, SourcesAreTypedAndTracked) {
 }
 
 TEST(Options, LiveOnlyLeavesTheOthers) {
-  MapOptionSource source({{"top_k", 3LL}, {"threshold", 0.5}});
+  NamedValueSource source({{"top_k", 3LL}, {"threshold", 0.5}});
   MethodOptions o;
   MethodOptionsTable().Apply(source, &o, /*live_only=*/true);
   EXPECT_EQ(o.decision.top_k, MethodOptions().decision.top_k);  // top_k is not live

@@ -20,7 +20,7 @@ SyntheticData Data() {
 }
 
 // The layout of `map` rebuilt from its sets' places alone, as a combiner builds it.
-PlaceLayout LayoutAlone(const ReferenceMap& map) {
+PlaceLayout LayoutAlone(const ReferenceSets& map) {
   PlaceLayout layout;
   for (const SetLayout& s : map.layout().sets()) layout.Add(s);
   return layout;

@@ -429,7 +429,7 @@ TEST(Sharding, SetFingerprintFollowsWhatTheSetHolds) {
   const SyntheticData data = Data();
   const ReferenceSet c0 = data.map.set(0).ToReferenceSet();
   const auto fingerprint = [](const ReferenceSet& set, StoragePrecision precision) {
-    ReferenceMap map;
+    ReferenceSets map;
     map.SetStoragePrecision(precision);
     map.Add(set);
     return SetFingerprint(map.set(0));

@@ -9,8 +9,8 @@
 namespace bsf_vpr {
 namespace {
 
-TEST(ReferenceMap, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
-  ReferenceMap map;
+TEST(ReferenceSets, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
+  ReferenceSets map;
   map.Add(MakeReferenceSet("summer", testing::RandomMatrix(10, 6, 1), "sunny"));
   ReferenceSet partial;
   partial.name = "night";
@@ -47,8 +47,8 @@ TEST(ReferenceMap, HoldsSetsOfOneDimensionOverASharedPlaceIndex) {
   EXPECT_FALSE(map.PoseOf(0).has_value());
 }
 
-TEST(ReferenceMap, RefusesSetsThatPutAPlaceElsewhere) {
-  ReferenceMap map;
+TEST(ReferenceSets, RefusesSetsThatPutAPlaceElsewhere) {
+  ReferenceSets map;
   ReferenceSet summer = MakeReferenceSet("summer", testing::RandomMatrix(3, 4, 1));
   summer.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}};
   map.Add(summer);
@@ -75,8 +75,8 @@ TEST(ReferenceMap, RefusesSetsThatPutAPlaceElsewhere) {
   EXPECT_EQ(map.num_sets(), 4);
 }
 
-TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
-  ReferenceMap map;
+TEST(ReferenceSets, RefusesBadSetsAndStaysUnchanged) {
+  ReferenceSets map;
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));
   auto expect_refused = [&](ReferenceSet s, const std::string& fragment) {
     try {
@@ -124,15 +124,15 @@ TEST(ReferenceMap, RefusesBadSetsAndStaysUnchanged) {
   EXPECT_EQ(map.num_places(), 4);
 }
 
-TEST(ReferenceMap, RefusesPosesThatAreNotFiniteOrBeyondAnyEarthFrameNamingThePlace) {
-  ReferenceMap map;
+TEST(ReferenceSets, RefusesPosesThatAreNotFiniteOrBeyondAnyEarthFrameNamingThePlace) {
+  ReferenceSets map;
   ReferenceSet s = MakeReferenceSet("route", testing::RandomMatrix(3, 2, 1));
   s.place_ids = {4, 5, 6};
   // A southern UTM northing (false northing 1e7 m) and an ECEF coordinate are real poses.
   s.poses = {{5.0e5, 9.99e6, 0, 0}, {-6.4e6, 1e7, 100, -3}, {0, 0, 0, 12.0}};
   const auto refusal = [&map](const ReferenceSet& set) {
     try {
-      ReferenceMap(map).Add(set);
+      ReferenceSets(map).Add(set);
       return std::string("accepted");
     } catch (const std::invalid_argument& e) {
       return std::string(e.what());
@@ -164,8 +164,8 @@ TEST(ReferenceMap, RefusesPosesThatAreNotFiniteOrBeyondAnyEarthFrameNamingThePla
   EXPECT_EQ(PoseProblem(PlacePose{1, 2, 3, 4}), "");
 }
 
-TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
-  ReferenceMap map;
+TEST(ReferenceSets, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
+  ReferenceSets map;
   auto expect_refused = [&](const ReferenceSet& s, const std::string& fragment) {
     try {
       map.Add(s);
@@ -203,15 +203,15 @@ TEST(ReferenceMap, RefusesSetsWhoseImagesDoNotNameOneRelativeFilePerRow) {
   EXPECT_EQ(ImageFileProblem(""), "");
   s.image_files[2] = "";
   map.Add(s);
-  map = ReferenceMap();
+  map = ReferenceSets();
   s.image_files[2] = "x/..y/c.png";
   map.Add(s);
   EXPECT_EQ(map.set(0).images(), "/data/i");
   EXPECT_EQ(map.set(0).image_files(), s.image_files);
 }
 
-TEST(ReferenceMap, AQueryOfZerosIsRefusedAsCarryingNoInformation) {
-  ReferenceMap map;
+TEST(ReferenceSets, AQueryOfZerosIsRefusedAsCarryingNoInformation) {
+  ReferenceSets map;
   map.Add(MakeReferenceSet("a", testing::RandomMatrix(4, 3, 1)));
   try {
     map.CheckQuery(Eigen::VectorXf::Zero(3));
@@ -233,7 +233,7 @@ TEST(ReferenceMap, AQueryOfZerosIsRefusedAsCarryingNoInformation) {
   EXPECT_NO_THROW(map.Add(MakeReferenceSet("b", black)));
 }
 
-TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
+TEST(ReferenceSets, DescriptorProblemNamesNanInfinityAndOverflow) {
   Eigen::RowVectorXf d = Eigen::RowVectorXf::Ones(8);
   EXPECT_EQ(DescriptorProblem(d), "");
   d(2) = 1e19f;  // squared 1e38 > the bound
@@ -260,8 +260,8 @@ TEST(ReferenceMap, DescriptorProblemNamesNanInfinityAndOverflow) {
 namespace bsf_vpr {
 namespace {
 
-TEST(ReferenceMap, MedianPlaceSpacingFollowsTheLoadedPoses) {
-  ReferenceMap map;
+TEST(ReferenceSets, MedianPlaceSpacingFollowsTheLoadedPoses) {
+  ReferenceSets map;
   map.Add(MakeReferenceSet("no_poses", testing::RandomMatrix(5, 3, 1)));
   EXPECT_FALSE(map.MedianPlaceSpacing().has_value());
   ReferenceSet route = MakeReferenceSet("route", testing::RandomMatrix(5, 3, 2));

@@ -28,7 +28,7 @@ TEST(StoredReferenceSet, HoldsTheEncodedRowsBehindItsAccessorsAtEachPrecision) {
   const float max_abs = 9.5f;
   for (StoragePrecision p :
        {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
-    ReferenceMap map;
+    ReferenceSets map;
     map.SetStoragePrecision(p);
     map.Add(in);
     const StoredReferenceSet& set = map.set(0);
@@ -83,7 +83,7 @@ TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision)
   in.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}, {3, 0, 0, 0}, {4, 0, 0, 0.25}};
   in.images = "/data/route";
   in.image_files = {"4.png", "3.png", "2.png", "1.png", "sub/9.png"};
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(in);
   EXPECT_EQ(map.set(0).images(), in.images);
   EXPECT_EQ(map.set(0).image_files(), in.image_files);
@@ -102,7 +102,7 @@ TEST(StoredReferenceSet, GivesBackItsInputAtFloat32AndRefusesAtReducedPrecision)
   EXPECT_EQ(back.poses[4].yaw_rad, 0.25);
   EXPECT_NO_THROW(back.Validate());
   for (StoragePrecision p : {StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
-    ReferenceMap reduced;
+    ReferenceSets reduced;
     reduced.SetStoragePrecision(p);
     reduced.Add(in);
     EXPECT_EQ(reduced.set(0).image_files(), in.image_files);  // kept at every precision
@@ -124,7 +124,7 @@ TEST(StoredReferenceSet, CountsTheImageNamesInItsBytes) {
   named.name = "b";
   named.images = "/data/images";
   named.image_files = {std::string(100, 'x') + ".png", "y.png", "z.png"};
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(plain);
   map.Add(named);
   const size_t names = 12 + 104 + 5 + 5;  // the folder and the files' characters
@@ -145,7 +145,7 @@ TEST(StoredReferenceSet, HoldsEncodedRowsAsTheMapEncodesThem) {
   const RowMatrixXf x = testing::RandomMatrix(6, 21, 17);
   for (StoragePrecision p :
        {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
-    ReferenceMap resident;
+    ReferenceSets resident;
     resident.SetStoragePrecision(p);
     resident.Add(MakeReferenceSet("a", x));
     const StoredReferenceSet& r = resident.set(0);
@@ -163,7 +163,7 @@ TEST(StoredReferenceSet, HoldsEncodedRowsAsTheMapEncodesThem) {
     rows.source = "'a.npy', memory-mapped";
     in.encoded = rows;
     buffer.reset();  // the set's copy of `owner` keeps it
-    ReferenceMap mapped;
+    ReferenceSets mapped;
     mapped.SetStoragePrecision(p);
     mapped.Add(in);
     const StoredReferenceSet& m = mapped.set(0);
@@ -181,7 +181,7 @@ TEST(StoredReferenceSet, HoldsEncodedRowsAsTheMapEncodesThem) {
     const auto a = ComputeDistances(DistanceMetric::kEuclidean, q, resident);
     const auto b = ComputeDistances(DistanceMetric::kEuclidean, q, mapped);
     EXPECT_EQ(std::memcmp(a[0].data(), b[0].data(), sizeof(float) * a[0].size()), 0);
-    const ReferenceMap copy = mapped;  // shares the rows
+    const ReferenceSets copy = mapped;  // shares the rows
     mapped.Remove("a");
     EXPECT_EQ(std::memcmp(copy.set(0).data(), r.data(), r.data_bytes()), 0);
     if (p == StoragePrecision::kFloat32) {
@@ -204,7 +204,7 @@ TEST(StoredReferenceSet, RefusesEncodedRowsAtAnotherPrecisionOrNotFinite) {
   rows.owner = buffer;
   rows.source = "'b.npy', memory-mapped";
   in.encoded = rows;
-  ReferenceMap int8;
+  ReferenceSets int8;
   int8.SetStoragePrecision(StoragePrecision::kInt8);
   try {
     int8.Add(in);
@@ -216,7 +216,7 @@ TEST(StoredReferenceSet, RefusesEncodedRowsAtAnotherPrecisionOrNotFinite) {
         << e.what();
   }
   EXPECT_EQ(int8.num_sets(), 0);
-  ReferenceMap f32;
+  ReferenceSets f32;
   try {
     f32.Add(in);
     ADD_FAILURE() << "a NaN row was taken";
@@ -236,24 +236,24 @@ namespace {
 // Store encodes a set aside (a map's owner does it before taking its lock); Add takes it
 // as Add(ReferenceSet) would, and refuses it at another precision or against the layout,
 // the map unchanged.
-TEST(ReferenceMap, AddsASetStoredAsideAsItAddsOneItEncodes) {
+TEST(ReferenceSets, AddsASetStoredAsideAsItAddsOneItEncodes) {
   const RowMatrixXf x = testing::RandomMatrix(5, 12, 23);
-  ReferenceMap direct, aside;
+  ReferenceSets direct, aside;
   direct.SetStoragePrecision(StoragePrecision::kInt8);
   aside.SetStoragePrecision(StoragePrecision::kInt8);
   direct.Add(MakeReferenceSet("a", x));
-  aside.Add(ReferenceMap::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8));
+  aside.Add(ReferenceSets::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8));
   ASSERT_EQ(aside.num_sets(), 1);
   EXPECT_EQ(aside.num_places(), direct.num_places());
   EXPECT_EQ(std::memcmp(aside.set(0).data(), direct.set(0).data(), direct.set(0).data_bytes()), 0);
   EXPECT_EQ(aside.set(0).scale(), direct.set(0).scale());
 
-  EXPECT_THROW(aside.Add(ReferenceMap::Store(MakeReferenceSet("b", x), StoragePrecision::kFloat16)),
+  EXPECT_THROW(aside.Add(ReferenceSets::Store(MakeReferenceSet("b", x), StoragePrecision::kFloat16)),
                std::invalid_argument);
-  EXPECT_THROW(aside.Add(ReferenceMap::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8)),
+  EXPECT_THROW(aside.Add(ReferenceSets::Store(MakeReferenceSet("a", x), StoragePrecision::kInt8)),
                std::invalid_argument);  // the name is taken
   EXPECT_EQ(aside.num_sets(), 1);
-  EXPECT_THROW(ReferenceMap::Store(MakeReferenceSet("", x), StoragePrecision::kInt8),
+  EXPECT_THROW(ReferenceSets::Store(MakeReferenceSet("", x), StoragePrecision::kInt8),
                std::invalid_argument);
 }
 

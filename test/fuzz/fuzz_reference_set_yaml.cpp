@@ -1,7 +1,7 @@
 // libFuzzer target for the reference-set YAML reader, both as the tools call it (a path:
 // LoadReferenceSetYaml) and as the node's services do (a request below a data directory:
 // LoadReferenceSetFile with a DataDirectory), and for the validation a loaded set then meets
-// on its way into a map (ReferenceMap::Add).
+// on its way into a map (ReferenceSets::Add).
 //
 // The reader takes a path, so each input is written to set.yaml in a private temporary
 // folder made once, next to the small valid descriptor files of fuzz_fixture.h (a.npy,
@@ -71,12 +71,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const DataDirectory dir(g_dir);
   WriteInput(data, size);
   try {
-    ReferenceMap map;
+    ReferenceSets map;
     map.Add(LoadReferenceSetYaml(g_yaml_path));
   } catch (const std::exception&) {
   }
   try {
-    ReferenceMap map;
+    ReferenceSets map;
     map.Add(LoadReferenceSetFile(dir, "set.yaml", ""));
   } catch (const std::exception&) {
   }

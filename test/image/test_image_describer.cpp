@@ -184,7 +184,7 @@ TEST(Describers, AUniformImageIsSaidToShowNothingAndItsDescriptorIsNoQuery) {
       ImageDescriberOptions o;
       o.kind = kind;
       const auto describer = MakeImageDescriber(o);
-      ReferenceMap map;
+      ReferenceSets map;
       map.Add(MakeReferenceSet("r", RowMatrixXf::Ones(2, describer->dimension())));
       const Eigen::VectorXf d = describer->Describe(uniform);
       EXPECT_THROW(map.CheckQuery(d), std::invalid_argument) << ToString(kind);

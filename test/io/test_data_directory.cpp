@@ -337,7 +337,7 @@ TEST_F(DataDir, RefusesAReferenceImageLargerThanTheLimitBeforeReadingIt) {
   const std::string huge = Data("sets/imgs/b.png");
   ASSERT_EQ(truncate(huge.c_str(), off_t{1} << 30), 0);
   Write(Data("sets/s.yaml"), "name: s\ndescriptors: d.npy\nimages: imgs\n");
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(LoadReferenceSetFile(*dir_, "sets/s.yaml", ""));
   const uint64_t limit = 20u << 20;
   EXPECT_EQ(ReadReferenceImage(map.set(0), 0, dir_.get(), limit), "image a.png");
@@ -362,10 +362,10 @@ TEST_F(DataDir, ReadsReferenceImagesThroughTheDataDirectoryWhenTheyLieBelowIt) {
   WriteNpyMatrix(Data("sets/d.npy"), testing::RandomMatrix(2, 4, 5));
   MakeImages(Data("sets/imgs"), {"a.png", "b.png"});
   Write(Data("sets/s.yaml"), "name: s\ndescriptors: d.npy\nimages: imgs\n");
-  ReferenceMap map;  // the sets as the node holds them
+  ReferenceSets map;  // the sets as the node holds them
   map.Add(LoadReferenceSetFile(*dir_, "sets/s.yaml", ""));
   const StoredReferenceSet& set = map.set(0);
-  ReferenceMap others;  // adding to `map` could move the set `set` refers to
+  ReferenceSets others;  // adding to `map` could move the set `set` refers to
   EXPECT_EQ(ReadReferenceImage(set, 1, dir_.get()), "image b.png");
   EXPECT_EQ(ReadReferenceImage(set, 0, nullptr), "image a.png");
   // A link swapped in below the data directory after loading is refused through it, and

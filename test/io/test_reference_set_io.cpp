@@ -280,7 +280,7 @@ TEST_F(ReferenceSetIo, WrongImagesRefuseTheWholeSetNamingTheProblem) {
   WriteRaw("s.yaml", head + "images: imgs\nimage_files: [d.png, '', a.png]\n");
   const ReferenceSet partial = LoadReferenceSetFile(Path("s.yaml"), "");
   EXPECT_EQ(partial.image_files[1], "");
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(partial);
   EXPECT_EQ(ReadReferenceImage(map.set(0), 0, nullptr), "image d.png");
   try {
@@ -358,7 +358,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
   for (const StoragePrecision p :
        {StoragePrecision::kFloat32, StoragePrecision::kFloat16, StoragePrecision::kInt8}) {
     const std::string what = ToString(p);
-    ReferenceMap resident;
+    ReferenceSets resident;
     resident.SetStoragePrecision(p);
     resident.Add(s);
     const std::string yaml = Path("stored_" + what + ".yaml");
@@ -386,7 +386,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
     EXPECT_EQ(loaded.condition, "snow");
     EXPECT_EQ(loaded.poses.size(), 7u);
     EXPECT_NE(loaded.encoded->source.find("memory-mapped"), std::string::npos);
-    ReferenceMap mapped;
+    ReferenceSets mapped;
     mapped.SetStoragePrecision(p);
     mapped.Add(std::move(loaded));
     ASSERT_TRUE(mapped.set(0).mapped());
@@ -399,7 +399,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
     // the old rows' file is removed; the mapped set keeps the rows it was loaded with.
     const RowMatrixXf q = testing::RandomMatrix(3, 19, 9);
     const auto before = ComputeDistances(DistanceMetric::kCosine, q, mapped);
-    ReferenceMap other;
+    ReferenceSets other;
     other.SetStoragePrecision(p);
     other.Add(MakeReferenceSet("winter", testing::RandomMatrix(7, 19, 77)));
     SaveStoredReferenceSet(other.set(0), yaml);
@@ -407,7 +407,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
     EXPECT_NE(rows_files()[0], first_rows);
     const auto after = ComputeDistances(DistanceMetric::kCosine, q, mapped);
     EXPECT_EQ(std::memcmp(before[0].data(), after[0].data(), sizeof(float) * before[0].size()), 0);
-    ReferenceMap reloaded;
+    ReferenceSets reloaded;
     reloaded.SetStoragePrecision(p);
     reloaded.Add(LoadReferenceSetFile(yaml, "", options));
     EXPECT_EQ(std::memcmp(reloaded.set(0).data(), other.set(0).data(), other.set(0).data_bytes()),
@@ -415,7 +415,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
   }
 
   // At another precision than the file's, the rows are read (int8 decoded by its scale).
-  ReferenceMap int8;
+  ReferenceSets int8;
   int8.SetStoragePrecision(StoragePrecision::kInt8);
   int8.Add(s);
   SaveStoredReferenceSet(int8.set(0), Path("w8.yaml"));
@@ -432,7 +432,7 @@ TEST_F(MappedSets, AStoredSetIsMappedAtItsPrecisionAndReadOtherwise) {
   // file, answer with the same bits.
   ReadSetOptions i8;
   i8.memory_map = StoragePrecision::kInt8;
-  ReferenceMap a, b;
+  ReferenceSets a, b;
   a.SetStoragePrecision(StoragePrecision::kInt8);
   b.SetStoragePrecision(StoragePrecision::kInt8);
   a.Add(s);

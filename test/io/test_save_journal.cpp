@@ -78,7 +78,7 @@ int CheckWholeSet(const DataDirectory& dir, int rows) {
   EXPECT_EQ(set.size(), rows);
   const int g = static_cast<int>(set.descriptors(0, 0));
   EXPECT_TRUE((set.descriptors.array() == static_cast<float>(g)).all());
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(set);
   for (int r = 0; r < rows; ++r) {
     const std::string image = ReadReferenceImage(map.set(0), r, &dir);
@@ -241,7 +241,7 @@ TEST_F(SaveJournalTest, PlacesWithoutAnImageAreSavedWithoutOneAndTheOthersWithTh
   EXPECT_EQ(saved.image_files[1], "000001.jpg");
   const ReferenceSet set = LoadReferenceSetFile(dir, "today.yaml", "");
   EXPECT_EQ(set.image_files, saved.image_files);
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(set);
   EXPECT_EQ(ReadReferenceImage(map.set(0), 1, &dir), images[1]);
   EXPECT_THROW(ReadReferenceImage(map.set(0), 4, &dir), std::invalid_argument);
@@ -339,7 +339,7 @@ TEST_F(SaveJournalTest, TheSameDescriptorsRecordedAgainAndKilledLeaveOneSetOfIma
     const ReferenceSet set = LoadReferenceSetFile(dir, "today.yaml", "");
     EXPECT_TRUE((set.descriptors.array() == 1.0f).all());
     // One generation of images, whole, and nothing else left.
-    ReferenceMap map;
+    ReferenceSets map;
     map.Add(set);
     const std::string first = ReadReferenceImage(map.set(0), 0, &dir);
     const std::string g = first.substr(0, first.find(" row "));

@@ -225,7 +225,7 @@ RowMatrixXf SubspaceRows(int n, int subspace, uint64_t seed) {
 TEST_F(MapFixture, TheFirstStageIsBuiltInTheBackgroundWhileQueriesGoOn) {
   for (const auto& [name, rows, subspace] :
        {std::tuple{"near", 500, 1}, std::tuple{"far", 3000, 2}}) {
-    ReferenceMap encoder;
+    ReferenceSets encoder;
     encoder.SetStoragePrecision(StoragePrecision::kInt8);
     encoder.Add(MakeReferenceSet(name, SubspaceRows(rows, subspace, 7)));
     SaveStoredReferenceSet(encoder.set(0), (root / (std::string(name) + ".yaml")).string());
@@ -306,7 +306,7 @@ TEST_F(MapFixture, AMappedFileRewrittenInPlaceIsDroppedAndNoQueryUsesItsNewRows)
   constexpr int kRows = 2000;
   for (const char* how : {"copied over", "bytes in place", "truncated"}) {
     SCOPED_TRACE(how);
-    ReferenceMap encoder;
+    ReferenceSets encoder;
     encoder.SetStoragePrecision(StoragePrecision::kInt8);
     encoder.Add(MakeReferenceSet("mapped", SubspaceRows(kRows, 1, 11)));
     encoder.Add(MakeReferenceSet("other", SubspaceRows(kRows, 2, 12)));

@@ -66,7 +66,7 @@ class ApproximateIndex {
   // Fits the basis to a sample of `map`'s rows (decoded as stored) and projects every row
   // of every set. Threads: DistanceThreads(). Throws std::invalid_argument if the options
   // are invalid or the map holds no sets. `map` is not referenced after it returns.
-  ApproximateIndex(const ReferenceMap& map, const ApproximateOptions& options = {});
+  ApproximateIndex(const ReferenceSets& map, const ApproximateOptions& options = {});
   // The same for `sets` (one dimension), on `threads` threads: 1 runs on the caller's
   // thread alone, without the worker pool that queries use (a build in the background).
   ApproximateIndex(const std::vector<StoredReferenceSet>& sets, const ApproximateOptions& options,
@@ -93,7 +93,7 @@ class ApproximateIndex {
     double rerank_ms = 0;       // the candidates' exact distances
   };
   std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
-                                     const ReferenceMap& map, StageTimes* times = nullptr,
+                                     const ReferenceSets& map, StageTimes* times = nullptr,
                                      std::vector<bool>* covered = nullptr) const;
   // Whether the index holds codes of `set` (Distances answers for it).
   bool Covers(const StoredReferenceSet& set) const { return CodesOf(set) != nullptr; }
@@ -143,11 +143,11 @@ class ApproximateIndex {
   // then overwrites each set's `rerank` smallest per query. `qn`: the queries' squared norms.
   // `codes[u]` is set u's codes (null: set u is left out).
   void ApproximateStage(DistanceMetric metric, const RowMatrixXf& queries,
-                        const Eigen::VectorXf& qn, const ReferenceMap& map,
+                        const Eigen::VectorXf& qn, const ReferenceSets& map,
                         const std::vector<const SetCodes*>& codes,
                         std::vector<RowMatrixXf>* out) const;
   void ExactStage(DistanceMetric metric, const RowMatrixXf& queries, const Eigen::VectorXf& qn,
-                  const ReferenceMap& map, const std::vector<const SetCodes*>& codes,
+                  const ReferenceSets& map, const std::vector<const SetCodes*>& codes,
                   std::vector<RowMatrixXf>* out) const;
 
   ApproximateOptions options_;

@@ -3,7 +3,7 @@
 // All distances returned here are NOT squared: Euclidean is ||q - r||_2 (the paper's), and
 // cosine is 1 - <q, r> / (||q|| ||r||), in [0, 2]. A zero-norm vector has cosine
 // similarity 0 to everything (distance 1), never NaN; a query of zeros is refused before
-// it is recognised (ReferenceMap::CheckQuery). Both are non-negative.
+// it is recognised (ReferenceSets::CheckQuery). Both are non-negative.
 #pragma once
 
 #include <string>
@@ -74,7 +74,7 @@ RowMatrixXf ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
 
 // The same for every set of `map`: element u is Q x N_u for set u.
 std::vector<RowMatrixXf> ComputeDistances(DistanceMetric metric, const RowMatrixXf& queries,
-                                          const ReferenceMap& map);
+                                          const ReferenceSets& map);
 
 // Throws std::invalid_argument naming the first query row that DescriptorProblem refuses
 // (NaN, infinity, or values whose squared norm overflows): every distance function's check.

@@ -46,11 +46,11 @@ class DistanceStage {
   // The map changed: the index, if any, is rebuilt at the next use.
   void Invalidate() { index_.reset(); }
   // Builds the index now for "pca" (a no-op for "exact" or when it is built).
-  void Prepare(const ReferenceMap& map);
+  void Prepare(const ReferenceSets& map);
   // Q x N_u per set, as ComputeDistances gives them (approximate for "pca" except each set's
   // rerank_candidates smallest per query, which are exact).
   std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
-                                     const ReferenceMap& map);
+                                     const ReferenceSets& map);
   // The index in use, or null (exact, or not built yet).
   const ApproximateIndex* index() const { return index_.get(); }
   // One line for logs and diagnostics: "exact", or "pca: 256 dimensions keeping 97.2% of

@@ -327,9 +327,9 @@ class OptionTable {
 
 // A source over values given by name (tests, dynamic_reconfigure's Config message once
 // converted), tracking what was read.
-class MapOptionSource : public OptionSource {
+class NamedValueSource : public OptionSource {
  public:
-  explicit MapOptionSource(std::vector<std::pair<std::string, OptionValue>> values,
+  explicit NamedValueSource(std::vector<std::pair<std::string, OptionValue>> values,
                            std::string prefix = "")
       : values_(std::move(values)), prefix_(std::move(prefix)) {}
   std::optional<OptionValue> Get(const std::string& name, OptionType type) override;

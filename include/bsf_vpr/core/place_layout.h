@@ -1,7 +1,7 @@
 // The place layout of a map: its sets, the place each of their rows shows and the places'
 // poses, without descriptors. It is what deciding a belief and showing it need of a map, so
 // a process that holds no descriptors (the combiner of a sharded map, docs/sharding.md)
-// holds a layout and nothing else; a ReferenceMap keeps one beside its descriptors.
+// holds a layout and nothing else; a ReferenceSets keeps one beside its descriptors.
 //
 // Places are numbered 0..N-1 in one place index shared by every set; N grows to cover the
 // largest place id of any set. Not thread-safe: callers serialise access.

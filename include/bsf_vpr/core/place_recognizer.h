@@ -1,8 +1,9 @@
-// The online place recogniser of one process: M reference sets in memory (ReferenceMap),
+// The online place recogniser of one process: M reference sets in memory (ReferenceSets),
 // their distances to a query (DistanceStage) and the decision (PlaceDecider), which may
 // carry state from one query to the next (+filter: the previous posterior; +seq: the last L
-// cost vectors). The offline tools and the tests use it; the fusion node holds the same
-// parts behind its map backend (local or sharded, docs/architecture.md).
+// cost vectors). bsf_benchmark and the tests use it; the fusion node holds the same parts
+// behind its map backend (LocalMap or ShardedMap) and bsf_evaluate runs the same
+// MethodRunner on its blocks of distances (docs/architecture.md, "One query").
 //
 // Not thread-safe: callers serialise access (the fusion node holds a mutex).
 #pragma once
@@ -50,12 +51,12 @@ class PlaceRecognizer {
   const RecognizerOptions& options() const { return options_; }
   const Method& method() const { return decider_.method(); }
 
-  // Precision at which sets added from now on are stored (ReferenceMap::SetStoragePrecision).
+  // Precision at which sets added from now on are stored (ReferenceSets::SetStoragePrecision).
   void SetStoragePrecision(StoragePrecision precision) { map_.SetStoragePrecision(precision); }
-  // Largest disagreement on a place's pose between sets (ReferenceMap::SetPlacePoseTolerance).
+  // Largest disagreement on a place's pose between sets (ReferenceSets::SetPlacePoseTolerance).
   void SetPlacePoseTolerance(double metres) { map_.SetPlacePoseTolerance(metres); }
 
-  // Adds a set (see ReferenceMap::Add; throws, map unchanged). Resets the carried state.
+  // Adds a set (see ReferenceSets::Add; throws, map unchanged). Resets the carried state.
   void AddReferenceSet(ReferenceSet set);
   // Removes a set. Throws std::invalid_argument if it is not loaded or the current method
   // needs it (nn:<set>, bayes:<set>, with any suffix). Resets the carried state.
@@ -63,7 +64,7 @@ class PlaceRecognizer {
   // Throws what RemoveReferenceSet would, without removing anything (a sharded map checks
   // before it asks the shard that holds the set).
   void CheckRemovable(const std::string& name) const;
-  const ReferenceMap& map() const { return map_; }
+  const ReferenceSets& map() const { return map_; }
 
   // Recognises the place of one descriptor (D floats). With update_state, the state carried
   // between queries (prior, filter, sequence) is updated; without, the recogniser is left
@@ -104,7 +105,7 @@ class PlaceRecognizer {
 
  private:
   RecognizerOptions options_;
-  ReferenceMap map_;
+  ReferenceSets map_;
   DistanceStage distances_;
   PlaceDecider decider_;
   uint64_t generation_ = 0;  // changes of sets

@@ -4,7 +4,7 @@
 // of those places, with at most one descriptor per place (paper, Sec. III-A).
 //
 // A ReferenceSet is the plain value that files, tools and the recorder produce and consume
-// (float32 descriptors and their metadata). ReferenceMap::Add turns it into the immutable
+// (float32 descriptors and their metadata). ReferenceSets::Add turns it into the immutable
 // StoredReferenceSet the map keeps, encoded at the map's storage precision.
 #pragma once
 
@@ -38,7 +38,7 @@ struct ReferenceSet {
   std::string distance;          // optional, the distance the descriptors are meant for
   RowMatrixXf descriptors;       // N_u x D, row k describes place place_ids[k]
   // Or the N_u x D rows already encoded (a memory-mapped .npy: EncodedRows), in which case
-  // `descriptors` is empty. ReferenceMap::Add holds them as they are when they are at the
+  // `descriptors` is empty. ReferenceSets::Add holds them as they are when they are at the
   // map's storage precision, and refuses them otherwise; nothing else reads them.
   std::optional<EncodedRows> encoded;
   std::vector<int> place_ids;    // N_u place indices, distinct, in [0, N)
@@ -87,7 +87,7 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors,
 // M reference sets sharing one descriptor dimension and one place index: their stored
 // descriptors and their place layout (layout()). M and N are run-time values; N grows to
 // cover the largest place id of any set.
-class ReferenceMap {
+class ReferenceSets {
  public:
   // Precision at which sets added from now on are held (default float32). A set held at
   // reduced precision keeps only its encoded rows: its float32 values are released.

@@ -1,4 +1,4 @@
-// A reference set as a ReferenceMap holds it: immutable, its descriptors encoded at the
+// A reference set as a ReferenceSets holds it: immutable, its descriptors encoded at the
 // map's storage precision behind accessors (as faiss keeps an index's codes behind
 // IndexFlatCodes), with the squared norm of every row that the distances need. Nothing
 // changes it once made: any number of threads may read it at once. A copy shares the
@@ -19,7 +19,7 @@
 namespace bsf_vpr {
 
 struct ReferenceSet;
-class ReferenceMap;
+class ReferenceSets;
 
 class StoredReferenceSet {
  public:
@@ -68,8 +68,8 @@ class StoredReferenceSet {
   ReferenceSet ToReferenceSet() const;
 
  private:
-  friend class ReferenceMap;
-  // Made by ReferenceMap::Add from a set it has validated (ReferenceSet::Validate). Throws
+  friend class ReferenceSets;
+  // Made by ReferenceSets::Add from a set it has validated (ReferenceSet::Validate). Throws
   // std::invalid_argument for values float16 cannot hold (std::bad_alloc when memory is
   // short); a float32 set keeps the given matrix without copying it. A set of encoded rows
   // (ReferenceSet::encoded) is held as it is, without reading more than its norms need; it

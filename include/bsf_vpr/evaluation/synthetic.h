@@ -31,7 +31,7 @@ struct SyntheticOptions {
 };
 
 struct SyntheticData {
-  ReferenceMap map;                  // sets "c0", "c1", ... with condition labels "c0", ...
+  ReferenceSets map;                  // sets "c0", "c1", ... with condition labels "c0", ...
   RowMatrixXf queries;               // one query per place: query q is at place q
   std::vector<int> query_condition;  // condition of each query
   GroundTruth truth;                 // query q's only correct place is q

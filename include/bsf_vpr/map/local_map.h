@@ -1,6 +1,6 @@
 // A map whose reference sets live in this process: the fusion node's map when it holds its
 // own sets, and the set-holding part of a fusion shard. Free of ROS. It reads the configured sets
-// and those load_reference_set names (below the data directory), stores them (ReferenceMap, at the
+// and those load_reference_set names (below the data directory), stores them (ReferenceSets, at the
 // configured storage precision), computes a query's distances to each of them (DistanceStage:
 // exact, or the pca first stage) and keeps the sets' layout.
 //
@@ -99,7 +99,7 @@ class LocalMap : public MapBackend {
   int num_sets() const;
 
  private:
-  // Adds `set` (read from `where`, encoded by ReferenceMap::Store without the lock) under
+  // Adds `set` (read from `where`, encoded by ReferenceSets::Store without the lock) under
   // mutex_: adopts its distance when none is configured and nothing is loaded yet, refuses
   // a set meant for another distance.
   std::string AddLocked(StoredReferenceSet set, const std::string& where) REQUIRES(mutex_);
@@ -144,10 +144,10 @@ class LocalMap : public MapBackend {
   const DataDirectory* const data_dir_;
   const std::string shard_;
   mutable Mutex mutex_;
-  ReferenceMap map_ GUARDED_BY(mutex_);
+  ReferenceSets sets_ GUARDED_BY(mutex_);
   DistanceStage stage_ GUARDED_BY(mutex_);
   DistanceMetric metric_ GUARDED_BY(mutex_);
-  std::vector<uint64_t> fingerprints_ GUARDED_BY(mutex_);  // SetFingerprint of each set of map_
+  std::vector<uint64_t> fingerprints_ GUARDED_BY(mutex_);  // SetFingerprint of each set of sets_
   Layout layout_ GUARDED_BY(mutex_);
   uint64_t generations_ GUARDED_BY(mutex_) = 0;  // layouts made
   // Why the pca first stage fell back to exact, if it did.

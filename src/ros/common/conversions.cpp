@@ -8,11 +8,6 @@
 
 namespace bsf_vpr {
 
-void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
-                 Belief* out) {
-  ToBeliefMsg(r, recognizer.map().layout(), recognizer.decider(), belief_top_k, out);
-}
-
 void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDecider& decider,
                  int belief_top_k, Belief* out) {
   const PlaceBelief& b = r.belief;

@@ -50,8 +50,6 @@ void ToShardDistancesMsg(const ShardAnswer& answer, ShardDistances* out);
 // `decider` found `r` on `layout`.
 void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDecider& decider,
                  int belief_top_k, Belief* out);
-void ToBeliefMsg(const Recognition& r, const PlaceRecognizer& recognizer, int belief_top_k,
-                 Belief* out);
 
 // Fills `out` (header left to the caller) for the match of `r`, its pose by ToMatchPose
 // from the layout's pose of the matched place; returns what ToMatchPose returns.

@@ -430,7 +430,7 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
   const OptionTable<RecognizerOptions>& table = RecognizerOptionsTable();
   dynamic_reconfigure::Config request;
   config.__toMessage__(request);
-  MapOptionSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
+  NamedValueSource source(ValuesFromConfig(request), pnh_.getNamespace() + "/");
   const RecognizerOptions in_force = OptionsInForce();
   RecognizerOptions o = in_force;
   try {

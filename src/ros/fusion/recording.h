@@ -149,7 +149,7 @@ class Recording {
   void RunSave(SaveJob& job) const;
   Saved EndSave(SaveJob job);
   bool saving() const { return saving_; }
-  Saved Save(DistanceMetric distance, const ReferenceMap* loaded,
+  Saved Save(DistanceMetric distance, const ReferenceSets* loaded,
              const PlaceIndexOptions& options = {}) {
     return Save(distance, loaded ? &loaded->layout() : nullptr, options);
   }

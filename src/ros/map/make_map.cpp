@@ -62,10 +62,7 @@ std::unique_ptr<MapBackend> MakeMap(const ros::NodeHandle& nh, const MapParams& 
              first_stage.kind.c_str());
   }
   ShardedMapOptions options;
-  options.shards = sharding.shards;
-  options.timeout_s = sharding.shard_timeout;
-  options.call_timeout_s = sharding.shard_timeout + sharding.shard_call_timeout;
-  options.load_timeout_s = sharding.shard_load_timeout;
+  options.sharding = sharding;
   options.queue_size = queue_size;
   options.metric = map.distance;
   options.place_pose_tolerance_m = map.place_pose_tolerance_m;

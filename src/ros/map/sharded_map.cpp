@@ -51,9 +51,9 @@ bool SameSets(const ShardInfo* a, const ShardInfo* b) {
 ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options)
     : nh_(std::move(nh)),
       options_(std::move(options)),
-      shards_(options_.shards.size()),
+      shards_(options_.sharding.shards.size()),
       join_(
-          static_cast<int>(options_.shards.size()), options_.timeout_s,
+          static_cast<int>(options_.sharding.shards.size()), options_.sharding.shard_timeout,
           static_cast<size_t>(std::max(1, options_.queue_size)),
           // The join calls these from its own calls, which run under mutex_ (join_ is
           // guarded by it).
@@ -74,7 +74,7 @@ ShardedMap::ShardedMap(ros::NodeHandle nh, ShardedMapOptions options)
           }),
       layout_(std::make_shared<NumberedLayout>(PlaceLayout(), 0)),
       metric_(options_.metric.value_or(DistanceMetric::kEuclidean)) {
-  for (size_t k = 0; k < shards_.size(); ++k) shards_[k].name = nh_.resolveName(options_.shards[k]);
+  for (size_t k = 0; k < shards_.size(); ++k) shards_[k].name = nh_.resolveName(options_.sharding.shards[k]);
 }
 
 void ShardedMap::Start(Callbacks callbacks) {
@@ -97,12 +97,12 @@ void ShardedMap::Start(Callbacks callbacks) {
   ROS_INFO(
       "bsf_vpr: sharded map over %zu shard(s), waiting %.2f s for each; its sets come "
       "with the shards' shard_info, as each shard's get_shard_info confirms it",
-      shards_.size(), options_.timeout_s);
+      shards_.size(), options_.sharding.shard_timeout);
   // Asks again the shards that did not answer get_shard_info.
   ros::WallTimerOptions confirm(
       ros::WallDuration(1.0),
       [this](const ros::WallTimerEvent&) {
-        for (size_t k = 0; k < options_.shards.size(); ++k) {  // one per configured shard
+        for (size_t k = 0; k < options_.sharding.shards.size(); ++k) {  // one per configured shard
           ShardInfo::ConstPtr msg;
           std::string publisher;
           {
@@ -118,7 +118,7 @@ void ShardedMap::Start(Callbacks callbacks) {
   info_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &info_queue_);
   info_spinner_->start();
   // Decides the queries whose missing answers time out (every answer may have arrived).
-  timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.timeout_s / 5)),
+  timer_ = nh_.createWallTimer(ros::WallDuration(std::max(0.005, options_.sharding.shard_timeout / 5)),
                                [this](const ros::WallTimerEvent&) {
                                  {
                                    MutexLock guard(&mutex_);
@@ -223,7 +223,7 @@ void ShardedMap::ConfirmInfo(int k, const ShardInfo::ConstPtr& msg, const std::s
   }
   GetShardInfo ask;
   const std::string why =
-      CallShard(name + "/" + names::kShardInfoService, &ask, stalled, options_.call_timeout_s);
+      CallShard(name + "/" + names::kShardInfoService, &ask, stalled, options_.call_timeout_s());
   {
     MutexLock lock(&mutex_);
     Shard& shard = shards_[static_cast<size_t>(k)];

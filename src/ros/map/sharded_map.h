@@ -46,15 +46,17 @@
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/map/map_backend.h"
 #include "bsf_vpr/map/shard_join.h"
+#include "src/ros/map/map_params.h"
 
 namespace bsf_vpr {
 
 struct ShardedMapOptions {
-  std::vector<std::string> shards;  // resolved in the node's namespace
-  double timeout_s = 0.5;           // a query waits this long for the shards after the first
-  double call_timeout_s = 1.0;      // a call to get_distances or unload waits this long
-  double load_timeout_s = 30;       // a routed load waits this long
-  int queue_size = 100;             // queries pending at most
+  // The shards (resolved in the node's namespace) and how long the map waits for them: a
+  // query shard_timeout after the first answer, a routed load shard_load_timeout.
+  ShardingParams sharding;
+  // A call to get_distances, get_shard_info or unload: shard_timeout + shard_call_timeout.
+  double call_timeout_s() const { return sharding.shard_timeout + sharding.shard_call_timeout; }
+  int queue_size = 1;  // queries pending at most (the node's queue_size)
   // The distance the node is configured with (nullopt: the shards').
   std::optional<DistanceMetric> metric;
   double place_pose_tolerance_m = kDefaultPlacePoseToleranceM;

@@ -39,10 +39,10 @@ MapBackend::Query ShardedMap::Ask(const QueryDescriptor& descriptor) {
     calls.push_back(std::make_unique<ShardCall<GetShardDistances>>(
         names[k] + "/" + names::kShardDistancesService, request, stalled[k]));
   }
-  const auto deadline = Deadline(options_.call_timeout_s);
+  const auto deadline = Deadline(options_.call_timeout_s());
   std::vector<const ShardDistances*> answers(names.size(), nullptr);
   for (size_t k = 0; k < names.size(); ++k) {
-    const std::string why = calls[k]->Wait(deadline, options_.call_timeout_s);
+    const std::string why = calls[k]->Wait(deadline, options_.call_timeout_s());
     if (why.empty()) {
       answers[k] = &calls[k]->response().distances;
     } else {
@@ -114,7 +114,7 @@ std::string ShardedMap::Route(int k, const std::string& service, Service* srv, d
     UnloadReferenceSet undo;
     undo.request.name = set;
     const std::string undone = CallShard(name + "/" + names::kUnloadReferenceSetService, &undo,
-                                         stalled, options_.call_timeout_s);
+                                         stalled, options_.call_timeout_s());
     if (!undone.empty()) ROS_WARN("bsf_vpr: shard %s %s", name.c_str(), undone.c_str());
   }
   lock.Lock();
@@ -152,7 +152,7 @@ std::string ShardedMap::Load(const LoadRequest& request, const SetCheck&) {
   LoadReferenceSet forward;
   forward.request = ToLoadRequestMsg(request);
   forward.request.shard.clear();
-  return Route(shard, names::kLoadReferenceSetService, &forward, options_.load_timeout_s);
+  return Route(shard, names::kLoadReferenceSetService, &forward, options_.sharding.shard_load_timeout);
 }
 
 std::string ShardedMap::Unload(const std::string& name) {
@@ -166,7 +166,7 @@ std::string ShardedMap::Unload(const std::string& name) {
   }
   UnloadReferenceSet forward;
   forward.request.name = name;
-  return Route(shard, names::kUnloadReferenceSetService, &forward, options_.call_timeout_s);
+  return Route(shard, names::kUnloadReferenceSetService, &forward, options_.call_timeout_s());
 }
 
 std::string ShardedMap::CannotRecord() const {

@@ -23,7 +23,7 @@ double Seconds(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-std::vector<const StoredReferenceSet*> SetsOf(const ReferenceMap& map) {
+std::vector<const StoredReferenceSet*> SetsOf(const ReferenceSets& map) {
   std::vector<const StoredReferenceSet*> out;
   for (const StoredReferenceSet& s : map.sets()) out.push_back(&s);
   return out;
@@ -44,7 +44,7 @@ void QueryCost(int repeats, int m, int n, int d) {
 }
 
 void BuildTimes(int repeats, int m, int n, int d) {
-  ReferenceMap map;
+  ReferenceSets map;
   for (int u = 0; u < m; ++u)
     map.Add(MakeReferenceSet("s" + std::to_string(u), Uniform(n, d, 400 + u)));
   for (const JointKind kind :
@@ -67,7 +67,7 @@ void LargeBuild(int m, int n, int d) {
         m, n, d, needed / 1e9, 0.75 * AvailableBytes() / 1e9);
     return;
   }
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(StoragePrecision::kInt8);
   for (int u = 0; u < m; ++u)
     map.Add(MakeReferenceSet("s" + std::to_string(u), Uniform(n, d, 500 + u)));

@@ -40,7 +40,7 @@ void WriteSet(const std::string& dir, const std::string& name, int n, int d, uin
     } catch (const std::exception&) {
     }
   }
-  ReferenceMap map;
+  ReferenceSets map;
   map.SetStoragePrecision(StoragePrecision::kInt8);
   ReferenceSet set = MakeReferenceSet(name, Uniform(n, d, seed));
   map.Add(std::move(set));
@@ -78,7 +78,7 @@ void BenchmarkMapped(int repeats, int scale, const FirstStageOptions& first_stag
   ReadSetOptions mapped;
   mapped.memory_map = StoragePrecision::kInt8;
   const auto open_set = [&](const ReadSetOptions& options) {
-    ReferenceMap map;
+    ReferenceSets map;
     map.SetStoragePrecision(StoragePrecision::kInt8);
     map.Add(LoadReferenceSetFile(one, "", options));
   };

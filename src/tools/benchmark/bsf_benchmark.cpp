@@ -184,7 +184,7 @@ uint64_t FoldWords(const uint64_t* p, size_t w0, size_t w1) {
 
 // Memory-bandwidth probe: reads every stored byte of the map once, split over `threads` as
 // the distances are.
-uint64_t StreamOnce(const ReferenceMap& map, int threads) {
+uint64_t StreamOnce(const ReferenceSets& map, int threads) {
   std::vector<uint64_t> partial(static_cast<size_t>(threads), 0);
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {

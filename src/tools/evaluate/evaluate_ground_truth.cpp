@@ -118,7 +118,7 @@ std::vector<PlacePose> ReadQueryPosesCsv(const std::string& path, int num_querie
   return poses;
 }
 
-std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceMap& map) {
+std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceSets& map) {
   const std::vector<std::optional<PlacePose>>& poses = map.place_poses();
   if (std::none_of(poses.begin(), poses.end(), [](const auto& p) { return p.has_value(); })) {
     throw std::invalid_argument("--tolerance-m needs place poses: no reference set has 'poses'");
@@ -142,7 +142,7 @@ std::vector<std::optional<PlacePose>> NodePlacePoses(const std::vector<NamedPath
       throw std::invalid_argument("--reference " + r.name + " is given twice");
     }
   }
-  ReferenceMap map;
+  ReferenceSets map;
   for (const std::string& name : set_names) {
     const auto it = path_of.find(name);
     if (it == path_of.end()) {

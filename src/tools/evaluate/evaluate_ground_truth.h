@@ -28,7 +28,7 @@ std::vector<PlacePose> ReadQueryPosesCsv(const std::string& path, int num_querie
 
 // Every place's pose in `map` (from the first set that has one for it; nullopt where no set
 // has). Throws std::invalid_argument when no place has a pose.
-std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceMap& map);
+std::vector<std::optional<PlacePose>> PlacePosesOf(const ReferenceSets& map);
 
 // The place poses a node had during a replay, from the reference-set YAMLs given with
 // --results-bag (`references`). Their names must be exactly the node's sets (`set_names`,

@@ -22,7 +22,7 @@ struct EvaluationData {
   EvaluationData(const EvaluationData&) = delete;  // no implicit move either
   EvaluationData& operator=(const EvaluationData&) = delete;
 
-  ReferenceMap map;     // descriptor mode
+  ReferenceSets map;     // descriptor mode
   DistanceStage stage;  // descriptor mode: exact or the pca first stage
   RowMatrixXf queries;  // descriptor mode, Q x D
   // descriptor mode with --tolerance-m: from the query YAML or --query-poses (else empty)

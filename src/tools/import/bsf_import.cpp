@@ -145,7 +145,7 @@ std::vector<ReferenceSet> MakeReferenceSets(const ImportArgs& a, const std::vect
         // The spacing the places have: the one asked for, unless the frames lie farther
         // apart (a place is then a frame, and the report says so).
         const double asked = a.options.place_index.place_spacing_m;
-        const double median = ReferenceMap::MedianSpacing(index->place_poses()).value_or(0.0);
+        const double median = ReferenceSets::MedianSpacing(index->place_poses()).value_or(0.0);
         report << ", " << index->num_places() << " places";
         if (index->num_places() > 1 && median > 1.5 * asked) {
           report << " one every " << median << " m (median): the frames lie farther apart than "

@@ -222,7 +222,7 @@ TEST(Reconfigure, TheCfgIsTheTable) {
   config.sequence_length = 7;
   dynamic_reconfigure::Config request;
   config.__toMessage__(request);
-  MapOptionSource source(ValuesFromConfig(request));
+  NamedValueSource source(ValuesFromConfig(request));
   RecognizerOptions o;
   table.Apply(source, &o, /*live_only=*/true);
   EXPECT_TRUE(source.Unread().empty());

@@ -142,7 +142,7 @@ class FakeMap : public MapBackend {
   LoadMode mode_ = LoadMode::kLoad;
   bool released_ = false, stalling_ = false;
   int added_rows_ = 0;
-  ReferenceMap map_;
+  ReferenceSets map_;
   Layout layout_;
   uint64_t generation_ = 0;
 };

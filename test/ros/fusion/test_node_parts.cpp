@@ -21,8 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-ReferenceMap ThreeSets() {
-  ReferenceMap map;
+ReferenceSets ThreeSets() {
+  ReferenceSets map;
   for (const char* name : {"summer", "fall", "winter"}) {
     map.Add(MakeReferenceSet(name, RowMatrixXf::Random(4, 3)));
   }
@@ -30,7 +30,7 @@ ReferenceMap ThreeSets() {
 }
 
 TEST(SelectionCounters, CountSelectedBestAndSuppliedPerSet) {
-  const ReferenceMap map = ThreeSets();
+  const ReferenceSets map = ThreeSets();
   SelectionCounters c;
   Recognition r;
   r.belief.selection.selected = {0, 2};
@@ -123,7 +123,7 @@ TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
   const Recognition rec =
       r.Recognize(r.map().set(0).ToReferenceSet().descriptors.row(2).transpose(), false);
   Belief all;
-  ToBeliefMsg(rec, r, 0, &all);
+  ToBeliefMsg(rec, r.map().layout(), r.decider(), 0, &all);
   EXPECT_EQ(all.method, "bsf");
   EXPECT_EQ(all.num_places, 6);
   ASSERT_EQ(all.place_ids.size(), 6u);
@@ -140,7 +140,7 @@ TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
   EXPECT_EQ(all.match, rec.belief.match);
   EXPECT_EQ(all.accepted, rec.belief.accepted);
   Belief best;
-  ToBeliefMsg(rec, r, 2, &best);
+  ToBeliefMsg(rec, r.map().layout(), r.decider(), 2, &best);
   ASSERT_EQ(best.place_ids.size(), 2u);
   EXPECT_EQ(best.place_ids[0], rec.belief.match);
   EXPECT_GE(best.posterior[0], best.posterior[1]);
@@ -245,7 +245,7 @@ class RecordingTest : public ::testing::Test {
 
   std::string root_;
   std::unique_ptr<DataDirectory> dir_;
-  ReferenceMap map_;
+  ReferenceSets map_;
 };
 
 TEST_F(RecordingTest, WithSaveImagesEachPlaceKeepsTheImageOfItsDescriptor) {
@@ -446,7 +446,7 @@ TEST_F(RecordingTest, KeepsTheDescriptorTypeAndTheMapsDimension) {
   EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.descriptor_type, "hog_64x32_c8_b9");
   EXPECT_EQ(LoadReferenceSetFile(*dir_, "tonight.yaml", "").descriptor_type, "hog_64x32_c8_b9");
   // A new recording starts without a type; with no set loaded it takes any dimension.
-  rec.Start("later", "", false, ReferenceMap());
+  rec.Start("later", "", false, ReferenceSets());
   rec.Add(Eigen::VectorXf::Ones(5), "");
   EXPECT_EQ(rec.Save(DistanceMetric::kEuclidean).set.descriptor_type, "");
 }
@@ -473,7 +473,7 @@ TEST_F(RecordingTest, RefusesLoadingTheSetBeingRecordedAndReportsItInDiagnostics
 }
 
 TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
-  ReferenceMap posed;
+  ReferenceSets posed;
   ReferenceSet summer = MakeReferenceSet("summer", RowMatrixXf::Random(4, 3));
   summer.poses = {{0, 0, 0, 0}, {1, 0, 0, 0}, {2, 0, 0, 0}, {3, 0, 0, 0}};
   posed.Add(summer);
@@ -498,7 +498,7 @@ TEST_F(RecordingTest, ByPoseAndByLocalisationOnAMapWithPoses) {
   EXPECT_TRUE(rec.recording());
   rec.Discard();
   // By localisation: needs a loaded set; keeps the accepted places.
-  ReferenceMap empty;
+  ReferenceSets empty;
   EXPECT_NE(Refusal([&] {
               rec.Start("loc", "", false, empty, RecordingPlaces::kLocalized);
             }).find("needs a loaded reference set"),

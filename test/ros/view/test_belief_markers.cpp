@@ -12,12 +12,12 @@ namespace {
 
 using visualization_msgs::Marker;
 
-ReferenceMap LineMap(int n, double spacing_m, bool with_poses) {
+ReferenceSets LineMap(int n, double spacing_m, bool with_poses) {
   ReferenceSet set = MakeReferenceSet("summer", RowMatrixXf::Random(n, 4));
   if (with_poses) {
     for (int k = 0; k < n; ++k) set.poses.push_back({k * spacing_m, 0, 0, 0});
   }
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(std::move(set));
   return map;
 }
@@ -156,7 +156,7 @@ TEST(RouteLayout, PlacePosesAreUsedWhenEveryPlaceHasOne) {
   const RouteLayout large = MakeRouteLayout(LineMap(100, 10.0, true), options);
   EXPECT_DOUBLE_EQ(large.scale_m, 100.0);
   // A map where some places have no pose is laid out on the line.
-  ReferenceMap mixed = LineMap(6, 10.0, true);
+  ReferenceSets mixed = LineMap(6, 10.0, true);
   ReferenceSet more = MakeReferenceSet("fall", RowMatrixXf::Random(8, 4));
   mixed.Add(std::move(more));  // places 6 and 7 have no pose
   EXPECT_FALSE(MakeRouteLayout(mixed, options).from_poses);

@@ -418,7 +418,7 @@ TEST_F(EvaluateByPosition, AWrongQueryPoseCsvGivesOneLineAndExitCode2) {
 // (cosine distance), computed by the core exactly as bsf_evaluate computes them.
 std::vector<QueryOutcome> OfflineOutcomes(const ReferenceSet& day, const RowMatrixXf& night,
                                           const std::string& method) {
-  ReferenceMap map;
+  ReferenceSets map;
   map.Add(day);
   EvaluationInput in;
   in.num_queries = static_cast<int>(night.rows());

@@ -57,6 +57,7 @@ struct ShardAnswer {
   std::vector<std::string> joint_sets;
   RowMatrixXf joint_distances;
   std::string error;  // "" unless refused
+  double seconds = 0;  // the time the shard spent on the descriptor
 };
 
 class LocalMap : public MapBackend {

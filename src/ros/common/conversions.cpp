@@ -239,4 +239,49 @@ SetLayout LayoutFromShardSetMsg(const ShardSet& msg) {
   return set;
 }
 
+ShardSets FromShardInfoMsg(const ShardInfo& msg) {
+  ShardSets out;
+  out.name = msg.shard;
+  out.distance = msg.distance;
+  for (const ShardSet& s : msg.sets) {
+    out.sets.push_back(ShardSets::Set{LayoutFromShardSetMsg(s), s.fingerprint, s.max_norm});
+  }
+  return out;
+}
+
+std::optional<ShardAnswer> FromShardDistancesMsg(const ShardDistances& msg) {
+  ShardAnswer a;
+  a.seconds = msg.processing_time;
+  if (!msg.error.empty()) {
+    a.error = msg.error;
+    return a;
+  }
+  const size_t n = msg.set_names.size();
+  if (msg.fingerprints.size() != n || msg.counts.size() != n) return std::nullopt;
+  size_t offset = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const int32_t count = msg.counts[i];
+    if (count < 0 || msg.distances.size() - offset < static_cast<size_t>(count)) {
+      return std::nullopt;
+    }
+    a.distances.push_back(Eigen::Map<const RowMatrixXf>(msg.distances.data() + offset, 1, count));
+    offset += static_cast<size_t>(count);
+  }
+  if (offset != msg.distances.size()) return std::nullopt;
+  a.set_names = msg.set_names;
+  a.fingerprints = msg.fingerprints;
+  if (!msg.joint_kind.empty()) {
+    try {
+      a.joint_kind = JointKindNames().Parse(msg.joint_kind, "joint_kind");
+    } catch (const std::invalid_argument&) {
+      // A kind this node does not know: no joint representation it can use.
+    }
+    a.joint_build = msg.joint_build;
+    a.joint_sets = msg.joint_sets;
+    a.joint_distances = Eigen::Map<const RowMatrixXf>(
+        msg.joint_distances.data(), 1, static_cast<Eigen::Index>(msg.joint_distances.size()));
+  }
+  return a;
+}
+
 }  // namespace bsf_vpr

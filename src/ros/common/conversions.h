@@ -9,6 +9,7 @@
 #include <bsf_vpr/Match.h>
 #include <bsf_vpr/ReferenceSetInfo.h>
 #include <bsf_vpr/ShardDistances.h>
+#include <bsf_vpr/ShardInfo.h>
 #include <bsf_vpr/ShardSet.h>
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <geometry_msgs/Pose.h>
@@ -21,6 +22,7 @@
 #include "bsf_vpr/core/place_recognizer.h"
 #include "bsf_vpr/core/pose_estimate.h"
 #include "bsf_vpr/map/local_map.h"
+#include "bsf_vpr/map/shard_assembly.h"
 #include "bsf_vpr/map/map_backend.h"
 
 namespace bsf_vpr {
@@ -79,5 +81,12 @@ ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint);
 // The set's layout as the combiner holds it (no descriptors). Throws std::invalid_argument
 // naming the set when its poses are not 4 per place.
 SetLayout LayoutFromShardSetMsg(const ShardSet& msg);
+// What a shard holds, from its shard_info. Throws std::invalid_argument as
+// LayoutFromShardSetMsg does.
+ShardSets FromShardInfoMsg(const ShardInfo& msg);
+// A shard's answer from its distances message; nullopt when the message is malformed (its
+// sets' names, fingerprints and counts disagree in number, or the counts with the
+// distances). A refusal keeps only its error.
+std::optional<ShardAnswer> FromShardDistancesMsg(const ShardDistances& msg);
 
 }  // namespace bsf_vpr

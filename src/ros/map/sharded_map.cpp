@@ -298,8 +298,11 @@ void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
 bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
   Shard& shard = shards_[static_cast<size_t>(k)];
   try {
-    DistanceMetric metric;
-    PlaceLayout layout = LayoutWith(k, *msg, &metric);
+    ShardSets held = FromShardInfoMsg(*msg);
+    held.name = shard.name;  // as the map knows it (resolved)
+    auto sets = std::make_shared<const ShardSets>(std::move(held));
+    MergedLayout merged = LayoutWith(k, *sets);
+    PlaceLayout& layout = merged.layout;
     const std::string why = "shard " + shard.name + " holds " + SetNames(msg.get()) +
                             (shard.info ? " (was " + SetNames(shard.info.get()) + ")" : "");
     ROS_INFO(
@@ -308,7 +311,7 @@ bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
         why.c_str(), layout.num_sets(), layout.num_places());
     layout_ = std::make_shared<NumberedLayout>(std::move(layout), ++generations_);
     outbox_.push_back(Outgoing{std::nullopt, "", layout_});
-    metric_ = metric;
+    metric_ = merged.metric;
     // Sets gone without a load or unload routed here: the shard restarted with its
     // configured sets only (sets loaded at run time live as long as its process), or
     // someone called the shard's own services. Said loudly: the map shrank.
@@ -329,6 +332,7 @@ bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
     shard.lost = lost;
     shard.change_expected = false;
     shard.info = msg;
+    shard.sets = std::move(sets);
     shard.refused.clear();
     shard.refused_info.reset();
     ++shard.info_count;

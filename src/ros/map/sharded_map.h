@@ -45,6 +45,7 @@
 #include "bsf_vpr/core/mutex.h"
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/map/map_backend.h"
+#include "bsf_vpr/map/shard_assembly.h"
 #include "bsf_vpr/map/shard_join.h"
 #include "src/ros/map/map_params.h"
 
@@ -93,6 +94,7 @@ class ShardedMap : public MapBackend {
     std::string name;
     ros::Subscriber info_sub, distances_sub;
     ShardInfo::ConstPtr info;  // the last taken; null before the first
+    std::shared_ptr<const ShardSets> sets;  // what `info` says it holds
     uint64_t info_count = 0;
     // A shard_info waiting for the shard's service to confirm it (its call failed), and its
     // publisher; asked again every second.
@@ -133,21 +135,15 @@ class ShardedMap : public MapBackend {
   // Makes `msg` shard k's layout if it fits the others'; else keeps it as refused. Caller
   // holds mutex_.
   bool TakeInfo(int k, const ShardInfo::ConstPtr& msg) REQUIRES(mutex_);
-  // Every shard's sets with shard k's from `info`, in the map's order, and their distance.
-  // Throws std::invalid_argument when they cannot share a map. Caller holds mutex_.
-  PlaceLayout LayoutWith(int k, const ShardInfo& info, DistanceMetric* metric) const
-      REQUIRES(mutex_);
+  // Every shard's sets with shard k's `sets`, in the map's order, and their distance
+  // (MergeShardLayouts). Throws std::invalid_argument when they cannot share a map.
+  MergedLayout LayoutWith(int k, const ShardSets& sets) const REQUIRES(mutex_);
   // The query of `answers` (one per shard, null where none) on the layout now, for a
-  // descriptor of L2 norm `query_norm`. A shard's refusal, an answer that does not fit its
-  // sets or distances that cannot be exact ones make that shard missing; throws
-  // std::invalid_argument when every shard that answered with sets refused the descriptor.
-  // Caller holds mutex_.
+  // descriptor of L2 norm `query_norm` (AssembleShardAnswers), with the joint distances of
+  // the shard whose joint representation fits best (SetJoint); counts and reports the
+  // shards whose distances cannot be exact. Caller holds mutex_.
   Query Assemble(const QueryHeader& header, double query_norm,
                  const std::vector<const ShardDistances*>& answers) REQUIRES(mutex_);
-  // Gives `query` the joint distances of the shard whose joint representation fits best
-  // (SetJoint). Caller holds mutex_.
-  void AttachJoint(const std::vector<const ShardDistances*>& answers, Query* query)
-      REQUIRES(mutex_);
   // Queues the join's decisions for the callbacks. Caller holds mutex_.
   void Queue(std::vector<Join::Decision> decisions) REQUIRES(mutex_);
   // Hands the queued queries to the callbacks, in order. Called without mutex_.

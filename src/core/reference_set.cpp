@@ -111,12 +111,23 @@ ReferenceSet MakeReferenceSet(std::string name, RowMatrixXf descriptors, std::st
   return set;
 }
 
+SetLayout ReferenceSet::Layout() const {
+  return SetLayout{name, condition, descriptor_type, place_ids, poses, images, image_files,
+                   dimension()};
+}
+
+SetLayout ReferenceSet::TakeLayout() {
+  const int d = dimension();
+  return SetLayout{std::move(name),   std::move(condition), std::move(descriptor_type),
+                   std::move(place_ids), std::move(poses),  std::move(images),
+                   std::move(image_files), d};
+}
+
 void ReferenceSets::Add(ReferenceSet set) {
   set.Validate();
   // The layout's checks first: a set the map refuses is not encoded.
   PlaceLayout next = layout_;
-  next.Add(LayoutOf(set.name, set.condition, set.descriptor_type, set.place_ids, set.poses,
-                    set.images, set.image_files, set.dimension()));
+  next.Add(set.Layout());
   Insert(StoredReferenceSet(std::move(set), storage_), std::move(next));
 }
 
@@ -132,26 +143,8 @@ void ReferenceSets::Add(StoredReferenceSet set) {
                                 ToString(storage_));
   }
   PlaceLayout next = layout_;
-  next.Add(LayoutOf(set.name(), set.condition(), set.descriptor_type(), set.place_ids(),
-                    set.poses(), set.images(), set.image_files(), set.dimension()));
+  next.Add(set.layout());
   Insert(std::move(set), std::move(next));
-}
-
-SetLayout ReferenceSets::LayoutOf(const std::string& name, const std::string& condition,
-                                 const std::string& descriptor_type,
-                                 const std::vector<int>& place_ids,
-                                 const std::vector<PlacePose>& poses, const std::string& images,
-                                 const std::vector<std::string>& image_files, int dimension) {
-  SetLayout layout;
-  layout.name = name;
-  layout.condition = condition;
-  layout.descriptor_type = descriptor_type;
-  layout.place_ids = place_ids;
-  layout.poses = poses;
-  layout.images = images;
-  layout.image_files = image_files;
-  layout.dimension = dimension;
-  return layout;
 }
 
 void ReferenceSets::Insert(StoredReferenceSet stored, PlaceLayout next) {

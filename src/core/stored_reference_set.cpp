@@ -12,16 +12,7 @@
 namespace bsf_vpr {
 
 StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precision)
-    : name_(std::move(set.name)),
-      condition_(std::move(set.condition)),
-      descriptor_type_(std::move(set.descriptor_type)),
-      distance_(std::move(set.distance)),
-      place_ids_(std::move(set.place_ids)),
-      poses_(std::move(set.poses)),
-      images_(std::move(set.images)),
-      image_files_(std::move(set.image_files)),
-      dimension_(set.dimension()),
-      precision_(precision) {
+    : layout_(set.TakeLayout()), distance_(std::move(set.distance)), precision_(precision) {
   if (set.encoded) {
     HoldEncoded(std::move(*set.encoded));
     return;
@@ -44,14 +35,14 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
   }
   // The norms of the values the kernels read, after rounding, in the kernels' own order.
   squared_norms_.resize(static_cast<Eigen::Index>(x.rows()));
-  std::vector<float> row(static_cast<size_t>(dimension_));
+  std::vector<float> row(static_cast<size_t>(layout_.dimension));
   for (int r = 0; r < static_cast<int>(x.rows()); ++r) {
     const float* values = x.row(r).data();
     if (precision != StoragePrecision::kFloat32) {
       DecodeRow(r, row.data());
       values = row.data();
     }
-    squared_norms_(r) = kernels::SelfDot(values, dimension_);
+    squared_norms_(r) = kernels::SelfDot(values, layout_.dimension);
   }
   // Last, once nothing can throw: float32 keeps the given matrix itself (no copy).
   if (precision == StoragePrecision::kFloat32) {
@@ -60,7 +51,7 @@ StoredReferenceSet::StoredReferenceSet(ReferenceSet set, StoragePrecision precis
 }
 
 void StoredReferenceSet::HoldEncoded(EncodedRows rows) {
-  const std::string who = "reference set '" + name_ + "'";
+  const std::string who = "reference set '" + name() + "'";
   if (rows.precision != precision_) {
     throw std::invalid_argument(who + " is held at " + ToString(rows.precision) + " by " +
                                 rows.source + ", but the map stores " + ToString(precision_) +
@@ -82,10 +73,10 @@ void StoredReferenceSet::HoldEncoded(EncodedRows rows) {
   // them is the one pass over the rows a mapped load makes.
   const int n = size();
   squared_norms_.resize(n);
-  std::vector<float> row(static_cast<size_t>(dimension_));
+  std::vector<float> row(static_cast<size_t>(layout_.dimension));
   for (int r = 0; r < n; ++r) {
     DecodeRow(r, row.data());
-    const float norm = kernels::SelfDot(row.data(), dimension_);
+    const float norm = kernels::SelfDot(row.data(), layout_.dimension);
     if (!std::isfinite(norm) || norm > kMaxDescriptorSquaredNorm) {
       throw std::invalid_argument(who + ": descriptor row " + std::to_string(r) + " of " +
                                   std::get<EncodedRows>(*rows_).source +
@@ -125,30 +116,30 @@ const void* StoredReferenceSet::data() const {
 }
 
 size_t StoredReferenceSet::data_bytes() const {
-  return static_cast<size_t>(size()) * static_cast<size_t>(dimension_) *
+  return static_cast<size_t>(size()) * static_cast<size_t>(layout_.dimension) *
          static_cast<size_t>(BytesPerElement(precision_));
 }
 
 void StoredReferenceSet::DecodeRow(int r, float* out) const {
-  const size_t base = static_cast<size_t>(r) * static_cast<size_t>(dimension_);
+  const size_t base = static_cast<size_t>(r) * static_cast<size_t>(layout_.dimension);
   const void* rows = data();
   if (precision_ == StoragePrecision::kFloat16) {
     const uint16_t* half = static_cast<const uint16_t*>(rows) + base;
-    for (int k = 0; k < dimension_; ++k) out[k] = HalfToFloat(half[k]);
+    for (int k = 0; k < layout_.dimension; ++k) out[k] = HalfToFloat(half[k]);
   } else if (precision_ == StoragePrecision::kInt8) {
     const int8_t* levels = static_cast<const int8_t*>(rows) + base;
-    for (int k = 0; k < dimension_; ++k) out[k] = scale_ * static_cast<float>(levels[k]);
+    for (int k = 0; k < layout_.dimension; ++k) out[k] = scale_ * static_cast<float>(levels[k]);
   } else {
     const float* row = static_cast<const float*>(rows) + base;
-    std::copy(row, row + dimension_, out);
+    std::copy(row, row + layout_.dimension, out);
   }
 }
 
 size_t StoredReferenceSet::MemoryBytes() const {
-  size_t names = images_.size();
-  for (const std::string& f : image_files_) names += sizeof(std::string) + f.size();
+  size_t names = images().size();
+  for (const std::string& f : image_files()) names += sizeof(std::string) + f.size();
   return data_bytes() + static_cast<size_t>(squared_norms_.size()) * sizeof(float) +
-         place_ids_.size() * sizeof(int) + poses_.size() * sizeof(PlacePose) + names;
+         place_ids().size() * sizeof(int) + poses().size() * sizeof(PlacePose) + names;
 }
 
 ReferenceSet StoredReferenceSet::ToReferenceSet() const {
@@ -158,23 +149,23 @@ ReferenceSet StoredReferenceSet::ToReferenceSet() const {
       encoded && precision_ == StoragePrecision::kFloat32) {
     // float32 rows mapped from a file: their values are all there.
     mapped_rows =
-        Eigen::Map<const RowMatrixXf>(static_cast<const float*>(encoded->data), size(), dimension_);
+        Eigen::Map<const RowMatrixXf>(static_cast<const float*>(encoded->data), size(), layout_.dimension);
     descriptors = &mapped_rows;
   }
   if (!descriptors) {
-    throw std::invalid_argument("reference set '" + name_ + "' is held at " + ToString(precision_) +
+    throw std::invalid_argument("reference set '" + name() + "' is held at " + ToString(precision_) +
                                 " precision only; save it from its float32 source");
   }
   ReferenceSet set;
-  set.name = name_;
-  set.condition = condition_;
-  set.descriptor_type = descriptor_type_;
+  set.name = name();
+  set.condition = condition();
+  set.descriptor_type = descriptor_type();
   set.distance = distance_;
   set.descriptors = *descriptors;
-  set.place_ids = place_ids_;
-  set.poses = poses_;
-  set.images = images_;
-  set.image_files = image_files_;
+  set.place_ids = place_ids();
+  set.poses = poses();
+  set.images = images();
+  set.image_files = image_files();
   return set;
 }
 

@@ -51,6 +51,10 @@ struct ReferenceSet {
 
   int size() const { return static_cast<int>(encoded ? encoded->rows : descriptors.rows()); }
   int dimension() const { return static_cast<int>(encoded ? encoded->cols : descriptors.cols()); }
+  // Its metadata as a map's layout holds it (every field but the rows and the distance).
+  SetLayout Layout() const;
+  // The same, moved out of this set (its names, ids, poses and images left empty).
+  SetLayout TakeLayout();
 
   // Throws std::invalid_argument naming the problem: empty name or set, place ids missing,
   // duplicated, negative or >= kMaxPlaces, poses of the wrong count or one that PoseProblem
@@ -151,10 +155,6 @@ class ReferenceSets {
   }
 
  private:
-  static SetLayout LayoutOf(const std::string& name, const std::string& condition,
-                            const std::string& descriptor_type, const std::vector<int>& place_ids,
-                            const std::vector<PlacePose>& poses, const std::string& images,
-                            const std::vector<std::string>& image_files, int dimension);
   // Appends `stored` and adopts `next` (its layout with the set): no throw.
   void Insert(StoredReferenceSet stored, PlaceLayout next);
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/descriptor_store.h"
+#include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/types.h"
 
 namespace bsf_vpr {
@@ -23,20 +24,23 @@ class ReferenceSets;
 
 class StoredReferenceSet {
  public:
-  const std::string& name() const { return name_; }
-  const std::string& condition() const { return condition_; }
-  const std::string& descriptor_type() const { return descriptor_type_; }
+  // What the set says of its places, without its rows: its name, condition, descriptor
+  // type, place ids, poses, images and dimension (the one spelling of a set's metadata).
+  const SetLayout& layout() const { return layout_; }
+  const std::string& name() const { return layout_.name; }
+  const std::string& condition() const { return layout_.condition; }
+  const std::string& descriptor_type() const { return layout_.descriptor_type; }
   const std::string& distance() const { return distance_; }
   // N_u place indices (row k describes place place_ids()[k]), and empty or N_u poses.
-  const std::vector<int>& place_ids() const { return place_ids_; }
-  const std::vector<PlacePose>& poses() const { return poses_; }
+  const std::vector<int>& place_ids() const { return layout_.place_ids; }
+  const std::vector<PlacePose>& poses() const { return layout_.poses; }
   // The folder of the rows' images and, empty or one per row, their files relative to it
   // (ReferenceSet::images, image_files): row k's image is images() + "/" + image_files()[k].
-  const std::string& images() const { return images_; }
-  const std::vector<std::string>& image_files() const { return image_files_; }
+  const std::string& images() const { return layout_.images; }
+  const std::vector<std::string>& image_files() const { return layout_.image_files; }
 
-  int size() const { return static_cast<int>(place_ids_.size()); }  // N_u >= 1 rows
-  int dimension() const { return dimension_; }                      // D >= 1
+  int size() const { return layout_.size(); }             // N_u >= 1 rows
+  int dimension() const { return layout_.dimension; }     // D >= 1
   StoragePrecision precision() const { return precision_; }
   // The encoded rows as the distance kernels read them: size() x dimension() elements of
   // precision() (float, uint16_t binary16 or int8_t), row-major, data_bytes() bytes. Owned
@@ -79,12 +83,8 @@ class StoredReferenceSet {
   // Holds encoded rows and reads their norms (the constructor's part for them).
   void HoldEncoded(EncodedRows rows);
 
-  std::string name_, condition_, descriptor_type_, distance_;
-  std::vector<int> place_ids_;
-  std::vector<PlacePose> poses_;
-  std::string images_;
-  std::vector<std::string> image_files_;
-  int dimension_ = 0;
+  SetLayout layout_;
+  std::string distance_;
   StoragePrecision precision_ = StoragePrecision::kFloat32;
   // The one encoding of precision_: float32 as given, binary16 or int8 (row-major), or rows
   // encoded elsewhere (a memory-mapped file: EncodedRows), shared by the copies of this set.

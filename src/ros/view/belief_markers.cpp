@@ -107,43 +107,43 @@ std::string Joined(const std::vector<std::string>& items, size_t max_chars) {
 
 }  // namespace
 
-RouteLayout MakeRouteLayout(const PlaceLayout& places, const BeliefViewOptions& options) {
-  RouteLayout layout;
+RouteDrawing MakeRouteDrawing(const PlaceLayout& places, const BeliefViewOptions& options) {
+  RouteDrawing route;
   const int n = places.num_places();
   const auto& poses = places.place_poses();
-  layout.from_poses =
+  route.from_poses =
       n > 0 && std::all_of(poses.begin(), poses.end(), [](const auto& p) { return p.has_value(); });
-  if (layout.from_poses) {
-    for (const auto& p : poses) layout.points.emplace_back(p->x_m, p->y_m, p->z_m);
-    layout.spacing_m = places.MedianPlaceSpacing().value_or(0.0);
+  if (route.from_poses) {
+    for (const auto& p : poses) route.points.emplace_back(p->x_m, p->y_m, p->z_m);
+    route.spacing_m = places.MedianPlaceSpacing().value_or(0.0);
   } else {
-    layout.spacing_m = options.marker_spacing_m > 0 ? options.marker_spacing_m
+    route.spacing_m = options.marker_spacing_m > 0 ? options.marker_spacing_m
                        : n > 1                      ? options.view_size_m / (n - 1)
                                                     : 0.0;
-    for (int k = 0; k < n; ++k) layout.points.emplace_back(k * layout.spacing_m, 0.0, 0.0);
+    for (int k = 0; k < n; ++k) route.points.emplace_back(k * route.spacing_m, 0.0, 0.0);
   }
   if (n > 0) {
-    Eigen::Vector3d lo = layout.points[0], hi = layout.points[0];
-    for (const Eigen::Vector3d& p : layout.points) {
+    Eigen::Vector3d lo = route.points[0], hi = route.points[0];
+    for (const Eigen::Vector3d& p : route.points) {
       lo = lo.cwiseMin(p);
       hi = hi.cwiseMax(p);
     }
-    layout.centre = (lo + hi) / 2;
-    layout.centre.z() = lo.z();
-    layout.extent_m = std::max(hi.x() - lo.x(), hi.y() - lo.y());
+    route.centre = (lo + hi) / 2;
+    route.centre.z() = lo.z();
+    route.extent_m = std::max(hi.x() - lo.x(), hi.y() - lo.y());
   }
-  layout.fits_view = layout.extent_m <= options.view_size_m * (1 + 1e-9);
+  route.fits_view = route.extent_m <= options.view_size_m * (1 + 1e-9);
   // A single place (or places at one point) has no extent: a tenth of the view.
-  layout.scale_m = layout.extent_m > 0 ? std::min(layout.extent_m, options.view_size_m)
+  route.scale_m = route.extent_m > 0 ? std::min(route.extent_m, options.view_size_m)
                                        : options.view_size_m / 10;
-  if (!layout.fits_view) {  // shrunk to fit the view: every place in sight
-    layout.draw_scale = options.view_size_m / layout.extent_m;
-    for (Eigen::Vector3d& p : layout.points) {
-      p.head<2>() = layout.centre.head<2>() + layout.draw_scale * (p - layout.centre).head<2>();
+  if (!route.fits_view) {  // shrunk to fit the view: every place in sight
+    route.draw_scale = options.view_size_m / route.extent_m;
+    for (Eigen::Vector3d& p : route.points) {
+      p.head<2>() = route.centre.head<2>() + route.draw_scale * (p - route.centre).head<2>();
     }
-    layout.spacing_m *= layout.draw_scale;
+    route.spacing_m *= route.draw_scale;
   }
-  return layout;
+  return route;
 }
 
 int PlaceNumberStep(int num_places) {
@@ -156,11 +156,11 @@ int PlaceNumberStep(int num_places) {
   }
 }
 
-MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
-  const double s = layout.scale_m;
+MarkerSizes SizesFor(const RouteDrawing& route, int places_per_bar) {
+  const double s = route.scale_m;
   MarkerSizes z;
   z.bar_height_m = 0.3 * s;
-  z.bar_width_m = std::clamp(0.8 * layout.spacing_m * places_per_bar, s / 150, s / 40);
+  z.bar_width_m = std::clamp(0.8 * route.spacing_m * places_per_bar, s / 150, s / 40);
   z.route_width_m = s / 500;
   z.pin_diameter_m = std::max(s / 45, 1.3 * z.bar_width_m);
   z.true_place_m = 1.2 * z.pin_diameter_m;
@@ -169,7 +169,7 @@ MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar) {
   return z;
 }
 
-Eigen::Vector3d ViewFocus(const RouteLayout& layout) { return layout.centre; }
+Eigen::Vector3d ViewFocus(const RouteDrawing& route) { return route.centre; }
 
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic) {
   std::vector<std::string> lines;
@@ -209,18 +209,18 @@ std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilist
   return lines;
 }
 
-std::optional<Marker> TruePlacesMarker(const RouteLayout& layout,
+std::optional<Marker> TruePlacesMarker(const RouteDrawing& route,
                                        const std::vector<int>& true_places,
                                        const std_msgs::Header& header,
                                        const BeliefViewOptions& options) {
-  const int n = static_cast<int>(layout.points.size());
+  const int n = static_cast<int>(route.points.size());
   Marker truth = Base(header, options, "true_places", Marker::SPHERE_LIST);
-  const double size = SizesFor(layout, (n + kMaxBars - 1) / kMaxBars).true_place_m;
+  const double size = SizesFor(route, (n + kMaxBars - 1) / kMaxBars).true_place_m;
   truth.scale.x = truth.scale.y = truth.scale.z = size;
   truth.color = kTruePlace;
   for (int place : true_places) {
     if (place >= 0 && place < n)
-      truth.points.push_back(ToPoint(layout.points[static_cast<size_t>(place)]));
+      truth.points.push_back(ToPoint(route.points[static_cast<size_t>(place)]));
   }
   if (truth.points.empty()) return std::nullopt;
   return truth;
@@ -229,10 +229,10 @@ std::optional<Marker> TruePlacesMarker(const RouteLayout& layout,
 namespace {
 
 // The match: a pin at its place (green accepted, orange not) and its label.
-void AddMatchMarkers(const RouteLayout& layout, const Belief& belief, const MarkerSizes& size,
+void AddMatchMarkers(const RouteDrawing& route, const Belief& belief, const MarkerSizes& size,
                      bool probabilistic, const BeliefViewOptions& options,
                      visualization_msgs::MarkerArray* out) {
-  auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
+  auto at = [&](int place) { return route.points[static_cast<size_t>(place)]; };
   const double pin_height = 1.1 * size.bar_height_m;
   // A needle half the bar's width (the bar it stands in stays visible) with a round head above
   // the bars.
@@ -265,7 +265,7 @@ void AddMatchMarkers(const RouteLayout& layout, const Belief& belief, const Mark
     const double half_text = 0.3 * size.label_height_m * static_cast<double>(longest);
     const double room = std::max(0.0, options.view_size_m / 2 - half_text);
     for (int k : {0, 1}) {
-      anchor[k] = std::clamp(anchor[k], layout.centre[k] - room, layout.centre[k] + room);
+      anchor[k] = std::clamp(anchor[k], route.centre[k] - room, route.centre[k] + room);
     }
   }
   out->markers.push_back(
@@ -275,24 +275,24 @@ void AddMatchMarkers(const RouteLayout& layout, const Belief& belief, const Mark
 }
 
 // The legend, the route's ends and numbers along it.
-void AddLegend(const RouteLayout& layout, const Belief& belief, const MarkerSizes& size,
+void AddLegend(const RouteDrawing& route, const Belief& belief, const MarkerSizes& size,
                const BeliefViewOptions& options, visualization_msgs::MarkerArray* out) {
-  const int n = static_cast<int>(layout.points.size());
-  auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
+  const int n = static_cast<int>(route.points.size());
+  auto at = [&](int place) { return route.points[static_cast<size_t>(place)]; };
   std::string legend =
       (belief.posterior.empty()
            ? std::string("bars: rank of the place (distance method)")
            : std::string("bars: P(place)") + (options.log_scale ? ", log scale" : "")) +
       "\npin: match (green accepted, orange not)\ncyan: true place";
-  if (layout.draw_scale < 1) {
+  if (route.draw_scale < 1) {
     char shrunk[120];
-    std::snprintf(shrunk, sizeof(shrunk), "\nroute %.0f m drawn %.3g times smaller", layout.extent_m,
-                  1 / layout.draw_scale);
+    std::snprintf(shrunk, sizeof(shrunk), "\nroute %.0f m drawn %.3g times smaller", route.extent_m,
+                  1 / route.draw_scale);
     legend += shrunk;
   }
-  const Eigen::Vector3d below(0, -0.08 * layout.scale_m, 0);
+  const Eigen::Vector3d below(0, -0.08 * route.scale_m, 0);
   out->markers.push_back(
-      Text(belief, options, "legend", 0, legend, layout.centre + 2 * below, size.legend_height_m));
+      Text(belief, options, "legend", 0, legend, route.centre + 2 * below, size.legend_height_m));
   out->markers.push_back(
       Text(belief, options, "legend", 1, "0", at(0) + below / 2, size.legend_height_m));
   out->markers.push_back(Text(belief, options, "legend", 2, std::to_string(n - 1),
@@ -307,7 +307,7 @@ void AddLegend(const RouteLayout& layout, const Belief& belief, const MarkerSize
 
 }  // namespace
 
-visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, const Belief& belief,
+visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteDrawing& route, const Belief& belief,
                                                   const std::vector<int>& true_places,
                                                   bool probabilistic,
                                                   const BeliefViewOptions& options) {
@@ -315,22 +315,22 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
   Marker clear;
   clear.action = Marker::DELETEALL;
   out.markers.push_back(clear);
-  const int n = static_cast<int>(layout.points.size());
+  const int n = static_cast<int>(route.points.size());
   if (n == 0) return out;
   const int per_bar = (n + kMaxBars - 1) / kMaxBars;
-  const MarkerSizes size = SizesFor(layout, per_bar);
-  auto at = [&](int place) { return layout.points[static_cast<size_t>(place)]; };
+  const MarkerSizes size = SizesFor(route, per_bar);
+  auto at = [&](int place) { return route.points[static_cast<size_t>(place)]; };
 
-  Marker route = Base(belief.header, options, "route", Marker::LINE_LIST);
-  route.scale.x = size.route_width_m;
-  route.color = Rgba(0.7f, 0.7f, 0.7f);
-  const double jump = 5 * std::max(layout.spacing_m, 1e-9) * per_bar;
+  Marker line = Base(belief.header, options, "route", Marker::LINE_LIST);
+  line.scale.x = size.route_width_m;
+  line.color = Rgba(0.7f, 0.7f, 0.7f);
+  const double jump = 5 * std::max(route.spacing_m, 1e-9) * per_bar;
   for (int k = per_bar; k < n; k += per_bar) {
     if ((at(k) - at(k - per_bar)).norm() > jump) continue;
-    route.points.push_back(ToPoint(at(k - per_bar)));
-    route.points.push_back(ToPoint(at(k)));
+    line.points.push_back(ToPoint(at(k - per_bar)));
+    line.points.push_back(ToPoint(at(k)));
   }
-  out.markers.push_back(route);
+  out.markers.push_back(line);
 
   // Bars (vertical lines, seen from the side) and their footprints (squares, seen from
   // above), one per bin of per_bar consecutive places, at the bin's best place.
@@ -358,14 +358,14 @@ visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, con
   out.markers.push_back(feet);
 
   if (belief.match >= 0 && belief.match < n) {
-    AddMatchMarkers(layout, belief, size, probabilistic, options, &out);
+    AddMatchMarkers(route, belief, size, probabilistic, options, &out);
   }
 
-  if (auto truth = TruePlacesMarker(layout, true_places, belief.header, options)) {
+  if (auto truth = TruePlacesMarker(route, true_places, belief.header, options)) {
     out.markers.push_back(*truth);
   }
 
-  AddLegend(layout, belief, size, options, &out);
+  AddLegend(route, belief, size, options, &out);
   return out;
 }
 

@@ -43,7 +43,7 @@ constexpr int kMaxBars = 2000;
 constexpr int kPlaceNumbers = 10;
 
 // The route as drawn, and the sizes derived from it.
-struct RouteLayout {
+struct RouteDrawing {
   std::vector<Eigen::Vector3d> points;  // one per place as drawn, in map_frame (metres)
   bool from_poses = false;              // false: laid out on a line along x
   double spacing_m = 0;                 // median distance between consecutive places, drawn
@@ -56,19 +56,19 @@ struct RouteLayout {
   double draw_scale = 1;
 };
 
-RouteLayout MakeRouteLayout(const PlaceLayout& places, const BeliefViewOptions& options);
+RouteDrawing MakeRouteDrawing(const PlaceLayout& places, const BeliefViewOptions& options);
 
-// Marker sizes in metres, each a fixed fraction of layout.scale_m (the bar width also
+// Marker sizes in metres, each a fixed fraction of route.scale_m (the bar width also
 // follows the spacing of the places, within bounds).
 struct MarkerSizes {
   double bar_height_m, bar_width_m, route_width_m, pin_diameter_m, true_place_m;
   double label_height_m, legend_height_m;  // text heights
 };
-MarkerSizes SizesFor(const RouteLayout& layout, int places_per_bar);
+MarkerSizes SizesFor(const RouteDrawing& route, int places_per_bar);
 
 // Where the view frame goes, whatever the match: the centre of the route as drawn (all of it
 // is in view).
-Eigen::Vector3d ViewFocus(const RouteLayout& layout);
+Eigen::Vector3d ViewFocus(const RouteDrawing& route);
 
 // The step between numbered places: 1, 2 or 5 times a power of ten, the smallest that
 // numbers at most kPlaceNumbers + 1 places of `num_places` (0, step, 2 step, ...).
@@ -82,8 +82,8 @@ int PlaceNumberStep(int num_places);
 std::vector<std::string> BeliefLabelLines(const Belief& belief, bool probabilistic);
 
 // The true places (namespace true_places) for a belief with `header`; nullopt when none of
-// them is a place of the layout.
-std::optional<visualization_msgs::Marker> TruePlacesMarker(const RouteLayout& layout,
+// them is a place of the route.
+std::optional<visualization_msgs::Marker> TruePlacesMarker(const RouteDrawing& route,
                                                            const std::vector<int>& true_places,
                                                            const std_msgs::Header& header,
                                                            const BeliefViewOptions& options);
@@ -91,7 +91,7 @@ std::optional<visualization_msgs::Marker> TruePlacesMarker(const RouteLayout& la
 // Everything of the view for one belief: a DELETEALL, then the namespaces above, stamped
 // with the belief's stamp in options.map_frame. `true_places` may be empty. `probabilistic`:
 // the belief's confidence is a log-odds (Bayesian or +seq method).
-visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteLayout& layout, const Belief& belief,
+visualization_msgs::MarkerArray MakeBeliefMarkers(const RouteDrawing& route, const Belief& belief,
                                                   const std::vector<int>& true_places,
                                                   bool probabilistic,
                                                   const BeliefViewOptions& options);

@@ -222,7 +222,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r, const PlaceLay
   const Method& method = decider.method();
   const bool probabilistic = method.IsBayesian() || method.sequence;  // confidence: log-odds
   if (markers) {
-    RouteLayout route = MakeRouteLayout(layout, options_);
+    RouteDrawing route = MakeRouteDrawing(layout, options_);
     geometry_msgs::TransformStamped view;
     view.header.stamp = belief.header.stamp.isZero() ? ros::Time::now() : belief.header.stamp;
     view.header.frame_id = options_.map_frame;

@@ -65,10 +65,10 @@ void CheckCombination(const ImportArgs& a) {
                                   ": there is no --reference named '" + name + "'");
     }
   }
-  if (a.Given("camera") && a.layout != DatasetLayout::kRobotCar) {
+  if (a.Given("camera") && a.layout != DatasetFolders::kRobotCar) {
     throw std::invalid_argument("--camera goes with --layout robotcar");
   }
-  if (a.Given("frame_rate_hz") && a.layout != DatasetLayout::kNordland) {
+  if (a.Given("frame_rate_hz") && a.layout != DatasetFolders::kNordland) {
     throw std::invalid_argument("--frame-rate-hz goes with --layout nordland");
   }
   a.options.place_index.Validate();

@@ -32,7 +32,7 @@ struct NamedSpec {
 };
 
 struct ImportArgs {
-  DatasetLayout layout = DatasetLayout::kGeneric;
+  DatasetFolders layout = DatasetFolders::kGeneric;
   std::vector<NamedSpec> references, queries;
   std::map<std::string, std::string> conditions;  // reference name -> condition label
   std::string out_dir;

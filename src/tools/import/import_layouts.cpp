@@ -54,16 +54,16 @@ int64_t FrameNumber(const std::string& file) {
 
 }  // namespace
 
-const EnumNames<DatasetLayout>& DatasetLayoutNames() {
-  static const EnumNames<DatasetLayout> kNames{{DatasetLayout::kRobotCar, "robotcar"},
-                                               {DatasetLayout::kNordland, "nordland"},
-                                               {DatasetLayout::kGeneric, "generic"}};
+const EnumNames<DatasetFolders>& DatasetLayoutNames() {
+  static const EnumNames<DatasetFolders> kNames{{DatasetFolders::kRobotCar, "robotcar"},
+                                               {DatasetFolders::kNordland, "nordland"},
+                                               {DatasetFolders::kGeneric, "generic"}};
   return kNames;
 }
 
-DatasetLayout ParseDatasetLayout(const std::string& text) {
+DatasetFolders ParseDatasetLayout(const std::string& text) {
   // The choices as the usage text shows them, not EnumNames::Parse's "a, b or c".
-  const std::optional<DatasetLayout> layout = DatasetLayoutNames().Find(text);
+  const std::optional<DatasetFolders> layout = DatasetLayoutNames().Find(text);
   if (!layout) {
     throw std::invalid_argument("--layout must be " + DatasetLayoutNames().Listed(" | ", " | ") +
                                 ", got '" + text + "'");
@@ -71,7 +71,7 @@ DatasetLayout ParseDatasetLayout(const std::string& text) {
   return *layout;
 }
 
-std::string ToString(DatasetLayout layout) { return DatasetLayoutNames().Name(layout); }
+std::string ToString(DatasetFolders layout) { return DatasetLayoutNames().Name(layout); }
 
 const EnumNames<PoseCoordinates>& PoseCoordinatesNames() {
   static const EnumNames<PoseCoordinates> kNames{
@@ -86,17 +86,17 @@ std::string ToString(PoseCoordinates coordinates) {
   return PoseCoordinatesNames().Name(coordinates);
 }
 
-Traversal ReadTraversal(DatasetLayout layout, const std::string& name, const std::string& spec,
+Traversal ReadTraversal(DatasetFolders layout, const std::string& name, const std::string& spec,
                         const ReadOptions& options) {
   switch (layout) {
-    case DatasetLayout::kRobotCar:
+    case DatasetFolders::kRobotCar:
       return ReadRobotCarTraversal(name, spec, options.camera);
-    case DatasetLayout::kNordland: {
+    case DatasetFolders::kNordland: {
       const auto parts = SplitSpec(spec, 2, "FRAMES_DIR or FRAMES_DIR,GPS_CSV");
       return ReadNordlandTraversal(name, parts[0], parts.size() > 1 ? parts[1] : "",
                                    options.frame_rate_hz);
     }
-    case DatasetLayout::kGeneric: {
+    case DatasetFolders::kGeneric: {
       const auto parts = SplitSpec(spec, 2, "IMAGE_DIR,POSES_CSV or DESCRIPTORS.npy,POSES_CSV");
       if (parts.size() != 2) {
         throw std::invalid_argument(

@@ -20,12 +20,12 @@
 namespace bsf_vpr {
 namespace tools {
 
-enum class DatasetLayout { kRobotCar, kNordland, kGeneric };
+enum class DatasetFolders { kRobotCar, kNordland, kGeneric };
 // The layouts' names (--layout).
-const EnumNames<DatasetLayout>& DatasetLayoutNames();
+const EnumNames<DatasetFolders>& DatasetLayoutNames();
 // A name of DatasetLayoutNames(); throws std::invalid_argument naming the choices.
-DatasetLayout ParseDatasetLayout(const std::string& text);
-std::string ToString(DatasetLayout layout);
+DatasetFolders ParseDatasetLayout(const std::string& text);
+std::string ToString(DatasetFolders layout);
 
 // The coordinates a traversal's logged poses are given in, before BringToMapFrame. (Not the
 // fusion node's PoseSource, which says where the robot's live pose comes from: tf or a
@@ -74,7 +74,7 @@ struct ReadOptions {
 };
 
 // Reads traversal `name` from `spec` (see docs/import.md for each layout's spec).
-Traversal ReadTraversal(DatasetLayout layout, const std::string& name, const std::string& spec,
+Traversal ReadTraversal(DatasetFolders layout, const std::string& name, const std::string& spec,
                         const ReadOptions& options);
 
 // The layouts (ReadTraversal calls one of these):

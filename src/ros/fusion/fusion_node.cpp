@@ -444,10 +444,9 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
                ToString(before.kind).c_str(), h.value, ToString(h.kind).c_str());
     }
     o.Validate();
-    for (const std::string& name : unloading_) {
-      if (ParseMethod(o.method, layout_->SetNames()).set_name == name) {
-        throw std::invalid_argument("reference set '" + name + "' is being unloaded");
-      }
+    if (!busy_.empty()) {  // a method of a set being unloaded (or loaded)
+      const std::string set = ParseMethod(o.method, layout_->SetNames()).set_name;
+      if (!set.empty()) busy_.Check(set);
     }
     decider_.SetMethod(o.method, o.method_options, *layout_);
     map_->SetJoint(decider_.method().JointNeeded(o.method_options), o.method_options.joint);

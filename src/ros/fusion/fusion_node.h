@@ -53,6 +53,7 @@
 #include "bsf_vpr/io/data_directory.h"
 #include "bsf_vpr/map/map_backend.h"
 #include "src/ros/common/sequence_gaps.h"
+#include "src/ros/fusion/busy_sets.h"
 #include "src/ros/fusion/fusion_params.h"
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recognition_publisher.h"
@@ -201,10 +202,9 @@ class FusionNode {
   std::map<std::string, long> pose_losses_ GUARDED_BY(mutex_);
   // Why the descriptors the ingest announces cannot match the loaded sets ("" if they can).
   std::string format_mismatch_ GUARDED_BY(mutex_);
-  // Sets being loaded (read, not yet in the map) and unloaded, so that a recording or a
-  // method cannot take their names meanwhile.
-  std::set<std::string> loading_ GUARDED_BY(mutex_);
-  std::set<std::string> unloading_ GUARDED_BY(mutex_);
+  // Sets being loaded (read, not yet in the map) or unloaded, so that another load, a
+  // recording or a method cannot take their names meanwhile.
+  BusySets busy_ GUARDED_BY(mutex_);
   double processing_s_sum_ GUARDED_BY(mutex_) = 0;
   double processing_s_max_ GUARDED_BY(mutex_) = 0;
   std::string last_rejection_ GUARDED_BY(mutex_);

@@ -50,15 +50,12 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     const MapBackend::SetCheck not_recorded = [this, &name](const std::string& set) {
       MutexLock lock(&mutex_);
       recording_->CheckNotRecording(set);
-      if (loading_.count(set)) {
-        throw std::invalid_argument("a reference set named '" + set + "' is being loaded");
-      }
-      loading_.insert(set);
+      busy_.Take(set, "loaded");
       name = set;
     };
     const auto loaded = [this, &name] {
       MutexLock lock(&mutex_);
-      loading_.erase(name);
+      if (!name.empty()) busy_.Release(name);
       AdoptLayout(map_->layout());
     };
     try {
@@ -85,12 +82,12 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
     {
       MutexLock lock(&mutex_);
       decider_.CheckRemovable(req.name);  // e.g. the method nn:<set> needs it
-      unloading_.insert(req.name);        // no method may take it up meanwhile
+      busy_.Take(req.name, "unloaded");   // no method may take it up meanwhile
     }
     const auto finish = [this, &req](bool unloaded) {
       MutexLock lock(&mutex_);
       if (unloaded) counters_.Forget(req.name);
-      unloading_.erase(req.name);
+      busy_.Release(req.name);
       AdoptLayout(map_->layout());
     };
     try {
@@ -152,9 +149,7 @@ bool FusionNode::OnStartRecording(StartRecording::Request& req, StartRecording::
   try {
     const std::string cannot = map_->CannotRecord();
     if (!cannot.empty()) throw std::invalid_argument(cannot);
-    if (loading_.count(req.name)) {
-      throw std::invalid_argument("a reference set named '" + req.name + "' is being loaded");
-    }
+    busy_.Check(req.name);
     const RecordingPlaces places =
         ParseRecordingPlaces(req.places.empty() ? "sequential" : req.places);
     if (places == RecordingPlaces::kPose && params_.pose_source == PoseSource::kNone) {
@@ -230,7 +225,7 @@ bool FusionNode::OnStopRecording(StopRecording::Request& req, StopRecording::Res
         stopped = FollowRecordingImages();  // kept, closed
         throw;
       }
-      loading_.insert(saved.set.name);  // not to be loaded by another meanwhile
+      busy_.Hold(saved.set.name, "loaded");  // not to be loaded by another meanwhile
     }
     LoadRecorded(std::move(saved), summary, &res);
   } catch (const std::exception& e) {
@@ -258,7 +253,7 @@ void FusionNode::LoadRecorded(Recording::Saved saved, const std::string& summary
   }
   {
     MutexLock lock(&mutex_);
-    loading_.erase(name);
+    busy_.Release(name);
     AdoptLayout(map_->layout());
   }
   res->success = true;

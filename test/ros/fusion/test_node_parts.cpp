@@ -11,6 +11,7 @@
 
 #include "bsf_vpr/io/reference_set_io.h"
 #include "src/ros/common/conversions.h"
+#include "src/ros/fusion/busy_sets.h"
 #include "src/ros/fusion/odometry_progress.h"
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recording.h"
@@ -27,6 +28,26 @@ ReferenceSets ThreeSets() {
     map.Add(MakeReferenceSet(name, RowMatrixXf::Random(4, 3)));
   }
   return map;
+}
+
+TEST(BusySets, ANameTakenByOneLoadOrUnloadIsRefusedToAnotherUntilReleased) {
+  BusySets busy;
+  EXPECT_TRUE(busy.empty());
+  busy.Take("winter", "loaded");
+  EXPECT_NO_THROW(busy.Take("summer", "unloaded"));
+  try {
+    busy.Take("winter", "unloaded");
+    FAIL() << "a name being loaded was taken for an unload";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "a reference set named 'winter' is being loaded");
+  }
+  EXPECT_THROW(busy.Check("summer"), std::invalid_argument);
+  busy.Release("winter");
+  EXPECT_NO_THROW(busy.Check("winter"));
+  busy.Hold("summer", "loaded");  // whatever held it
+  EXPECT_THROW(busy.Take("summer", "loaded"), std::invalid_argument);
+  busy.Release("summer");
+  EXPECT_TRUE(busy.empty());
 }
 
 TEST(SelectionCounters, CountSelectedBestAndSuppliedPerSet) {

@@ -53,18 +53,33 @@ void DistanceStage::SetOptions(const FirstStageOptions& options) {
 
 void DistanceStage::Prepare(const ReferenceSets& map) {
   if (kind_ == FirstStageKind::kPca && !index_ && map.num_sets() > 0) {
-    index_ = std::make_unique<ApproximateIndex>(map, options_.approximate);
+    index_ = std::make_shared<const ApproximateIndex>(map, options_.approximate);
   }
 }
 
 std::vector<RowMatrixXf> DistanceStage::Distances(DistanceMetric metric, const RowMatrixXf& queries,
                                                   const ReferenceSets& map) {
-  // An empty map has no rows to project (ComputeDistances checks the queries alike).
-  if (kind_ == FirstStageKind::kExact || map.num_sets() == 0) {
-    return ComputeDistances(metric, queries, map);
-  }
-  Prepare(map);
-  return index_->Distances(metric, queries, map);
+  // An empty map has no rows to project: the exact search answers (and checks the queries).
+  if (map.num_sets() > 0) Prepare(map);
+  const DistanceIndex* index = map.num_sets() > 0 ? Current() : &ExactIndex::Instance();
+  return index->Search(metric, queries, map, nullptr);
+}
+
+const DistanceIndex* DistanceStage::Current() const {
+  if (kind_ == FirstStageKind::kExact) return &ExactIndex::Instance();
+  return index_.get();
+}
+
+const ExactIndex& ExactIndex::Instance() {
+  static const ExactIndex kIndex;
+  return kIndex;
+}
+
+std::vector<RowMatrixXf> ExactIndex::Search(DistanceMetric metric, const RowMatrixXf& queries,
+                                            const ReferenceSets& sets,
+                                            std::vector<bool>* covered) const {
+  if (covered) covered->assign(static_cast<size_t>(sets.num_sets()), true);
+  return ComputeDistances(metric, queries, sets);
 }
 
 std::string DistanceStage::Summary() const {

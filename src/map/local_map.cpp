@@ -216,6 +216,7 @@ void LocalMap::Changed() {
   RequestJoint();
   if (sets_.num_sets() == 0) {
     index_.reset();  // nothing to answer for; the next set starts a new basis
+    stage_.Adopt(nullptr);
     index_status_ = "none built yet";
     return;
   }
@@ -223,15 +224,13 @@ void LocalMap::Changed() {
 }
 
 QueryDistances LocalMap::DistancesOf(const RowMatrixXf& row) {
-  if (stage_.kind() == FirstStageKind::kExact) {
-    return QueryDistances::AllPresent(stage_.Distances(metric_, row, sets_));
-  }
-  if (!index_) {
+  const DistanceIndex* index = stage_.Current();
+  if (!index) {
     throw std::invalid_argument("the first stage's index is being built (" + index_status_ +
                                 "): no set answers until it is ready");
   }
   std::vector<bool> covered;
-  std::vector<RowMatrixXf> distances = index_->Distances(metric_, row, sets_, nullptr, &covered);
+  std::vector<RowMatrixXf> distances = index->Search(metric_, row, sets_, &covered);
   QueryDistances out(sets_.num_sets());
   for (int u = 0; u < sets_.num_sets(); ++u) {
     if (covered[static_cast<size_t>(u)]) out.Set(u, std::move(distances[static_cast<size_t>(u)]));
@@ -303,6 +302,7 @@ void LocalMap::IndexBuilt(IndexResult result) {
   }
   if (sets_.num_sets() == 0 || result.generation < index_generation_) return;  // superseded
   index_ = std::move(result.index);
+  stage_.Adopt(index_);
   index_generation_ = result.generation;
   const bool current = result.generation == layout_->generation;
   index_status_ = "pca: " + std::to_string(index_->dimensions()) + " dimensions keeping " +

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/approximate_distances.h"
+#include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/image/image_descriptor.h"
 #include "bsf_vpr/io/npy.h"
 #include "test/core/test_util.h"
@@ -456,6 +457,47 @@ TEST(ApproximateIndex, ABuildOnOneThreadGivesTheBitsOfAParallelOne) {
   const ApproximateIndex alone(map.sets(), Options(5, 9), /*threads=*/1);
   ExpectBitwiseEqual(alone.Distances(DistanceMetric::kEuclidean, queries, map),
                      pooled.Distances(DistanceMetric::kEuclidean, queries, map), "one thread");
+}
+
+}  // namespace
+}  // namespace bsf_vpr
+
+namespace bsf_vpr {
+namespace {
+
+TEST(DistanceIndex, TheStageAsksTheExactIndexOrThePcaIndexThroughOneInterface) {
+  const ReferenceSets map = ThreeSets(StoragePrecision::kFloat32);
+  const RowMatrixXf queries = LowRankRows(4, 40, 41);
+  // Exact: every set answered, bitwise ComputeDistances.
+  std::vector<bool> covered;
+  const std::vector<RowMatrixXf> exact =
+      ExactIndex::Instance().Search(DistanceMetric::kCosine, queries, map, &covered);
+  EXPECT_EQ(covered, (std::vector<bool>{true, true, true}));
+  const std::vector<RowMatrixXf> direct = ComputeDistances(DistanceMetric::kCosine, queries, map);
+  ASSERT_EQ(exact.size(), 3u);
+  for (size_t u = 0; u < 3; ++u) EXPECT_TRUE((exact[u].array() == direct[u].array()).all());
+  DistanceStage stage;
+  EXPECT_EQ(stage.Current(), &ExactIndex::Instance());
+  // pca: nothing to ask until an index is built (Prepare) or adopted, then that index.
+  FirstStageOptions pca;
+  pca.kind = "pca";
+  pca.approximate.dimensions = 8;
+  pca.approximate.rerank = 5;
+  stage.SetOptions(pca);
+  EXPECT_EQ(stage.Current(), nullptr);
+  stage.Prepare(map);
+  ASSERT_NE(stage.Current(), nullptr);
+  EXPECT_EQ(stage.Current(), stage.index());
+  const std::vector<RowMatrixXf> through = stage.Distances(DistanceMetric::kCosine, queries, map);
+  const std::vector<RowMatrixXf> asked =
+      stage.index()->Distances(DistanceMetric::kCosine, queries, map);
+  for (size_t u = 0; u < 3; ++u) EXPECT_TRUE((through[u].array() == asked[u].array()).all());
+  // An index built elsewhere (a map's background build) is adopted as it is.
+  auto other = std::make_shared<const ApproximateIndex>(map, pca.approximate);
+  stage.Adopt(other);
+  EXPECT_EQ(stage.Current(), other.get());
+  stage.Adopt(nullptr);
+  EXPECT_EQ(stage.Current(), nullptr);
 }
 
 }  // namespace

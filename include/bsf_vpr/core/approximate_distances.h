@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "bsf_vpr/core/distance_index.h"
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/reference_set.h"
@@ -61,7 +62,7 @@ const OptionTable<ApproximateOptions>& ApproximateOptionsTable();
 // under the same name is another set). A map that gained a set is answered by an index
 // extended with that set's codes (the extending constructor: the basis kept, only the new
 // rows projected). Immutable once built; Distances may be called from several threads.
-class ApproximateIndex {
+class ApproximateIndex final : public DistanceIndex {
  public:
   // Fits the basis to a sample of `map`'s rows (decoded as stored) and projects every row
   // of every set. Threads: DistanceThreads(). Throws std::invalid_argument if the options
@@ -95,6 +96,12 @@ class ApproximateIndex {
   std::vector<RowMatrixXf> Distances(DistanceMetric metric, const RowMatrixXf& queries,
                                      const ReferenceSets& map, StageTimes* times = nullptr,
                                      std::vector<bool>* covered = nullptr) const;
+  // Distances without the stage times (DistanceIndex).
+  std::vector<RowMatrixXf> Search(DistanceMetric metric, const RowMatrixXf& queries,
+                                  const ReferenceSets& sets,
+                                  std::vector<bool>* covered) const override {
+    return Distances(metric, queries, sets, nullptr, covered);
+  }
   // Whether the index holds codes of `set` (Distances answers for it).
   bool Covers(const StoredReferenceSet& set) const { return CodesOf(set) != nullptr; }
   // The share of `set`'s rows' energy the basis keeps (as RetainedEnergy), if it holds its

@@ -1,7 +1,8 @@
 // How the distances from a query to every reference row are computed: exactly, from every
 // stored descriptor (ComputeDistances, distances.h), or by the compressed first stage with
 // exact re-ranking (ApproximateIndex, approximate_distances.h) for maps too large to search
-// exactly at camera rate. PlaceRecognizer and bsf_evaluate both go through DistanceStage.
+// exactly at camera rate. PlaceRecognizer, LocalMap and bsf_evaluate all go through
+// DistanceStage, which chooses the DistanceIndex (distance_index.h) a query is asked of.
 #pragma once
 
 #include <memory>
@@ -53,6 +54,12 @@ class DistanceStage {
                                      const ReferenceSets& map);
   // The index in use, or null (exact, or not built yet).
   const ApproximateIndex* index() const { return index_.get(); }
+  // Takes `index` (built elsewhere, e.g. in the background from a snapshot of the map) as
+  // the pca first stage's index; null drops it.
+  void Adopt(std::shared_ptr<const ApproximateIndex> index) { index_ = std::move(index); }
+  // What a query is asked of now: ExactIndex for "exact"; the pca index, null while none is
+  // built or adopted.
+  const DistanceIndex* Current() const;
   // One line for logs and diagnostics: "exact", or "pca: 256 dimensions keeping 97.2% of
   // the energy of 1000000 rows, 1000 re-ranked per set, 264.2 MB" (or "pca: no index built
   // yet").
@@ -61,7 +68,7 @@ class DistanceStage {
  private:
   FirstStageOptions options_;
   FirstStageKind kind_ = FirstStageKind::kExact;
-  std::unique_ptr<ApproximateIndex> index_;
+  std::shared_ptr<const ApproximateIndex> index_;
 };
 
 }  // namespace bsf_vpr

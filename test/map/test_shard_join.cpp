@@ -27,18 +27,18 @@ struct Fixture {
             }) {}
 
   // The descriptor stamped `stamp` reached the combiner.
-  std::vector<Join::Decision> Hear(int64_t stamp, double now) {
+  std::vector<Join::Release> Hear(int64_t stamp, double now) {
     return join.Hear(stamp, /*query_norm=*/1.0, now);
   }
-  std::vector<Join::Decision> Answer(int k, int64_t stamp, double now) {
+  std::vector<Join::Release> Answer(int k, int64_t stamp, double now) {
     return join.Answer(k, stamp, std::make_shared<const int>(k), now);
   }
-  static std::vector<int64_t> Stamps(const std::vector<Join::Decision>& d) {
+  static std::vector<int64_t> Stamps(const std::vector<Join::Release>& d) {
     std::vector<int64_t> out;
-    for (const Join::Decision& x : d) out.push_back(x.stamp_ns);
+    for (const Join::Release& x : d) out.push_back(x.stamp_ns);
     return out;
   }
-  static int Answered(const Join::Decision& d) {
+  static int Answered(const Join::Release& d) {
     int n = 0;
     for (const AnswerPtr& a : d.answers) n += a != nullptr;
     return n;
@@ -67,7 +67,7 @@ TEST(ShardJoin, DecidesAQueryOnceEveryShardAnsweredInStampOrder) {
 
 TEST(ShardJoin, AnswersBeforeTheirDescriptorWaitForIt) {
   // The shards may answer before this node hears the descriptor (its queue is busier):
-  // decided when it arrives, with its norm.
+  // released when it arrives, with its norm.
   Fixture f(2);
   EXPECT_TRUE(f.Answer(0, 10, 0.0).empty());
   EXPECT_TRUE(f.Answer(1, 10, 0.01).empty());
@@ -81,22 +81,22 @@ TEST(ShardJoin, EveryQueryHeardIsDecidedOrCountedAsUnanswered) {
   // A combiner stalled 3 s at 10 Hz (issue 41): the shards answered every query, but what
   // they sent while it was stopped was dropped on the way (their publishers' queues), so
   // 19 of 30 descriptors reach it with no answer at all. Each is counted once its timeout
-  // has passed, and none is decided twice or forgotten.
+  // has passed, and none is released twice or forgotten.
   Fixture f(2, /*timeout_s=*/0.5, /*queue=*/10);
-  int decided = 0;
+  int released = 0;
   double now = 0;
   for (int64_t stamp = 1; stamp <= 30; ++stamp, now += 0.1) {
-    decided += static_cast<int>(f.Hear(stamp, now).size());
+    released += static_cast<int>(f.Hear(stamp, now).size());
     if (stamp <= 11) {  // answered; the rest lost on the way
-      for (int k = 0; k < 2; ++k) decided += static_cast<int>(f.Answer(k, stamp, now).size());
+      for (int k = 0; k < 2; ++k) released += static_cast<int>(f.Answer(k, stamp, now).size());
     }
-    decided += static_cast<int>(f.join.Tick(now).size());
+    released += static_cast<int>(f.join.Tick(now).size());
   }
   EXPECT_LT(f.join.unanswered(), 19);  // the last ones are not past their timeout yet
-  for (int i = 0; i < 10; ++i) decided += static_cast<int>(f.join.Tick(now += 0.1).size());
-  EXPECT_EQ(decided, 11);
+  for (int i = 0; i < 10; ++i) released += static_cast<int>(f.join.Tick(now += 0.1).size());
+  EXPECT_EQ(released, 11);
   EXPECT_EQ(f.join.unanswered(), 19);
-  EXPECT_EQ(decided + f.join.unanswered(), 30);
+  EXPECT_EQ(released + f.join.unanswered(), 30);
   // Forgotten past the heard window (2 x queue + 16) without a Tick: still counted once.
   Fixture g(1, 0.5, 2);
   for (int64_t stamp = 1; stamp <= 40; ++stamp) g.Hear(stamp, 0.0);
@@ -115,7 +115,7 @@ TEST(ShardJoin, EveryQueryHeardIsDecidedOrCountedAsUnanswered) {
 TEST(ShardJoin, AnswersRefusedForWantOfTheirDescriptorAreTakenBackWhenItComesLate) {
   // After a stall the answers may be handled before the descriptors queued behind them, for
   // longer than the timeout: refused then (no descriptor had the stamp yet), but the query
-  // is decided when its descriptor comes, and the refusal is taken back.
+  // is released when its descriptor comes, and the refusal is taken back.
   Fixture f(2, 0.5, 100);
   f.Hear(5, 0.0);
   for (int k = 0; k < 2; ++k) f.Answer(k, 5, 0.0);
@@ -144,7 +144,7 @@ TEST(ShardJoin, ASlowShardIsDecidedWithoutAtTheTimeoutAndTakenBackByAnAnswerInTi
   // Missing, but still waited for (up to the timeout): its answer in time is taken.
   f.Hear(20, 0.6);
   EXPECT_TRUE(f.Answer(0, 20, 0.6).empty());
-  // Its late answer for a decided stamp is dropped and counted.
+  // Its late answer for a released stamp is dropped and counted.
   EXPECT_TRUE(f.Answer(1, 10, 0.7).empty());
   EXPECT_EQ(f.join.counts(1).late, 1);
   const auto back = f.Answer(1, 20, 0.8);
@@ -170,10 +170,10 @@ TEST(ShardJoin, AShardStoppedTenSecondsIsBackOnItsFirstAnswerAfterContinuing) {
   }
   for (const auto& d : f.join.Tick(now + 1)) partial += Fixture::Answered(d) == 1;
   now += 1;
-  EXPECT_EQ(partial, 100);  // every query decided, each within the timeout, without it
+  EXPECT_EQ(partial, 100);  // every query released, each within the timeout, without it
   EXPECT_EQ(f.join.counts(1).missed, 100);
   EXPECT_EQ(f.log.size(), 1u);  // said once
-  // Continued: its backlog of decided stamps is late; the next query is whole again.
+  // Continued: its backlog of released stamps is late; the next query is whole again.
   for (int64_t s = 90; s <= 100; ++s) EXPECT_TRUE(f.Answer(1, s, now).empty());
   EXPECT_EQ(f.join.counts(1).late, 11);
   f.Hear(++stamp, now);
@@ -186,15 +186,15 @@ TEST(ShardJoin, AShardStoppedTenSecondsIsBackOnItsFirstAnswerAfterContinuing) {
 
 TEST(ShardJoin, AStalledShardCostsEachQueryTheTimeoutAndNoMore) {
   // A shard that still publishes (its process stopped, not dead) and never answers: each
-  // query is decided at its own timeout, none is lost, the pending ones stay within the
+  // query is released at its own timeout, none is lost, the pending ones stay within the
   // queue.
   Fixture f(2, /*timeout_s=*/0.5, /*queue=*/100);
-  std::vector<int64_t> decided;
+  std::vector<int64_t> released;
   double now = 0;
   for (int64_t s = 1; s <= 300; ++s, now += 1.0 / 30) {
-    const auto check = [&](const std::vector<Join::Decision>& decisions) {
-      for (const auto& d : decisions) {
-        decided.push_back(d.stamp_ns);
+    const auto check = [&](const std::vector<Join::Release>& releases) {
+      for (const auto& d : releases) {
+        released.push_back(d.stamp_ns);
         EXPECT_LE(now - (d.stamp_ns - 1) / 30.0, 0.5 + 1.0 / 30 + 1e-9);
       }
     };
@@ -203,9 +203,9 @@ TEST(ShardJoin, AStalledShardCostsEachQueryTheTimeoutAndNoMore) {
     check(f.join.Tick(now));
     EXPECT_LE(f.join.pending(), 16u);
   }
-  for (const auto& d : f.join.Tick(now + 1)) decided.push_back(d.stamp_ns);
-  ASSERT_EQ(decided.size(), 300u);
-  for (size_t i = 0; i < decided.size(); ++i) EXPECT_EQ(decided[i], static_cast<int64_t>(i) + 1);
+  for (const auto& d : f.join.Tick(now + 1)) released.push_back(d.stamp_ns);
+  ASSERT_EQ(released.size(), 300u);
+  for (size_t i = 0; i < released.size(); ++i) EXPECT_EQ(released[i], static_cast<int64_t>(i) + 1);
   EXPECT_EQ(f.join.counts(1).missed, 300);
 }
 
@@ -213,7 +213,7 @@ TEST(ShardJoin, AForgedStampIsNeverDecidedAndHoldsUpNoQuery) {
   Fixture f(2, /*timeout_s=*/0.5);
   f.Hear(100, 0.0);
   // 1 ns off a real stamp, from one shard: waits only while its descriptor could still
-  // come, then refused; the real queries around it are decided whole as soon as complete.
+  // come, then refused; the real queries around it are released whole as soon as complete.
   EXPECT_TRUE(f.Answer(0, 101, 0.0).empty());
   EXPECT_TRUE(f.Answer(0, 100, 0.01).empty());
   EXPECT_EQ(Fixture::Stamps(f.Answer(1, 100, 0.02)), std::vector<int64_t>{100});
@@ -241,20 +241,20 @@ TEST(ShardJoin, AForgedStampIsNeverDecidedAndHoldsUpNoQuery) {
   EXPECT_EQ(f.join.counts(0).late, 0);
   EXPECT_FALSE(f.join.counts(0).missing);
   EXPECT_FALSE(f.join.counts(1).missing);
-  // 300 forged answers at once, among real queries: not one decided.
-  std::vector<int64_t> decided;
+  // 300 forged answers at once, among real queries: not one released.
+  std::vector<int64_t> released;
   for (int i = 0; i < 300; ++i) {
     const double now = 1.0 + i * 0.001;
-    for (const auto& d : f.Answer(i % 2, 1000 + 2 * i + 1, now)) decided.push_back(d.stamp_ns);
+    for (const auto& d : f.Answer(i % 2, 1000 + 2 * i + 1, now)) released.push_back(d.stamp_ns);
     if (i % 10 == 0) {
       f.Hear(1000 + 2 * i, now);
-      for (const auto& d : f.Answer(0, 1000 + 2 * i, now)) decided.push_back(d.stamp_ns);
-      for (const auto& d : f.Answer(1, 1000 + 2 * i, now)) decided.push_back(d.stamp_ns);
+      for (const auto& d : f.Answer(0, 1000 + 2 * i, now)) released.push_back(d.stamp_ns);
+      for (const auto& d : f.Answer(1, 1000 + 2 * i, now)) released.push_back(d.stamp_ns);
     }
   }
-  for (const auto& d : f.join.Tick(10)) decided.push_back(d.stamp_ns);
-  ASSERT_EQ(decided.size(), 30u);
-  for (size_t i = 0; i < decided.size(); ++i) EXPECT_EQ(decided[i] % 20, 0) << decided[i];
+  for (const auto& d : f.join.Tick(10)) released.push_back(d.stamp_ns);
+  ASSERT_EQ(released.size(), 30u);
+  for (size_t i = 0; i < released.size(); ++i) EXPECT_EQ(released[i] % 20, 0) << released[i];
 }
 
 TEST(ShardJoin, AFloodOfForgedStampsPushesNoRealQueryOutUndecided) {
@@ -292,7 +292,7 @@ TEST(ShardJoin, AQueryLateFromEveryShardIsDecidedAndTheStampsStartAfresh) {
   f.Hear(50, 1.0);
   EXPECT_TRUE(f.Answer(0, 50, 1.0).empty());
   EXPECT_EQ(Fixture::Stamps(f.Answer(1, 50, 1.01)), std::vector<int64_t>{50});
-  EXPECT_EQ(f.join.counts(0).late, 0);  // not counted as late once decided
+  EXPECT_EQ(f.join.counts(0).late, 0);  // not counted as late once released
   f.Hear(60, 1.1);
   EXPECT_TRUE(f.Answer(0, 60, 1.1).empty());
   EXPECT_EQ(Fixture::Stamps(f.Answer(1, 60, 1.11)), std::vector<int64_t>{60});
@@ -313,7 +313,7 @@ TEST(ShardJoin, MoreQueriesPendingThanTheQueueHoldsDecidesWithoutTheLaggingShard
   Fixture f(2, /*timeout_s=*/10, /*queue=*/3);
   for (int64_t s = 1; s <= 4; ++s) f.Hear(s, 0.0);
   for (int64_t s = 1; s <= 3; ++s) EXPECT_TRUE(f.Answer(0, s, 0.0).empty());
-  // The fourth pending query overflows the queue: the oldest is decided without shard 1.
+  // The fourth pending query overflows the queue: the oldest is released without shard 1.
   EXPECT_EQ(Fixture::Stamps(f.Answer(0, 4, 0.0)), std::vector<int64_t>{1});
   EXPECT_TRUE(f.join.counts(1).missing);
   EXPECT_EQ(f.join.counts(1).missed, 1);

@@ -7,19 +7,19 @@
 // still publishes: `can_answer`), whether or not it missed the last queries: a shard that
 // was slow (stopped a while, overloaded) is taken back by its first answer within the
 // timeout, however long it was missing. A query whose stamp is at or before the last one
-// decided is late: one shard's late answer is dropped (its query was decided without it);
+// released is late: one shard's late answer is dropped (its query was released without it);
 // when every expected shard's answer comes for such a stamp, it is a query that came late
 // on the wire from all of them (a bag replayed again, descriptors published out of stamp
-// order), decided as a single node would, and the stamps start afresh from it.
+// order), released as a single node would, and the stamps start afresh from it.
 //
-// Every query heard is decided or counted: one that no shard answered within `timeout_s` of
+// Every query heard is released or counted: one that no shard answered within `timeout_s` of
 // being heard (the shards' answers lost on the way, e.g. dropped from a publisher's queue
 // while this node was stalled) is counted as unanswered (unanswered()), and taken off that
-// count if its answers still come and it is decided after all.
+// count if its answers still come and it is released after all.
 //
 // Only stamps the owner heard (Hear: a descriptor with that stamp reached this node) are
-// decided. An answer for a stamp no descriptor had (a forged or corrupted stamp, 1 ns off
-// or days ahead) is refused and counted, never decided, and holds up no query: it waits
+// released. An answer for a stamp no descriptor had (a forged or corrupted stamp, 1 ns off
+// or days ahead) is refused and counted, never released, and holds up no query: it waits
 // for its descriptor only while that can still be in flight (no later descriptor heard,
 // and less than the timeout).
 //
@@ -72,7 +72,7 @@ class ShardJoin {
  public:
   // kWarnRepeated: a warning that may come with every query (the owner throttles it).
   enum class Level { kInfo, kWarn, kWarnRepeated };
-  struct Decision {
+  struct Release {
     int64_t stamp_ns = 0;
     double query_norm = 0;           // as heard (Hear)
     std::vector<AnswerPtr> answers;  // one per shard, null where none came
@@ -95,8 +95,9 @@ class ShardJoin {
         log_(std::move(log)) {}
 
   // A descriptor stamped `stamp_ns` (not zero) reached the owner at `now_s`; `query_norm` is
-  // its L2 norm, handed back with its decision. The queries now decided, in stamp order.
-  std::vector<Decision> Hear(int64_t stamp_ns, double query_norm, double now_s) {
+  // its L2 norm, handed back when its query is released. The queries now released (handed
+  // on to be decided), in stamp order.
+  std::vector<Release> Hear(int64_t stamp_ns, double query_norm, double now_s) {
     // A stamp heard again (a replay) stays heard, and is a query of its own.
     heard_[stamp_ns] = Heard{query_norm, now_s, false, false};
     heard_order_.push_back(stamp_ns);
@@ -109,26 +110,26 @@ class ShardJoin {
       heard_order_.pop_front();
       if (std::find(heard_order_.begin(), heard_order_.end(), oldest) == heard_order_.end()) {
         const auto it = heard_.find(oldest);
-        // Forgotten undecided: it can never be decided now.
-        if (!it->second.decided && !it->second.unanswered && !pending_.count(oldest)) {
+        // Forgotten unreleased: it can never be released now.
+        if (!it->second.released && !it->second.unanswered && !pending_.count(oldest)) {
           ++unanswered_;
         }
         heard_.erase(it);
       }
     }
     TakeBackRefused(stamp_ns, now_s);
-    std::vector<Decision> out;
+    std::vector<Release> out;
     Flush(now_s, &out);
     CountUnanswered(now_s);
     return out;
   }
 
   // Shard k's answer for the query stamped `stamp_ns` (not zero), at `now_s`; the queries
-  // now decided, in stamp order.
-  std::vector<Decision> Answer(int k, int64_t stamp_ns, AnswerPtr answer, double now_s) {
+  // now released, in stamp order.
+  std::vector<Release> Answer(int k, int64_t stamp_ns, AnswerPtr answer, double now_s) {
     ShardCounts& shard = shards_.at(static_cast<size_t>(k));
     ++shard.answered;
-    const bool old = decided_any_ && stamp_ns <= last_decided_;
+    const bool old = released_any_ && stamp_ns <= last_released_;
     if (old && !heard_.count(stamp_ns)) {
       RefuseUnheard(k, stamp_ns);  // not a late answer: no query had this stamp
       return {};
@@ -146,7 +147,7 @@ class ShardJoin {
       return {};
     }
     p.answers[static_cast<size_t>(k)] = std::move(answer);
-    std::vector<Decision> out;
+    std::vector<Release> out;
     if (!old) {
       Flush(now_s, &out);
       return out;
@@ -161,7 +162,7 @@ class ShardJoin {
         if (p.answers[j]) --shards_[j].late;
       }
       pending_.insert(past_.extract(stamp_ns));
-      decided_any_ = false;
+      released_any_ = false;
       Flush(now_s, &out);
     }
     while (past_.size() > queue_size_) past_.erase(past_.begin());
@@ -169,8 +170,8 @@ class ShardJoin {
   }
 
   // The queries whose missing answers have timed out by `now_s`, in stamp order.
-  std::vector<Decision> Tick(double now_s) {
-    std::vector<Decision> out;
+  std::vector<Release> Tick(double now_s) {
+    std::vector<Release> out;
     Flush(now_s, &out);
     CountUnanswered(now_s);
     return out;
@@ -181,7 +182,7 @@ class ShardJoin {
   // Whether a query waits for shard k's answer now (up to the timeout).
   bool Expected(int k) const { return can_answer_(k); }
   size_t pending() const { return pending_.size(); }
-  // Queries heard that no shard answered within the timeout (and not decided since).
+  // Queries heard that no shard answered within the timeout (and not released since).
   int64_t unanswered() const { return unanswered_; }
 
  private:
@@ -192,15 +193,15 @@ class ShardJoin {
   struct Heard {
     double query_norm = 0;
     double heard_s = 0;       // when its descriptor reached the owner
-    bool decided = false;     // handed on
+    bool released = false;     // handed on
     bool unanswered = false;  // counted in unanswered_
   };
 
   // Counts the heard queries that no shard answered within the timeout.
   void CountUnanswered(double now_s) {
     for (auto& [stamp, heard] : heard_) {
-      if (heard.decided || heard.unanswered || now_s - heard.heard_s < timeout_s_) continue;
-      if (pending_.count(stamp)) continue;  // answered: decided at its own timeout
+      if (heard.released || heard.unanswered || now_s - heard.heard_s < timeout_s_) continue;
+      if (pending_.count(stamp)) continue;  // answered: released at its own timeout
       heard.unanswered = true;
       ++unanswered_;
     }
@@ -217,7 +218,7 @@ class ShardJoin {
   // Refuses every answer of the pending stamp at `it` (no descriptor had it); the next entry.
   // The refused answers are kept a while (the last queue_size stamps): a descriptor held up
   // longer than the timeout (this node stalled, its descriptors queued behind the answers)
-  // still finds them when it is heard, and its query is decided after all.
+  // still finds them when it is heard, and its query is released after all.
   typename std::map<int64_t, Pending>::iterator RefusePending(
       typename std::map<int64_t, Pending>::iterator it) {
     for (size_t k = 0; k < shards_.size(); ++k) {
@@ -232,7 +233,7 @@ class ShardJoin {
   void TakeBackRefused(int64_t stamp_ns, double now_s) {
     const auto it = refused_.find(stamp_ns);
     if (it == refused_.end()) return;
-    if (!(decided_any_ && stamp_ns <= last_decided_) && !pending_.count(stamp_ns)) {
+    if (!(released_any_ && stamp_ns <= last_released_) && !pending_.count(stamp_ns)) {
       for (size_t k = 0; k < shards_.size(); ++k) {
         if (it->second.answers[k]) --shards_[k].unheard;
       }
@@ -252,7 +253,7 @@ class ShardJoin {
     shard.missing = false;
   }
 
-  void Flush(double now_s, std::vector<Decision>* out) {
+  void Flush(double now_s, std::vector<Release>* out) {
     while (!pending_.empty()) {
       // Full: answers for stamps not heard go first, the furthest ahead first (a flood of
       // forged stamps must not push real queries out undecided).
@@ -296,14 +297,14 @@ class ShardJoin {
                    "until it answers again");
         }
       }
-      last_decided_ = it->first;
-      decided_any_ = true;
-      heard->second.decided = true;
+      last_released_ = it->first;
+      released_any_ = true;
+      heard->second.released = true;
       if (heard->second.unanswered) {
         heard->second.unanswered = false;  // its answers came after all
         --unanswered_;
       }
-      out->push_back(Decision{it->first, heard->second.query_norm, std::move(p.answers)});
+      out->push_back(Release{it->first, heard->second.query_norm, std::move(p.answers)});
       pending_.erase(it);
     }
   }
@@ -314,13 +315,13 @@ class ShardJoin {
   std::function<bool(int)> can_answer_;
   std::function<void(Level, int shard, const std::string&)> log_;
   std::map<int64_t, Pending> pending_;
-  // Answers for stamps at or before last_decided_: late ones, or (when every shard's comes)
+  // Answers for stamps at or before last_released_: late ones, or (when every shard's comes)
   // a query that came late on the wire from every shard.
   std::map<int64_t, Pending> past_;
   // Answers refused for a stamp no descriptor had yet (the last queue_size): TakeBackRefused.
   std::map<int64_t, Pending> refused_;
-  int64_t last_decided_ = 0;
-  bool decided_any_ = false;
+  int64_t last_released_ = 0;
+  bool released_any_ = false;
   // The stamps heard (with their query's norm), the last 2 x queue_size + 16 in the order
   // heard, and the latest.
   std::map<int64_t, Heard> heard_;

@@ -148,15 +148,15 @@ ShardedMap::~ShardedMap() {
 
 std::optional<MapBackend::Query> ShardedMap::Hear(const QueryDescriptor& descriptor) {
   if (descriptor.header.stamp_is_zero()) return std::nullopt;  // the shards' answers say so
-  bool decided = false;
+  bool released = false;
   {
     MutexLock lock(&mutex_);
-    std::vector<Join::Decision> decisions =
+    std::vector<Join::Release> releases =
         join_.Hear(descriptor.header.stamp_ns(), Norm(descriptor), NowS());
-    decided = !decisions.empty();
-    Queue(std::move(decisions));
+    released = !releases.empty();
+    Queue(std::move(releases));
   }
-  if (decided) DeliverLater();  // the caller holds the node's lock
+  if (released) DeliverLater();  // the caller holds the node's lock
   return std::nullopt;
 }
 
@@ -370,8 +370,8 @@ void ShardedMap::OnDistances(int k, const ShardDistances::ConstPtr& msg) {
   Deliver();
 }
 
-void ShardedMap::Queue(std::vector<Join::Decision> decisions) {
-  for (Join::Decision& d : decisions) {
+void ShardedMap::Queue(std::vector<Join::Release> releases) {
+  for (Join::Release& d : releases) {
     std::vector<const ShardDistances*> answers;
     const ShardDistances* last = nullptr;  // the header comes from the last shard answering
     for (const ShardDistances::ConstPtr& a : d.answers) {

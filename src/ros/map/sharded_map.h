@@ -144,8 +144,8 @@ class ShardedMap : public MapBackend {
   // shards whose distances cannot be exact. Caller holds mutex_.
   Query Assemble(const QueryHeader& header, double query_norm,
                  const std::vector<const ShardDistances*>& answers) REQUIRES(mutex_);
-  // Queues the join's decisions for the callbacks. Caller holds mutex_.
-  void Queue(std::vector<Join::Decision> decisions) REQUIRES(mutex_);
+  // Queues the queries the join released for the callbacks. Caller holds mutex_.
+  void Queue(std::vector<Join::Release> releases) REQUIRES(mutex_);
   // Hands the queued queries to the callbacks, in order. Called without mutex_.
   void Deliver() EXCLUDES(mutex_, deliver_);
   // Deliver() soon, from the node's callback queue (for a caller that holds the node's

@@ -1,5 +1,6 @@
 #include "bsf_vpr/core/decision.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -56,6 +57,23 @@ Threshold ThresholdAsAsked(const Threshold& before, const Threshold& asked) {
   return h;
 }
 
+namespace {
+
+// The match ranked first. It is the best place of the unnormalised posterior; normalising
+// can round it and a near neighbour to one value, which TopK ranks by index.
+void MatchFirst(int match, std::vector<int>* top) {
+  if (top->empty() || top->front() == match || match < 0) return;
+  const auto it = std::find(top->begin(), top->end(), match);
+  if (it != top->end()) {
+    std::rotate(top->begin(), it, it + 1);
+  } else {
+    top->insert(top->begin(), match);
+    top->pop_back();
+  }
+}
+
+}  // namespace
+
 void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief) {
   PlaceBelief& b = *belief;
   switch (evidence.kind) {
@@ -63,6 +81,7 @@ void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelie
       b.confidence = ConfidenceWithOffMap(b.confidence, evidence.log_off_odds);
       b.accepted = b.confidence > options.threshold.LogOdds();
       b.top_places = TopK(b.log_posterior, options.top_k);
+      MatchFirst(b.match, &b.top_places);
       return;
     case Evidence::Kind::kDistance:
       b.accepted = std::isfinite(b.confidence) && -b.confidence <= options.max_match_distance;

@@ -53,8 +53,8 @@ namespace {
 // counts (a shard whose new shard_info has not arrived, or was refused), nor a refusal.
 bool AnswersItsSets(const ShardAnswer& answer, const ShardSets& shard) {
   const size_t n = shard.sets.size();
-  if (!answer.error.empty() || answer.set_names.size() != n || answer.fingerprints.size() != n ||
-      answer.distances.size() != n) {
+  if (!answer.error.empty() || answer.malformed || answer.set_names.size() != n ||
+      answer.fingerprints.size() != n || answer.distances.size() != n) {
     return false;
   }
   for (size_t i = 0; i < n; ++i) {

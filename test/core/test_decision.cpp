@@ -46,6 +46,24 @@ TEST(Decision, AcceptsAPosteriorAboveTheThresholdAndRanksItsPlaces) {
   EXPECT_TRUE(b.accepted);
 }
 
+TEST(Decision, TheMatchRanksFirstWhereNormalisingTiedItWithAnotherPlace) {
+  // The fusion picked place 1 on the unnormalised values; normalised, places 0 and 1 came
+  // out equal, and TopK alone would rank place 0 first.
+  PlaceBelief b;
+  b.log_posterior.resize(3);
+  b.log_posterior << std::log(0.4), std::log(0.4), std::log(0.2);
+  b.match = 1;
+  b.confidence = 0.0;
+  DecisionOptions o;
+  o.top_k = 3;
+  Decide(o, Evidence{}, &b);
+  EXPECT_EQ(b.top_places, (std::vector<int>{1, 0, 2}));
+  b.top_places.clear();
+  o.top_k = 1;  // the match even where the tie would have left it out
+  Decide(o, Evidence{}, &b);
+  EXPECT_EQ(b.top_places, (std::vector<int>{1}));
+}
+
 TEST(Decision, TheOffMapOddsLowerTheConfidenceAndCanRefuseTheMatch) {
   DecisionOptions o;
   o.threshold = {Threshold::Kind::kProbability, 0.5};

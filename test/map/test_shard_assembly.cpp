@@ -142,6 +142,14 @@ TEST(ShardAssembly, AttachesTheJointOfTheMostSetsThatFitsTheLayout) {
   q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b}, DistanceMetric::kCosine,
                            1.0, JointKind::kSubspace);
   EXPECT_FALSE(q.distances.joint().has_value());
+  // A malformed answer: its sets are absent, its joint representation may still be used.
+  ShardAnswer garbled = from_a;
+  garbled.malformed = true;
+  q = AssembleShardAnswers(layout, names, shards, {&garbled, &from_b}, DistanceMetric::kCosine,
+                           1.0, JointKind::kDiscriminant);
+  EXPECT_FALSE(q.distances.present(0));
+  EXPECT_EQ(q.missing_shards, (std::vector<std::string>{"/a"}));
+  EXPECT_TRUE(q.distances.joint().has_value());
   from_a.joint_sets = {"summer", "night"};
   q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b}, DistanceMetric::kCosine,
                            1.0, JointKind::kDiscriminant);

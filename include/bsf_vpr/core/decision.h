@@ -1,8 +1,9 @@
 // The decision: the one step that turns what a method found (a posterior over places, a
 // distance method's mean distances, a sequence's costs), with the off-map tracker's odds,
 // into the match, its confidence, whether it is accepted and the ranked places. Nothing
-// else sets PlaceBelief::accepted or top_places, or reads threshold, threshold_kind,
-// max_match_distance and top_k (docs/method.md, "Confidence and acceptance").
+// else sets PlaceBelief::accepted or top_places, and no other step of a query reads
+// threshold, threshold_kind, max_match_distance and top_k (the options' validation and the
+// node's reconfiguration check them; docs/method.md, "Confidence and acceptance").
 #pragma once
 
 #include <Eigen/Core>

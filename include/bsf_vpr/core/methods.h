@@ -135,7 +135,9 @@ const OptionTable<MethodOptions>& MethodOptionsTable();
 // each with count > 0). `log_prior` (N entries, may be unnormalised) or null for uniform;
 // only the Bayesian methods use it. The returned belief keeps apart what the selection rule
 // chose (selection.selected, computed for every method) and the sets the method fused
-// (used_sets).
+// (used_sets). It is not decided: match and confidence are the posterior's (or the mean
+// distances') best place, accepted is false and top_places empty until Decide (decision.h),
+// which MethodRunner::Step runs.
 //
 // bsf with fusion adaptive scores its hypotheses over the stream: `stream` carries that
 // state (MethodRunner holds it); null runs the query as the first of a stream.

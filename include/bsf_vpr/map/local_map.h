@@ -58,6 +58,9 @@ struct ShardAnswer {
   RowMatrixXf joint_distances;
   std::string error;  // "" unless refused
   double seconds = 0;  // the time the shard spent on the descriptor
+  // Received with set names, fingerprints and counts that do not hold together (a corrupted
+  // message): its sets' distances are not used, its joint distances may be.
+  bool malformed = false;
 };
 
 class LocalMap : public MapBackend {

@@ -43,7 +43,7 @@ MergedLayout MergeShardLayouts(const std::vector<const ShardSets*>& shards,
                                std::optional<DistanceMetric> configured, double pose_tolerance_m);
 
 // One query's distances, set by set of `layout` (merged from `shards`, null where a shard's
-// sets are not known yet), from the shards' answers (null: none, or a malformed one).
+// sets are not known yet), from the shards' answers (null: none).
 struct AssembledQuery {
   QueryDistances distances;
   std::vector<std::string> missing_shards;  // shards whose sets are absent from it
@@ -52,8 +52,8 @@ struct AssembledQuery {
   std::vector<std::string> impossible;
   std::string joint_from;  // the shard whose joint representation is attached ("" if none)
 };
-// A shard's answer counts only when it is for the sets the layout has of it (names,
-// fingerprints, counts) and its distances can be exact for a query of L2 norm `query_norm`;
+// A shard's answer counts only when it is well formed, for the sets the layout has of it
+// (names, fingerprints, counts) and its distances can be exact for a query of L2 norm `query_norm`;
 // otherwise its sets are absent. The joint representation of `joint` attached is the one
 // over every place of the layout, of sets of the layout, built from the most sets. Throws
 // std::invalid_argument with the refusals when every shard holding sets refused the

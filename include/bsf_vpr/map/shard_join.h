@@ -10,7 +10,7 @@
 // released is late: one shard's late answer is dropped (its query was released without it);
 // when every expected shard's answer comes for such a stamp, it is a query that came late
 // on the wire from all of them (a bag replayed again, descriptors published out of stamp
-// order), released as a single node would, and the stamps start afresh from it.
+// order), released to be decided as a single node would decide it, and the stamps start afresh from it.
 //
 // Every query heard is released or counted: one that no shard answered within `timeout_s` of
 // being heard (the shards' answers lost on the way, e.g. dropped from a publisher's queue

@@ -249,7 +249,7 @@ ShardSets FromShardInfoMsg(const ShardInfo& msg) {
   return out;
 }
 
-std::optional<ShardAnswer> FromShardDistancesMsg(const ShardDistances& msg) {
+ShardAnswer FromShardDistancesMsg(const ShardDistances& msg) {
   ShardAnswer a;
   a.seconds = msg.processing_time;
   if (!msg.error.empty()) {
@@ -257,19 +257,24 @@ std::optional<ShardAnswer> FromShardDistancesMsg(const ShardDistances& msg) {
     return a;
   }
   const size_t n = msg.set_names.size();
-  if (msg.fingerprints.size() != n || msg.counts.size() != n) return std::nullopt;
+  a.malformed = msg.fingerprints.size() != n || msg.counts.size() != n;
   size_t offset = 0;
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = 0; !a.malformed && i < n; ++i) {
     const int32_t count = msg.counts[i];
     if (count < 0 || msg.distances.size() - offset < static_cast<size_t>(count)) {
-      return std::nullopt;
+      a.malformed = true;
+      break;
     }
     a.distances.push_back(Eigen::Map<const RowMatrixXf>(msg.distances.data() + offset, 1, count));
     offset += static_cast<size_t>(count);
   }
-  if (offset != msg.distances.size()) return std::nullopt;
-  a.set_names = msg.set_names;
-  a.fingerprints = msg.fingerprints;
+  a.malformed = a.malformed || offset != msg.distances.size();
+  if (a.malformed) {
+    a.distances.clear();
+  } else {
+    a.set_names = msg.set_names;
+    a.fingerprints = msg.fingerprints;
+  }
   if (!msg.joint_kind.empty()) {
     try {
       a.joint_kind = JointKindNames().Parse(msg.joint_kind, "joint_kind");

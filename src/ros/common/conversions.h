@@ -84,9 +84,9 @@ SetLayout LayoutFromShardSetMsg(const ShardSet& msg);
 // What a shard holds, from its shard_info. Throws std::invalid_argument as
 // LayoutFromShardSetMsg does.
 ShardSets FromShardInfoMsg(const ShardInfo& msg);
-// A shard's answer from its distances message; nullopt when the message is malformed (its
-// sets' names, fingerprints and counts disagree in number, or the counts with the
-// distances). A refusal keeps only its error.
-std::optional<ShardAnswer> FromShardDistancesMsg(const ShardDistances& msg);
+// A shard's answer from its distances message: `malformed` (its sets' distances left out)
+// when the sets' names, fingerprints and counts disagree in number, or the counts with the
+// distances. A refusal keeps only its error.
+ShardAnswer FromShardDistancesMsg(const ShardDistances& msg);
 
 }  // namespace bsf_vpr

@@ -1,8 +1,10 @@
 // The names of the sets that a load, an unload or a stopped recording's load has taken until
-// it ends: no other of them, no new recording and no method may take such a name meanwhile.
+// it ends: no other load or unload, no new recording and no method may take such a name
+// meanwhile. Each taker releases its own hold only.
 // Not thread-safe: the fusion node holds it under its mutex.
 #pragma once
 
+#include <iterator>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -15,13 +17,23 @@ class BusySets {
   // holds it when it is taken already.
   void Take(const std::string& name, const std::string& what) {
     Check(name);
-    busy_[name] = what;
+    busy_.emplace(name, what);
   }
-  // Takes `name` whatever holds it (a recording's own set, which nothing else can hold).
-  void Hold(const std::string& name, const std::string& what) { busy_[name] = what; }
-  void Release(const std::string& name) { busy_.erase(name); }
+  // Holds `name` for `what` whether or not another holds it too (a stopped recording's set,
+  // saved already: it is loaded whatever else is under way).
+  void Hold(const std::string& name, const std::string& what) { busy_.emplace(name, what); }
+  // Ends one hold of `name` for `what` (the others stay).
+  void Release(const std::string& name, const std::string& what) {
+    const auto [first, last] = busy_.equal_range(name);
+    for (auto it = first; it != last; ++it) {
+      if (it->second == what) {
+        busy_.erase(it);
+        return;
+      }
+    }
+  }
   bool empty() const { return busy_.empty(); }
-  // Throws std::invalid_argument when `name` is taken ("... is being loaded").
+  // Throws std::invalid_argument when `name` is held ("... is being loaded").
   void Check(const std::string& name) const {
     const auto it = busy_.find(name);
     if (it != busy_.end()) {
@@ -30,7 +42,7 @@ class BusySets {
   }
 
  private:
-  std::map<std::string, std::string> busy_;  // name -> what holds it
+  std::multimap<std::string, std::string> busy_;  // name -> what holds it
 };
 
 }  // namespace bsf_vpr

@@ -55,7 +55,7 @@ bool FusionNode::OnLoad(LoadReferenceSet::Request& req, LoadReferenceSet::Respon
     };
     const auto loaded = [this, &name] {
       MutexLock lock(&mutex_);
-      if (!name.empty()) busy_.Release(name);
+      if (!name.empty()) busy_.Release(name, "loaded");
       AdoptLayout(map_->layout());
     };
     try {
@@ -87,7 +87,7 @@ bool FusionNode::OnUnload(UnloadReferenceSet::Request& req, UnloadReferenceSet::
     const auto finish = [this, &req](bool unloaded) {
       MutexLock lock(&mutex_);
       if (unloaded) counters_.Forget(req.name);
-      busy_.Release(req.name);
+      busy_.Release(req.name, "unloaded");
       AdoptLayout(map_->layout());
     };
     try {
@@ -253,7 +253,7 @@ void FusionNode::LoadRecorded(Recording::Saved saved, const std::string& summary
   }
   {
     MutexLock lock(&mutex_);
-    busy_.Release(name);
+    busy_.Release(name, "loaded");
     AdoptLayout(map_->layout());
   }
   res->success = true;

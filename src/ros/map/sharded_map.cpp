@@ -276,8 +276,16 @@ void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
   shard.refused.clear();
   shard.refused_info.reset();
   if (SameSets(shard.info.get(), msg.get())) {
-    // Restarted (or republished) with the sets it had: nothing to rebuild.
+    // Restarted (or republished) with the sets it had: nothing to rebuild. What it says of
+    // them beyond their rows (conditions, images) is taken for the next layout.
     shard.info = msg;
+    try {
+      ShardSets held = FromShardInfoMsg(*msg);
+      held.name = shard.name;
+      shard.sets = std::make_shared<const ShardSets>(std::move(held));
+    } catch (const std::exception&) {
+      // Poses that do not fit its places: the sets as taken before stay.
+    }
     ++shard.info_count;
     shard.change_expected = false;
     if (join_.counts(k).missing) ROS_INFO("bsf_vpr: shard %s is back", shard.name.c_str());

@@ -10,7 +10,7 @@
 // shard's answer for any other stamp is refused (shard_join.h), and an answer whose
 // distances no exact distance can be (ShardDistancesProblem: NaN, negative, beyond the
 // norms) makes that shard missing for the query. Every call to a shard's service waits a
-// bounded time (ShardCall in sharded_map.cpp): a stalled shard is reported, not waited on.
+// bounded time (ShardCall, sharded_map_parts.h): a stalled shard is reported, not waited on.
 //
 // A shard_info is not believed on its own (ROS 1 cannot authenticate a publisher): the map
 // asks the shard's own get_shard_info service (bounded, on a thread of its own) and takes the
@@ -23,7 +23,7 @@
 // them out) and tried again when another shard's change.
 //
 // Thread-safe: one lock guards the shards and the join; the callbacks are called without
-// it, one at a time, in the order the queries were decided.
+// it, one at a time, in the order the join released the queries.
 #pragma once
 
 #include <bsf_vpr/ShardDistances.h>

@@ -102,7 +102,7 @@ void BeliefView::OnGroundTruth(const QueryGroundTruth::ConstPtr& truth) {
 
 void BeliefView::AddLateTruth(const std::vector<int>& places) {
   drawn_has_truth_ = true;
-  if (auto marker = TruePlacesMarker(drawn_layout_, places, drawn_header_, options_)) {
+  if (auto marker = TruePlacesMarker(drawn_route_, places, drawn_header_, options_)) {
     visualization_msgs::MarkerArray late;
     late.markers.push_back(*marker);
     marker_pub_.publish(late);
@@ -235,7 +235,7 @@ void BeliefView::Show(const Belief& belief, const Recognition& r, const PlaceLay
     tf_.sendTransform(view);
     marker_pub_.publish(MakeBeliefMarkers(route, belief, truth, probabilistic, options_));
     MutexLock lock(&mutex_);
-    drawn_layout_ = std::move(route);
+    drawn_route_ = std::move(route);
     drawn_header_ = belief.header;
     drawn_has_truth_ = !truth.empty();
     if (!drawn_has_truth_) {  // arrived since TruePlaces() looked?

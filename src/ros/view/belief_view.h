@@ -105,7 +105,7 @@ class BeliefView {
   std::deque<std::pair<ros::Time, std::vector<int>>> truths_ GUARDED_BY(mutex_);
   // The last markers drawn, so that ground truth arriving after its belief (a bag holds
   // the image before its ground truth) is added to them.
-  RouteDrawing drawn_layout_ GUARDED_BY(mutex_);
+  RouteDrawing drawn_route_ GUARDED_BY(mutex_);
   std_msgs::Header drawn_header_ GUARDED_BY(mutex_);
   bool drawn_has_truth_ GUARDED_BY(mutex_) = true;
 };

@@ -160,7 +160,7 @@ ImportArgs ParseImportArgs(int argc, char** argv) {
   FlagReader flags(argc, argv);
   for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--layout") {
-      a.layout = ParseDatasetLayout(v);
+      a.layout = ParseDatasetFolders(v);
       layout_given = true;
     } else if (f == "--reference") {
       a.references.push_back(ParseNamedSpec(f, v));

@@ -54,24 +54,24 @@ int64_t FrameNumber(const std::string& file) {
 
 }  // namespace
 
-const EnumNames<DatasetFolders>& DatasetLayoutNames() {
+const EnumNames<DatasetFolders>& DatasetFoldersNames() {
   static const EnumNames<DatasetFolders> kNames{{DatasetFolders::kRobotCar, "robotcar"},
                                                {DatasetFolders::kNordland, "nordland"},
                                                {DatasetFolders::kGeneric, "generic"}};
   return kNames;
 }
 
-DatasetFolders ParseDatasetLayout(const std::string& text) {
+DatasetFolders ParseDatasetFolders(const std::string& text) {
   // The choices as the usage text shows them, not EnumNames::Parse's "a, b or c".
-  const std::optional<DatasetFolders> layout = DatasetLayoutNames().Find(text);
+  const std::optional<DatasetFolders> layout = DatasetFoldersNames().Find(text);
   if (!layout) {
-    throw std::invalid_argument("--layout must be " + DatasetLayoutNames().Listed(" | ", " | ") +
+    throw std::invalid_argument("--layout must be " + DatasetFoldersNames().Listed(" | ", " | ") +
                                 ", got '" + text + "'");
   }
   return *layout;
 }
 
-std::string ToString(DatasetFolders layout) { return DatasetLayoutNames().Name(layout); }
+std::string ToString(DatasetFolders layout) { return DatasetFoldersNames().Name(layout); }
 
 const EnumNames<PoseCoordinates>& PoseCoordinatesNames() {
   static const EnumNames<PoseCoordinates> kNames{

@@ -22,9 +22,9 @@ namespace tools {
 
 enum class DatasetFolders { kRobotCar, kNordland, kGeneric };
 // The layouts' names (--layout).
-const EnumNames<DatasetFolders>& DatasetLayoutNames();
-// A name of DatasetLayoutNames(); throws std::invalid_argument naming the choices.
-DatasetFolders ParseDatasetLayout(const std::string& text);
+const EnumNames<DatasetFolders>& DatasetFoldersNames();
+// A name of DatasetFoldersNames(); throws std::invalid_argument naming the choices.
+DatasetFolders ParseDatasetFolders(const std::string& text);
 std::string ToString(DatasetFolders layout);
 
 // The coordinates a traversal's logged poses are given in, before BringToMapFrame. (Not the

@@ -42,12 +42,41 @@ TEST(BusySets, ANameTakenByOneLoadOrUnloadIsRefusedToAnotherUntilReleased) {
     EXPECT_STREQ(e.what(), "a reference set named 'winter' is being loaded");
   }
   EXPECT_THROW(busy.Check("summer"), std::invalid_argument);
-  busy.Release("winter");
+  busy.Release("winter", "loaded");
   EXPECT_NO_THROW(busy.Check("winter"));
-  busy.Hold("summer", "loaded");  // whatever held it
-  EXPECT_THROW(busy.Take("summer", "loaded"), std::invalid_argument);
-  busy.Release("summer");
+  // A stopped recording's set is held beside the unload that has it: each ends its own.
+  busy.Hold("summer", "loaded");
+  busy.Release("summer", "unloaded");
+  EXPECT_THROW(busy.Take("summer", "loaded"), std::invalid_argument);  // still loading
+  busy.Release("summer", "loaded");
   EXPECT_TRUE(busy.empty());
+}
+
+TEST(Conversions, AShardsMalformedDistancesLeaveOutItsSetsButNotItsJoint) {
+  ShardDistances msg;
+  msg.set_names = {"summer", "fall"};
+  msg.fingerprints = {1, 2};
+  msg.counts = {2, 3};
+  msg.distances = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f};
+  msg.processing_time = 0.25;
+  ShardAnswer a = FromShardDistancesMsg(msg);
+  EXPECT_FALSE(a.malformed);
+  ASSERT_EQ(a.distances.size(), 2u);
+  EXPECT_EQ(a.distances[1].cols(), 3);
+  EXPECT_EQ(a.distances[1](0, 2), 0.5f);
+  EXPECT_EQ(a.seconds, 0.25);
+  msg.counts = {2, 4};  // more than the distances sent
+  msg.joint_kind = "discriminant";
+  msg.joint_sets = {"summer", "fall"};
+  msg.joint_distances = {0.5f, 0.6f};
+  a = FromShardDistancesMsg(msg);
+  EXPECT_TRUE(a.malformed);
+  EXPECT_TRUE(a.distances.empty());
+  ASSERT_TRUE(a.joint_kind.has_value());
+  EXPECT_EQ(a.joint_distances.cols(), 2);
+  msg.error = "dimension 3, the sets' 4";
+  a = FromShardDistancesMsg(msg);
+  EXPECT_EQ(a.error, msg.error);
 }
 
 TEST(SelectionCounters, CountSelectedBestAndSuppliedPerSet) {

@@ -154,7 +154,7 @@ void ExpectRowsNameTheirFrames(const ReferenceSet& set, const std::string& folde
 
 // The layouts and pose coordinates have one table of names each.
 TEST(ImportNames, EveryEnumerationsNamesRoundTrip) {
-  testing::ExpectNamesRoundTrip(tools::DatasetLayoutNames(), tools::ParseDatasetLayout, "--layout");
+  testing::ExpectNamesRoundTrip(tools::DatasetFoldersNames(), tools::ParseDatasetFolders, "--layout");
   testing::ExpectNamesRoundTrip<tools::PoseCoordinates>(tools::PoseCoordinatesNames(), nullptr,
                                                         "pose coordinates");
   EXPECT_EQ(tools::ToString(tools::PoseCoordinates::kUtm), "UTM poses");

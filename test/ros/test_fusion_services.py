@@ -382,6 +382,9 @@ class FusionServices(unittest.TestCase):
         self.ensure_day_loaded()
         poses = []
         sub = rospy.Subscriber(NS + "pose", PoseWithCovarianceStamped, poses.append)
+        # Connected before the queries go out: poses published before would be lost to it
+        # (under load the connection takes a while).
+        wait_for(lambda: sub.get_num_connections() > 0, 20, "the fusion node's pose publisher")
         n = len(self.matches)
         stamps = [self.send(self.night[i]) for i in range(100, 140)]
         self.belief_for(stamps[-1])

@@ -239,9 +239,9 @@ SetLayout LayoutFromShardSetMsg(const ShardSet& msg) {
   return set;
 }
 
-ShardSets FromShardInfoMsg(const ShardInfo& msg) {
+ShardSets FromShardInfoMsg(const ShardInfo& msg, const std::string& name) {
   ShardSets out;
-  out.name = msg.shard;
+  out.name = name;
   out.distance = msg.distance;
   for (const ShardSet& s : msg.sets) {
     out.sets.push_back(ShardSets::Set{LayoutFromShardSetMsg(s), s.fingerprint, s.max_norm});

@@ -81,9 +81,9 @@ ShardSet ToShardSetMsg(const StoredReferenceSet& set, uint64_t fingerprint);
 // The set's layout as the combiner holds it (no descriptors). Throws std::invalid_argument
 // naming the set when its poses are not 4 per place.
 SetLayout LayoutFromShardSetMsg(const ShardSet& msg);
-// What a shard holds, from its shard_info. Throws std::invalid_argument as
-// LayoutFromShardSetMsg does.
-ShardSets FromShardInfoMsg(const ShardInfo& msg);
+// What the shard `name` (as the map knows it: resolved) holds, from its shard_info. Throws
+// std::invalid_argument as LayoutFromShardSetMsg does.
+ShardSets FromShardInfoMsg(const ShardInfo& msg, const std::string& name);
 // A shard's answer from its distances message: `malformed` (its sets' distances left out)
 // when the sets' names, fingerprints and counts disagree in number, or the counts with the
 // distances. A refusal keeps only its error.

@@ -280,9 +280,7 @@ void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
     // them beyond their rows (conditions, images) is taken for the next layout.
     shard.info = msg;
     try {
-      ShardSets held = FromShardInfoMsg(*msg);
-      held.name = shard.name;
-      shard.sets = std::make_shared<const ShardSets>(std::move(held));
+      shard.sets = std::make_shared<const ShardSets>(FromShardInfoMsg(*msg, shard.name));
     } catch (const std::exception&) {
       // Poses that do not fit its places: the sets as taken before stay.
     }
@@ -306,9 +304,7 @@ void ShardedMap::TakeShardInfo(int k, const ShardInfo::ConstPtr& msg) {
 bool ShardedMap::TakeInfo(int k, const ShardInfo::ConstPtr& msg) {
   Shard& shard = shards_[static_cast<size_t>(k)];
   try {
-    ShardSets held = FromShardInfoMsg(*msg);
-    held.name = shard.name;  // as the map knows it (resolved)
-    auto sets = std::make_shared<const ShardSets>(std::move(held));
+    auto sets = std::make_shared<const ShardSets>(FromShardInfoMsg(*msg, shard.name));
     MergedLayout merged = LayoutWith(k, *sets);
     PlaceLayout& layout = merged.layout;
     const std::string why = "shard " + shard.name + " holds " + SetNames(msg.get()) +

@@ -16,6 +16,13 @@
 #include "src/ros/map/configured_paths.h"
 
 namespace bsf_vpr {
+namespace {
+
+// A query this far before the previous one is another drive's (FusionNode::last_query_stamp_);
+// a little earlier is a reordering (two publishers, a shard's late answer) and is decided on.
+constexpr double kTimeJumpBackS = 1.0;
+
+}  // namespace
 
 FusionNode::FusionNode(ros::NodeHandle nh, ros::NodeHandle pnh, MapFactory make_map)
     : nh_(std::move(nh)), pnh_(std::move(pnh)), make_map_(std::move(make_map)) {}
@@ -383,11 +390,20 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
     ++superseded_;  // counted: no belief for it
     return std::nullopt;
   }
+  const ros::Time stamp(query.header.sec, query.header.nsec);
+  if (!last_query_stamp_.isZero() && (last_query_stamp_ - stamp).toSec() > kTimeJumpBackS) {
+    // What the filter, the sequence matcher and the adaptive fusion carry belongs to another
+    // drive, as tf's buffer does on a jump back.
+    ROS_WARN("bsf_vpr: the descriptors' time went back %.1f s (a bag played again, a "
+             "simulation restarted): the belief starts afresh",
+             (last_query_stamp_ - stamp).toSec());
+    decider_.Reset();
+  }
+  last_query_stamp_ = stamp;
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
-    r = decider_.Decide(*layout_, query.distances, true,
-                        OdometryStep(ros::Time(query.header.sec, query.header.nsec)));
+    r = decider_.Decide(*layout_, query.distances, true, OdometryStep(stamp));
   } catch (const std::exception& e) {
     RejectMessage(e.what());
     return std::nullopt;

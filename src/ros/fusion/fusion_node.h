@@ -157,6 +157,9 @@ class FusionNode {
   std::unique_ptr<MapBackend> map_;
   MapBackend::Layout layout_ GUARDED_BY(mutex_);  // the map's layout the decider is on
   PlaceDecider decider_ GUARDED_BY(mutex_);
+  // The stamp of the last query decided: a query stamped more than kTimeJumpBackS before it
+  // (a bag played again, a simulation restarted) starts the carried belief afresh.
+  ros::Time last_query_stamp_ GUARDED_BY(mutex_);
   std::unique_ptr<Recording> recording_ PT_GUARDED_BY(mutex_);  // over data_dir_
   // load_reference_set's and unload_reference_set's queue and thread, and query_place's.
   ros::CallbackQueue load_queue_, query_queue_;

@@ -476,4 +476,14 @@ int LocalMap::num_sets() const {
   return sets_.num_sets();
 }
 
+void LocalMap::ReadSets(const std::function<void(const ReferenceSets& sets)>& read) const {
+  MutexLock lock(&mutex_);
+  read(sets_);
+}
+
+std::shared_ptr<const ApproximateIndex> LocalMap::index() const {
+  MutexLock lock(&mutex_);
+  return index_;
+}
+
 }  // namespace bsf_vpr

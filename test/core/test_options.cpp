@@ -15,7 +15,7 @@
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
 #include "bsf_vpr/core/place_index.h"
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/recognizer_options.h"
 #include "bsf_vpr/core/reference_recorder.h"
 #include "bsf_vpr/core/selection.h"
 #include "bsf_vpr/image/image_describer.h"
@@ -286,7 +286,7 @@ TEST(Options, ValidateEnforcesTheTableBoundsOfOptionsBuiltInCode) {
   ExpectValidateEnforcesTheBounds(MethodOptionsTable(), MethodOptions(),
                                   [](const MethodOptions& o) { o.Validate(); });
   ExpectValidateEnforcesTheBounds(RecognizerOptionsTable(), RecognizerOptions(),
-                                  [](const RecognizerOptions& o) { PlaceRecognizer{o}; });
+                                  [](const RecognizerOptions& o) { o.Validate(); });
   ExpectValidateEnforcesTheBounds(SequenceOptionsTable(), SequenceOptions(),
                                   [](const SequenceOptions& o) { o.Validate(); });
   ExpectValidateEnforcesTheBounds(TemporalFilterOptionsTable(), TemporalFilterOptions(),

@@ -2,8 +2,12 @@
 // process: the combiner of a sharded map decides this way.
 #include <gtest/gtest.h>
 
+#include <memory>
+#include <optional>
+
 #include "bsf_vpr/core/place_decider.h"
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/recognizer_options.h"
 #include "bsf_vpr/evaluation/synthetic.h"
 
 namespace bsf_vpr {
@@ -19,6 +23,25 @@ SyntheticData Data() {
   return GenerateMultiConditionData(opt);
 }
 
+// A map's parts, as LocalMap holds them: the sets, their distances to a query and to the
+// sets' discriminant.
+struct Whole {
+  explicit Whole(const ReferenceSets& map) : map(map) {
+    std::vector<const StoredReferenceSet*> sets;
+    for (const StoredReferenceSet& s : map.sets()) sets.push_back(&s);
+    joint = std::make_unique<JointRepresentation>(
+        JointRepresentation::Build(JointKind::kDiscriminant, sets, map.num_places()));
+  }
+  std::vector<RowMatrixXf> Distances(const Eigen::VectorXf& query) const {
+    return ComputeDistances(DistanceMetric::kEuclidean, query.transpose(), map);
+  }
+  std::optional<QueryDistances::Joint> JointDistances(const Eigen::VectorXf& query) const {
+    return QueryDistances::Joint{JointKind::kDiscriminant, 1, joint->Distances(query.transpose())};
+  }
+  const ReferenceSets& map;
+  std::unique_ptr<JointRepresentation> joint;
+};
+
 // The layout of `map` rebuilt from its sets' places alone, as a combiner builds it.
 PlaceLayout LayoutAlone(const ReferenceSets& map) {
   PlaceLayout layout;
@@ -26,37 +49,11 @@ PlaceLayout LayoutAlone(const ReferenceSets& map) {
   return layout;
 }
 
-TEST(PlaceDecider, DecidesBitwiseAsTheRecognizerHoldingTheDescriptors) {
-  const SyntheticData data = Data();
-  for (const std::string method : {"bsf", "bsf+filter+seq", "bayes_full", "med"}) {
-    RecognizerOptions options;
-    options.method = method;
-    PlaceRecognizer whole;
-    for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
-    whole.SetOptions(options);
-    const PlaceLayout layout = LayoutAlone(whole.map());
-    PlaceDecider decider(method, options.method_options);
-    decider.OnLayoutChanged(layout);
-    for (int q = 0; q < 25; ++q) {
-      const Eigen::VectorXf query = data.queries.row(q).transpose();
-      QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
-      if (auto j = whole.JointDistances(query)) d.SetJoint(std::move(*j));
-      const Recognition a = whole.Recognize(query, true);
-      const Recognition b = decider.Decide(layout, d, true);
-      ASSERT_EQ(a.belief.match, b.belief.match) << method << " query " << q;
-      ASSERT_EQ(a.belief.confidence, b.belief.confidence) << method << " query " << q;
-      ASSERT_EQ(a.closest_set, b.closest_set);
-      EXPECT_TRUE(b.missing_sets.empty());
-    }
-  }
-}
-
 TEST(PlaceDecider, AnAbsentSetIsLeftOutAndNamed) {
   const SyntheticData data = Data();
-  PlaceRecognizer whole;
-  for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
+  const Whole whole(data.map);
   PlaceDecider decider;
-  decider.OnLayoutChanged(whole.map().layout());
+  decider.OnLayoutChanged(whole.map.layout());
   const Eigen::VectorXf query = data.queries.row(3).transpose();
   QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));
   QueryDistances without(d.num_sets());
@@ -64,18 +61,18 @@ TEST(PlaceDecider, AnAbsentSetIsLeftOutAndNamed) {
   without.Set(2, d.of(2));
   EXPECT_EQ(without.Absent(), std::vector<int>{1});
   EXPECT_THROW(without.of(1), std::logic_error);
-  const Recognition r = decider.Decide(whole.map().layout(), without, false);
+  const Recognition r = decider.Decide(whole.map.layout(), without, false);
   EXPECT_EQ(r.missing_sets, std::vector<int>{1});
   EXPECT_EQ(r.belief.set_weights.at(1), 0.0);
-  EXPECT_THROW(decider.Decide(whole.map().layout(), QueryDistances(3), false),
+  EXPECT_THROW(decider.Decide(whole.map.layout(), QueryDistances(3), false),
                std::invalid_argument);  // every set absent
-  EXPECT_THROW(decider.Decide(whole.map().layout(), QueryDistances(2), false),
+  EXPECT_THROW(decider.Decide(whole.map.layout(), QueryDistances(2), false),
                std::invalid_argument);  // not the layout's sets
   QueryDistances bad = d;
   RowMatrixXf nan = d.of(0);
   nan(0, 4) = NAN;
   bad.Set(0, nan);
-  EXPECT_THROW(decider.Decide(whole.map().layout(), bad, true), std::invalid_argument);
+  EXPECT_THROW(decider.Decide(whole.map.layout(), bad, true), std::invalid_argument);
 }
 
 TEST(PlaceDecider, AMethodNamingASetIsResolvedAgainstEachLayout) {
@@ -146,9 +143,8 @@ namespace {
 TEST(PlaceDecider, TakesTheJointDistancesAndStartsAgainWithANewBuild) {
   const SyntheticData data = Data();
   RecognizerOptions options;
-  PlaceRecognizer whole;
-  for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
-  const PlaceLayout layout = LayoutAlone(whole.map());
+  const Whole whole(data.map);
+  const PlaceLayout layout = LayoutAlone(whole.map);
   const auto distances = [&](int q, uint64_t build) {
     const Eigen::VectorXf query = data.queries.row(q).transpose();
     QueryDistances d = QueryDistances::AllPresent(whole.Distances(query));

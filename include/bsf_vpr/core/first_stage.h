@@ -1,7 +1,7 @@
 // How the distances from a query to every reference row are computed: exactly, from every
 // stored descriptor (ComputeDistances, distances.h), or by the compressed first stage with
 // exact re-ranking (ApproximateIndex, approximate_distances.h) for maps too large to search
-// exactly at camera rate. PlaceRecognizer, LocalMap and bsf_evaluate all go through
+// exactly at camera rate. LocalMap (the node's, PlaceRecognizer's) and bsf_evaluate go through
 // DistanceStage, which chooses the DistanceIndex (distance_index.h) a query is asked of.
 #pragma once
 

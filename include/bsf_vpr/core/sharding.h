@@ -1,4 +1,4 @@
-// What a sharded map needs of the core besides the distances (PlaceRecognizer::Distances),
+// What a sharded map needs of the core besides the distances (LocalMap::Answer),
 // the place layout (place_layout.h) and the decision (place_decider.h): a fingerprint that
 // tells one loaded set from another.
 //

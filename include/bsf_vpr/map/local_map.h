@@ -101,6 +101,10 @@ class LocalMap : public MapBackend {
   void ForEachSet(
       const std::function<void(const StoredReferenceSet& set, uint64_t fingerprint)>& visit) const;
   int num_sets() const;
+  // Calls `read` with the sets, under the map's lock (a benchmark's baselines read the rows).
+  void ReadSets(const std::function<void(const ReferenceSets& sets)>& read) const;
+  // The first stage's index answering now (first_stage pca; null: exact, or none built yet).
+  std::shared_ptr<const ApproximateIndex> index() const;
 
  private:
   // Adds `set` (read from `where`, encoded by ReferenceSets::Store without the lock) under

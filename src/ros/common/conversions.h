@@ -19,7 +19,7 @@
 #include <Eigen/Core>
 #include <string>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/pose_estimate.h"
 #include "bsf_vpr/map/local_map.h"
 #include "bsf_vpr/map/shard_assembly.h"

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/place_index.h"
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/recognizer_options.h"
 #include "src/ros/common/param_util.h"
 #include "src/ros/fusion/odometry_tracker.h"
 #include "src/ros/fusion/recognition_publisher.h"

@@ -10,7 +10,7 @@
 #include <map>
 #include <string>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/place_decider.h"
 
 namespace bsf_vpr {
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "bsf_vpr/core/likelihood.h"
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/map/place_recognizer.h"
 #include "bsf_vpr/core/selection.h"
 #include "src/tools/benchmark/benchmark_util.h"
 
@@ -34,8 +34,7 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
         m, n, d, needed / 1e9, 0.75 * AvailableBytes() / 1e9);
     return;
   }
-  PlaceRecognizer recognizer;
-  recognizer.SetStoragePrecision(StoragePrecision::kInt8);
+  PlaceRecognizer recognizer(RecognizerOptions(), StoragePrecision::kInt8);
   const double rss0 = ResidentMb();
   auto t0 = Clock::now();
   for (int u = 0; u < m; ++u) {
@@ -51,16 +50,21 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
   };
   const double exact_ms = time_queries(recognizer);
 
-  RecognizerOptions options;
-  options.first_stage = first_stage;
-  recognizer.SetOptions(options);
+  // The first stage over the same sets (one recogniser holds them once): its index built
+  // here, its distances decided as the recogniser decides them.
+  StageQuery through(recognizer);
+  recognizer.ReadSets([&](const ReferenceSets& sets) {
+  through.BuildJoint(sets);
+  DistanceStage stage;
+  stage.SetOptions(first_stage);
   const double rss1 = ResidentMb();
   t0 = Clock::now();
-  recognizer.PrepareFirstStage();
+  stage.Prepare(sets);
   const double index_s = MsSince(t0) / 1000;
   const double index_mb = ResidentMb() - rss1;
-  const double pca_ms = time_queries(recognizer);
-  const ApproximateIndex& index = *recognizer.distance_stage().index();
+  int next = 0;
+  const double pca_ms = TimeMs(repeats, [&] { through.Decide(stage, sets, queries.row(next++)); });
+  const ApproximateIndex& index = *stage.index();
   // Where a query's time goes: the first stage's approximate distances, the re-ranking of
   // its candidates, and the decision on the distances (selection, likelihoods, fusion).
   // Of the decision, the likelihoods alone: each set's statistics and its likelihood
@@ -73,13 +77,14 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
     const auto start = Clock::now();
     ApproximateIndex::StageTimes times;
     std::vector<RowMatrixXf> dist =
-        index.Distances(DistanceMetric::kEuclidean, one, recognizer.map(), &times);
+        index.Distances(DistanceMetric::kEuclidean, one, sets, &times);
     stage_ms.push_back(MsSince(start));
     approximate_ms.push_back(times.approximate_ms);
     rerank_ms.push_back(times.rerank_ms);
     const std::vector<RowMatrixXf> kept = dist;
     const auto decide = Clock::now();
-    recognizer.Decide(QueryDistances::AllPresent(std::move(dist)), false);
+    through.decider().Decide(through.layout(), QueryDistances::AllPresent(std::move(dist)),
+                             false);
     decide_ms.push_back(MsSince(decide));
     const auto likelihoods = Clock::now();
     const int threads = m * n >= 50000 ? std::min(DistanceThreads(), m) : 1;  // as the fusion
@@ -115,6 +120,7 @@ void BenchmarkLarge(int repeats, int scale, const FirstStageOptions& first_stage
       Median(approximate_ms), Median(rerank_ms), m * n, recognizer.options().method.c_str(),
       ToString(recognizer.options().method_options.fusion).c_str(), Median(decide_ms),
       Median(likelihood_ms));
+  });
 }
 
 }  // namespace tools

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/map/place_recognizer.h"
 #include "src/tools/benchmark/benchmark_util.h"
 
 namespace bsf_vpr {

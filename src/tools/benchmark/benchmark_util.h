@@ -7,12 +7,17 @@
 #include <cstddef>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/core/first_stage.h"
+#include "bsf_vpr/core/joint_representation.h"
 #include "bsf_vpr/core/reference_set.h"
 #include "bsf_vpr/core/types.h"
+#include "bsf_vpr/map/place_recognizer.h"
 
 namespace bsf_vpr {
 namespace tools {
@@ -125,6 +130,50 @@ inline PairedQueryTimes TimePairedQueries(const RecognizerOptions& options_a,
   out.b_ms = std::move(ms[1]);
   return out;
 }
+
+// A recogniser's sets searched through a first stage built here (its index timed apart from
+// the map that holds it): each query as PlaceRecognizer::Recognize would take it with that
+// first stage, the distances through `stage`, the joint representation's if the method
+// needs one, and the decision. Made before PlaceRecognizer::ReadSets (it asks the
+// recogniser's layout), used within it.
+class StageQuery {
+ public:
+  explicit StageQuery(const PlaceRecognizer& recognizer)
+      : layout_(recognizer.layout()),
+        options_(recognizer.options()),
+        decider_(options_.method, options_.method_options) {
+    decider_.OnLayoutChanged(*layout_);
+  }
+  // The joint representation of `sets`, if the method needs one and they make one.
+  void BuildJoint(const ReferenceSets& sets) {
+    if (const std::optional<JointKind> kind =
+            decider_.method().JointNeeded(options_.method_options)) {
+      std::vector<const StoredReferenceSet*> all;
+      for (const StoredReferenceSet& s : sets.sets()) all.push_back(&s);
+      try {
+        CheckJointSets(all, sets.num_places());
+      } catch (const std::invalid_argument&) {
+        return;  // sets that make none (one set): the method fuses them alone, as the map
+      }
+      joint_ = std::make_unique<JointRepresentation>(JointRepresentation::Build(
+          *kind, all, sets.num_places(), options_.method_options.joint));
+    }
+  }
+  Recognition Decide(DistanceStage& stage, const ReferenceSets& sets, const RowMatrixXf& row) {
+    QueryDistances d =
+        QueryDistances::AllPresent(stage.Distances(DistanceMetric::kEuclidean, row, sets));
+    if (joint_) d.SetJoint({joint_->kind(), 1, joint_->Distances(row)});
+    return decider_.Decide(*layout_, d, false);
+  }
+  PlaceDecider& decider() { return decider_; }
+  const PlaceLayout& layout() const { return *layout_; }
+
+ private:
+  MapBackend::Layout layout_;
+  RecognizerOptions options_;
+  PlaceDecider decider_;
+  std::unique_ptr<JointRepresentation> joint_;
+};
 
 // Resident memory of this process, bytes (VmRSS).
 inline size_t ResidentBytes() {

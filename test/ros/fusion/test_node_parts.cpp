@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/io/reference_set_io.h"
+#include "bsf_vpr/map/place_recognizer.h"
 #include "src/ros/common/conversions.h"
 #include "src/ros/fusion/busy_sets.h"
 #include "src/ros/fusion/odometry_progress.h"
@@ -119,8 +120,10 @@ TEST(OdometrySource, ParsesOnceAndNamesTheChoices) {
 }
 
 // Two sets of 3-d descriptors over 6 places; only "day" has poses (place k at x = 10 k).
-PlaceRecognizer TwoSetsWithPoses() {
+// `day_rows` (may be null) receives day's descriptors.
+PlaceRecognizer TwoSetsWithPoses(RowMatrixXf* day_rows = nullptr) {
   ReferenceSet day = MakeReferenceSet("day", RowMatrixXf::Random(6, 3), "sunny");
+  if (day_rows) *day_rows = day.descriptors;
   for (int k = 0; k < 6; ++k) day.poses.push_back(PlacePose{10.0 * k, 0, 0, 0.1 * k});
   day.descriptor_type = "test_3";
   PlaceRecognizer r;
@@ -169,11 +172,11 @@ TEST(OdometryProgress, StaleOdometryGivesNoStepAndTheStepAfterItStartsAfresh) {
 }
 
 TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
-  PlaceRecognizer r = TwoSetsWithPoses();
-  const Recognition rec =
-      r.Recognize(r.map().set(0).ToReferenceSet().descriptors.row(2).transpose(), false);
+  RowMatrixXf day;
+  PlaceRecognizer r = TwoSetsWithPoses(&day);
+  const Recognition rec = r.Recognize(day.row(2).transpose(), false);
   Belief all;
-  ToBeliefMsg(rec, r.map().layout(), r.decider(), 0, &all);
+  ToBeliefMsg(rec, *r.layout(), r.decider(), 0, &all);
   EXPECT_EQ(all.method, "bsf");
   EXPECT_EQ(all.num_places, 6);
   ASSERT_EQ(all.place_ids.size(), 6u);
@@ -190,7 +193,7 @@ TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
   EXPECT_EQ(all.match, rec.belief.match);
   EXPECT_EQ(all.accepted, rec.belief.accepted);
   Belief best;
-  ToBeliefMsg(rec, r.map().layout(), r.decider(), 2, &best);
+  ToBeliefMsg(rec, *r.layout(), r.decider(), 2, &best);
   ASSERT_EQ(best.place_ids.size(), 2u);
   EXPECT_EQ(best.place_ids[0], rec.belief.match);
   EXPECT_GE(best.posterior[0], best.posterior[1]);
@@ -198,14 +201,15 @@ TEST(Conversions, TheBeliefListsEveryPlaceOrTheBestKBestFirst) {
 }
 
 TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
-  PlaceRecognizer r = TwoSetsWithPoses();
+  RowMatrixXf day;
+  PlaceRecognizer r = TwoSetsWithPoses(&day);
   RecognizerOptions nn;
   nn.method = "nn:day";
   r.SetOptions(nn);
   const Recognition rec =
-      r.Recognize(r.map().set(0).ToReferenceSet().descriptors.row(4).transpose(), false);
+      r.Recognize(day.row(4).transpose(), false);
   Match m;
-  ToMatchMsg(rec, r.map(), &m);
+  ToMatchMsg(rec, *r.layout(), &m);
   EXPECT_EQ(m.place_id, 4);
   EXPECT_EQ(m.reference_set, "day");
   EXPECT_DOUBLE_EQ(m.confidence, rec.belief.confidence);
@@ -216,10 +220,11 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   PlaceRecognizer bare;
   bare.AddReferenceSet(MakeReferenceSet("night", RowMatrixXf::Random(6, 3)));
   Match none;
-  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Ones(3), false), bare.map(), &none);
+  ToMatchMsg(bare.Recognize(Eigen::VectorXf::Ones(3), false), *bare.layout(), &none);
   EXPECT_FALSE(none.has_pose);
   EXPECT_EQ(none.pose.orientation.w, 1.0);
-  const ReferenceSetInfo info = ToInfoMsg(r.map().set(0));
+  ReferenceSetInfo info;
+  r.ReadSets([&](const ReferenceSets& sets) { info = ToInfoMsg(sets.set(0)); });
   EXPECT_EQ(info.name, "day");
   EXPECT_EQ(info.condition, "sunny");
   EXPECT_EQ(info.descriptor_type, "test_3");

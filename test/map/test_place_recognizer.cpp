@@ -5,7 +5,7 @@
 #include <optional>
 
 #include "bsf_vpr/core/method_runner.h"
-#include "bsf_vpr/core/place_recognizer.h"
+#include "bsf_vpr/map/place_recognizer.h"
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/evaluation/synthetic.h"
 
@@ -23,9 +23,8 @@ SyntheticData Data() {
 }
 
 PlaceRecognizer Loaded(const SyntheticData& data, RecognizerOptions opt = {}) {
-  PlaceRecognizer r;
+  PlaceRecognizer r(opt);
   for (const StoredReferenceSet& s : data.map.sets()) r.AddReferenceSet(s.ToReferenceSet());
-  r.SetOptions(opt);
   return r;
 }
 
@@ -132,13 +131,13 @@ TEST(PlaceRecognizer, RefusesBadDescriptorsAndKeepsItsSets) {
     o.method = m;
     r.SetOptions(o);
     EXPECT_THROW(r.RemoveReferenceSet("c1"), std::invalid_argument) << m;
-    EXPECT_EQ(r.map().num_sets(), 2);
+    EXPECT_EQ(r.num_sets(), 2);
     EXPECT_NO_THROW(r.Recognize(data.queries.row(0).transpose(), true)) << m;
   }
   r.SetOptions(single);
   EXPECT_THROW(r.RemoveReferenceSet("nope"), std::invalid_argument);
   r.RemoveReferenceSet("c0");
-  EXPECT_EQ(r.map().num_sets(), 1);
+  EXPECT_EQ(r.num_sets(), 1);
   EXPECT_EQ(r.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
             std::vector<int>{0});
 }
@@ -213,11 +212,10 @@ TEST(PlaceRecognizer, PcaFirstStageFollowsTheMapAndIsExactWhenEveryRowIsReRanked
   pca.first_stage.approximate.dimensions = 4;
   pca.first_stage.approximate.rerank = data.map.num_places();  // every row exact
   PlaceRecognizer exact = Loaded(data);
+  EXPECT_EQ(exact.index(), nullptr);
   PlaceRecognizer approximate = Loaded(data, pca);
-  EXPECT_EQ(approximate.distance_stage().index(), nullptr);  // built on first use
-  approximate.PrepareFirstStage();
-  ASSERT_NE(approximate.distance_stage().index(), nullptr);
-  EXPECT_EQ(approximate.distance_stage().index()->dimensions(), 4);
+  ASSERT_NE(approximate.index(), nullptr);  // built before the first query
+  EXPECT_EQ(approximate.index()->dimensions(), 4);
   for (int q = 0; q < 20; ++q) {
     const Eigen::VectorXf query = data.queries.row(q).transpose();
     const Recognition a = exact.Recognize(query, true);
@@ -227,8 +225,8 @@ TEST(PlaceRecognizer, PcaFirstStageFollowsTheMapAndIsExactWhenEveryRowIsReRanked
   }
   // Fewer candidates than places: approximate, but over a map that changes.
   pca.first_stage.approximate.rerank = 3;
-  approximate.SetOptions(pca);
-  EXPECT_EQ(approximate.distance_stage().index(), nullptr);  // new options: rebuilt
+  EXPECT_THROW(approximate.SetOptions(pca), std::invalid_argument);  // the map's, fixed
+  approximate = Loaded(data, pca);
   approximate.RemoveReferenceSet("c1");
   EXPECT_EQ(approximate.Recognize(data.queries.row(0).transpose(), true).belief.used_sets,
             std::vector<int>{0});
@@ -276,21 +274,19 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
           o.metric = metric;
           // The sets' distances alone (the joint representation's own: PlaceDecider tests).
           o.method_options.fusion_joint = FusionJoint::kNone;
-          PlaceRecognizer single;
-          std::vector<PlaceRecognizer> holders(shards.size());
-          single.SetStoragePrecision(precision);
+          PlaceRecognizer single(o, precision);
+          std::vector<PlaceRecognizer> holders;
           for (const StoredReferenceSet& s : data.map.sets())
             single.AddReferenceSet(s.ToReferenceSet());
-          single.SetOptions(o);
           // The combiner holds the sets' layout alone, as the fusion node's sharded map does.
           const PlaceLayout layout = data.map.layout();
           PlaceDecider combiner(o.method, o.method_options);
           combiner.OnLayoutChanged(layout);
           for (size_t k = 0; k < shards.size(); ++k) {
-            holders[k].SetStoragePrecision(precision);
             RecognizerOptions metric_only;  // a shard computes distances, it decides nothing
             metric_only.metric = metric;
-            holders[k].SetOptions(metric_only);
+            metric_only.method_options.fusion_joint = FusionJoint::kNone;
+            holders.emplace_back(metric_only, precision);
             for (int u : shards[k]) holders[k].AddReferenceSet(data.map.set(u).ToReferenceSet());
           }
           const std::string what = method + ", " + ToString(metric) + ", " + ToString(precision) +
@@ -299,8 +295,10 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
             const Eigen::VectorXf query = data.queries.row(q).transpose();
             QueryDistances distances(3);
             for (size_t k = 0; k < shards.size(); ++k) {
-              const std::vector<RowMatrixXf> own = holders[k].Distances(query);
-              for (size_t i = 0; i < shards[k].size(); ++i) distances.Set(shards[k][i], own[i]);
+              const QueryDistances own = holders[k].Distances(query);
+              for (size_t i = 0; i < shards[k].size(); ++i) {
+                distances.Set(shards[k][i], own.of(static_cast<int>(i)));
+              }
             }
             const Recognition a = single.Recognize(query, true);
             const Recognition b = combiner.Decide(layout, distances, true);
@@ -325,12 +323,39 @@ TEST(PlaceRecognizer, ShardedDistancesGiveBitwiseTheSingleRecognizersBeliefs) {
   }
 }
 
+// The recogniser's decision is the decider's on the map's distances: a decider holding the
+// layout alone (a sharded map's combiner) decides bitwise the same.
+TEST(PlaceRecognizer, DecidesBitwiseAsADeciderOnItsDistances) {
+  const SyntheticData data = Data();
+  for (const std::string method : {"bsf", "bsf+filter+seq", "bayes_full", "med"}) {
+    RecognizerOptions options;
+    options.method = method;
+    PlaceRecognizer whole(options);
+    for (const StoredReferenceSet& s : data.map.sets()) whole.AddReferenceSet(s.ToReferenceSet());
+    PlaceLayout layout;
+    for (const SetLayout& s : whole.layout()->sets()) layout.Add(s);
+    PlaceDecider decider(method, options.method_options);
+    decider.OnLayoutChanged(layout);
+    for (int q = 0; q < 25; ++q) {
+      const Eigen::VectorXf query = data.queries.row(q).transpose();
+      const QueryDistances d = whole.Distances(query);
+      EXPECT_EQ(d.joint().has_value(), method.rfind("bsf", 0) == 0) << method;
+      const Recognition a = whole.Recognize(query, true);
+      const Recognition b = decider.Decide(layout, d, true);
+      ASSERT_EQ(a.belief.match, b.belief.match) << method << " query " << q;
+      ASSERT_EQ(a.belief.confidence, b.belief.confidence) << method << " query " << q;
+      ASSERT_EQ(a.closest_set, b.closest_set);
+      EXPECT_TRUE(b.missing_sets.empty());
+    }
+  }
+}
+
 // What a shard sends is checked: the count of sets, each one's size, and its values.
 TEST(PlaceRecognizer, DecideRefusesWhatCannotBeTheSetsDistances) {
   const SyntheticData data = Data();
   PlaceRecognizer r = Loaded(data);
   const std::vector<RowMatrixXf> good =
-      ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), r.map());
+      ComputeDistances(DistanceMetric::kEuclidean, data.queries.topRows(1), data.map);
   EXPECT_NO_THROW(r.Decide(QueryDistances::AllPresent(good), false));
   EXPECT_THROW(r.Decide(QueryDistances::AllPresent({good[0]}), true), std::invalid_argument);
   std::vector<RowMatrixXf> bad = good;
@@ -365,11 +390,10 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
     RecognizerOptions o;
     o.method = method;
     o.method_options.fusion_joint = FusionJoint::kNone;  // the sets' distances alone
-    PlaceRecognizer without_c1;
+    PlaceRecognizer without_c1(o);
     for (const StoredReferenceSet& s : data.map.sets()) {
       if (s.name() != "c1") without_c1.AddReferenceSet(s.ToReferenceSet());
     }
-    without_c1.SetOptions(o);
     const PlaceLayout layout = data.map.layout();  // the combiner's: no descriptors
     PlaceDecider combiner(o.method, o.method_options);
     combiner.OnLayoutChanged(layout);

@@ -101,7 +101,7 @@ std::string Cfg(const std::vector<OptionInfo>& options) {
   std::string out =
       "#!/usr/bin/python3\n"
       "# The live options of the fusion node (dynamic_reconfigure): the options marked live in\n"
-      "# RecognizerOptionsTable() (src/core/place_recognizer.cpp, src/core/methods.cpp).\n" +
+      "# RecognizerOptionsTable() (src/core/recognizer_options.cpp, src/core/methods.cpp).\n" +
       Wrapped(kGenerated, 88, "# ") +
       "from dynamic_reconfigure.parameter_generator_catkin import ParameterGenerator, bool_t, "
       "double_t, int_t, str_t\n\ngen = ParameterGenerator()\n";

@@ -37,11 +37,7 @@ std::string TypeMismatch(const std::string& type, const PlaceLayout& layout) {
 
 SetSummary Summarize(const StoredReferenceSet& set) {
   SetSummary s;
-  s.name = set.name();
-  s.condition = set.condition();
-  s.descriptor_type = set.descriptor_type();
-  s.num_places = set.size();
-  s.dimension = set.dimension();
+  s.layout = set.layout();
   s.memory_bytes = set.MemoryBytes();
   s.storage = ToString(set.precision()) + (set.mapped() ? " (memory-mapped)" : "");
   return s;

@@ -92,9 +92,9 @@ TEST_F(MapFixture, LoadsAsksAndUnloadsThroughThePlainInterface) {
   const SetList list = map->List();
   ASSERT_EQ(list.sets.size(), 2u);
   EXPECT_EQ(list.num_places, 5);
-  EXPECT_EQ(list.sets[1].name, "winter");
-  EXPECT_EQ(list.sets[1].condition, "night");
-  EXPECT_EQ(list.sets[1].dimension, 4);
+  EXPECT_EQ(list.sets[1].layout.name, "winter");
+  EXPECT_EQ(list.sets[1].layout.condition, "night");
+  EXPECT_EQ(list.sets[1].layout.dimension, 4);
   EXPECT_EQ(list.sets[1].storage, "float32");
 
   EXPECT_EQ(map->Unload("summer"), "unloaded 'summer'");

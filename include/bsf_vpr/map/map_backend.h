@@ -60,13 +60,12 @@ struct LoadRequest {
   std::string path, name, condition, shard;
 };
 
-// One set as list_reference_sets describes it.
+// One set as list_reference_sets describes it: its layout (name, condition, places...) and
+// what holding it costs.
 struct SetSummary {
-  std::string name, condition, descriptor_type;
-  int num_places = 0;
-  int dimension = 0;
+  SetLayout layout;
   uint64_t memory_bytes = 0;
-  std::string storage;  // float32, float16 or int8
+  std::string storage;  // float32, float16 or int8 (", memory-mapped")
   std::string shard;    // the shard holding it ("" in a map of this process)
 };
 struct SetList {

@@ -106,11 +106,11 @@ ReferenceSetInfo ToInfoMsg(const StoredReferenceSet& set) { return ToInfoMsg(Sum
 
 ReferenceSetInfo ToInfoMsg(const SetSummary& set) {
   ReferenceSetInfo info;
-  info.name = set.name;
-  info.condition = set.condition;
-  info.descriptor_type = set.descriptor_type;
-  info.num_places = set.num_places;
-  info.dimension = set.dimension;
+  info.name = set.layout.name;
+  info.condition = set.layout.condition;
+  info.descriptor_type = set.layout.descriptor_type;
+  info.num_places = set.layout.size();
+  info.dimension = set.layout.dimension;
   info.memory_bytes = set.memory_bytes;
   info.storage = set.storage;
   info.shard = set.shard;

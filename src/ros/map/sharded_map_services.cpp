@@ -187,11 +187,7 @@ SetList ShardedMap::List() const {
     if (!shard.info) continue;
     for (const ShardSet& s : shard.info->sets) {
       SetSummary info;
-      info.name = s.name;
-      info.condition = s.condition;
-      info.descriptor_type = s.descriptor_type;
-      info.num_places = static_cast<int>(s.place_ids.size());
-      info.dimension = s.dimension;
+      info.layout = LayoutFromShardSetMsg(s);
       info.memory_bytes = s.memory_bytes;
       info.storage = s.storage;
       info.shard = shard.name;

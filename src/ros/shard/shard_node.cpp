@@ -189,7 +189,8 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const SetList held = map_->List();
   status.add("loaded reference sets", static_cast<int>(held.sets.size()));
   for (const SetSummary& s : held.sets) {
-    status.addf("set: " + s.name, "%d places, %.1f MB", s.num_places, s.memory_bytes / 1e6);
+    status.addf("set: " + s.layout.name, "%d places, %.1f MB", s.layout.size(),
+                s.memory_bytes / 1e6);
   }
   processed_ = rejected_ = 0;
   processing_s_sum_ = 0;

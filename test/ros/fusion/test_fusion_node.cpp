@@ -112,7 +112,7 @@ class FakeMap : public MapBackend {
     SetList list;
     for (const SetLayout& s : layout_->sets()) {
       SetSummary summary;
-      summary.name = s.name;
+      summary.layout = s;
       list.sets.push_back(summary);
     }
     list.num_places = layout_->num_places();

@@ -17,6 +17,14 @@ const RowMatrixXf& QueryDistances::of(int u) const {
   return *d;
 }
 
+RowMatrixXf QueryDistances::Take(int u) {
+  std::optional<RowMatrixXf>& d = sets_.at(static_cast<size_t>(u));
+  if (!d) throw std::logic_error("the distances to set " + std::to_string(u) + " are absent");
+  RowMatrixXf out = std::move(*d);
+  d.reset();
+  return out;
+}
+
 std::vector<int> QueryDistances::Absent() const {
   std::vector<int> out;
   for (size_t u = 0; u < sets_.size(); ++u) {

@@ -444,7 +444,7 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
     // takes it for absent.
     for (int u = 0; u < sets_.num_sets(); ++u) {
       if (!distances.present(u)) continue;
-      out.distances.push_back(distances.of(u));
+      out.distances.push_back(distances.Take(u));
       out.set_names.push_back(sets_.set(u).name());
       out.fingerprints.push_back(options_.fingerprints ? fingerprints_.at(static_cast<size_t>(u))
                                                        : 0);
@@ -453,7 +453,7 @@ ShardAnswer LocalMap::Answer(const QueryDescriptor& descriptor) {
       out.joint_kind = joint_->kind();
       out.joint_build = joint_build_;
       out.joint_sets = joint_->set_names();
-      out.joint_distances = distances.joint()->distances;
+      out.joint_distances = std::move(distances.joint()->distances);
     }
     if (changed) DropChangedSets();
   } catch (const std::exception& e) {

@@ -70,13 +70,13 @@ bool AnswersItsSets(const ShardAnswer& answer, const ShardSets& shard) {
 // The joint representation of `kind` to attach: of the answers' ones over every place of
 // the layout, of its sets, finite and not negative, the one built from the most sets.
 void AttachJoint(const PlaceLayout& layout, const std::vector<std::string>& names,
-                 const std::vector<const ShardAnswer*>& answers, JointKind kind,
+                 const std::vector<std::optional<ShardAnswer>>& answers, JointKind kind,
                  AssembledQuery* query) {
   const int places = layout.num_places();
   const ShardAnswer* best = nullptr;
   size_t best_k = 0;
   for (size_t k = 0; k < answers.size(); ++k) {
-    const ShardAnswer* a = answers[k];
+    const ShardAnswer* a = answers[k] ? &*answers[k] : nullptr;
     if (!a || !a->error.empty() || a->joint_kind != kind || a->joint_sets.size() < 2 ||
         a->joint_distances.size() != places) {
       continue;
@@ -107,7 +107,7 @@ void AttachJoint(const PlaceLayout& layout, const std::vector<std::string>& name
 AssembledQuery AssembleShardAnswers(const PlaceLayout& layout,
                                     const std::vector<std::string>& names,
                                     const std::vector<const ShardSets*>& shards,
-                                    const std::vector<const ShardAnswer*>& answers,
+                                    std::vector<std::optional<ShardAnswer>> answers,
                                     DistanceMetric metric, double query_norm,
                                     std::optional<JointKind> joint) {
   if (answers.size() != shards.size() || names.size() != shards.size()) {
@@ -127,7 +127,7 @@ AssembledQuery AssembleShardAnswers(const PlaceLayout& layout,
       query.missing_shards.push_back(names[k]);  // no sets known yet
       continue;
     }
-    const ShardAnswer* a = answers[k];
+    ShardAnswer* a = answers[k] ? &*answers[k] : nullptr;
     const std::vector<ShardSets::Set>& sets = shard->sets;
     if (a && !a->error.empty() && !sets.empty()) {
       refusals += (refusals.empty() ? "" : "; ") + ("shard " + names[k] + ": " + a->error);
@@ -151,7 +151,9 @@ AssembledQuery AssembleShardAnswers(const PlaceLayout& layout,
     }
     any = any || !sets.empty();
     query.seconds = std::max(query.seconds, a->seconds);
-    for (size_t i = 0; i < sets.size(); ++i, ++u) query.distances.Set(u, a->distances[i]);
+    for (size_t i = 0; i < sets.size(); ++i, ++u) {
+      query.distances.Set(u, std::move(a->distances[i]));
+    }
   }
   // A descriptor every shard with distances refused is refused; one shard's refusal alone
   // makes that shard missing.

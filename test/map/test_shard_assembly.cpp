@@ -81,7 +81,7 @@ TEST(ShardAssembly, PutsEachShardsDistancesAtItsSetsAndLeavesOutWhatDoesNotFit) 
   const PlaceLayout layout =
       MergeShardLayouts(shards, "cosine", std::nullopt, 25).layout;
   const ShardAnswer from_a = Answer(a, 0.02), from_b = Answer(b, 0.05);
-  AssembledQuery q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b, nullptr},
+  AssembledQuery q = AssembleShardAnswers(layout, names, shards, {from_a, from_b, std::nullopt},
                                           DistanceMetric::kCosine, 1.0, std::nullopt);
   ASSERT_EQ(q.distances.num_sets(), 3);
   EXPECT_EQ(q.distances.num_present(), 3);
@@ -92,7 +92,7 @@ TEST(ShardAssembly, PutsEachShardsDistancesAtItsSetsAndLeavesOutWhatDoesNotFit) 
   // Another fingerprint (a shard_info not taken yet): that shard's sets are absent.
   ShardAnswer stale = from_a;
   stale.fingerprints[1] = 99;
-  q = AssembleShardAnswers(layout, names, shards, {&stale, &from_b, nullptr},
+  q = AssembleShardAnswers(layout, names, shards, {stale, from_b, std::nullopt},
                            DistanceMetric::kCosine, 1.0, std::nullopt);
   EXPECT_FALSE(q.distances.present(0));
   EXPECT_FALSE(q.distances.present(1));
@@ -101,7 +101,7 @@ TEST(ShardAssembly, PutsEachShardsDistancesAtItsSetsAndLeavesOutWhatDoesNotFit) 
   // Distances no exact distance can be: absent, and said why.
   ShardAnswer broken = from_b;
   broken.distances[0](0, 2) = std::numeric_limits<float>::quiet_NaN();
-  q = AssembleShardAnswers(layout, names, shards, {&from_a, &broken, nullptr},
+  q = AssembleShardAnswers(layout, names, shards, {from_a, broken, std::nullopt},
                            DistanceMetric::kCosine, 1.0, std::nullopt);
   EXPECT_FALSE(q.distances.present(2));
   EXPECT_NE(q.impossible[1].find("set 'winter': distance 2 of 7"), std::string::npos)
@@ -110,11 +110,11 @@ TEST(ShardAssembly, PutsEachShardsDistancesAtItsSetsAndLeavesOutWhatDoesNotFit) 
   // One shard's refusal: that shard is missing. Every shard's: the descriptor is refused.
   ShardAnswer refusal;
   refusal.error = "dimension 3, the sets' 4";
-  q = AssembleShardAnswers(layout, names, shards, {&refusal, &from_b, nullptr},
+  q = AssembleShardAnswers(layout, names, shards, {refusal, from_b, std::nullopt},
                            DistanceMetric::kCosine, 1.0, std::nullopt);
   EXPECT_EQ(q.distances.num_present(), 1);
   try {
-    AssembleShardAnswers(layout, names, shards, {&refusal, &refusal, nullptr},
+    AssembleShardAnswers(layout, names, shards, {refusal, refusal, std::nullopt},
                          DistanceMetric::kCosine, 1.0, std::nullopt);
     FAIL() << "a descriptor every shard refused was taken";
   } catch (const std::invalid_argument& e) {
@@ -133,25 +133,25 @@ TEST(ShardAssembly, AttachesTheJointOfTheMostSetsThatFitsTheLayout) {
   from_a.joint_build = 7;
   from_a.joint_sets = {"summer", "fall"};
   from_a.joint_distances = RowMatrixXf::Constant(1, 5, 0.5f);
-  AssembledQuery q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b},
+  AssembledQuery q = AssembleShardAnswers(layout, names, shards, {from_a, from_b},
                                           DistanceMetric::kCosine, 1.0, JointKind::kDiscriminant);
   ASSERT_TRUE(q.distances.joint().has_value());
   EXPECT_EQ(q.distances.joint()->build, (uint64_t{1} << 48) ^ 7);
   EXPECT_EQ(q.joint_from, "/a (2 sets)");
   // Not asked for, of another kind, or of a set the layout lacks: none attached.
-  q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b}, DistanceMetric::kCosine,
+  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine,
                            1.0, JointKind::kSubspace);
   EXPECT_FALSE(q.distances.joint().has_value());
   // A malformed answer: its sets are absent, its joint representation may still be used.
   ShardAnswer garbled = from_a;
   garbled.malformed = true;
-  q = AssembleShardAnswers(layout, names, shards, {&garbled, &from_b}, DistanceMetric::kCosine,
+  q = AssembleShardAnswers(layout, names, shards, {garbled, from_b}, DistanceMetric::kCosine,
                            1.0, JointKind::kDiscriminant);
   EXPECT_FALSE(q.distances.present(0));
   EXPECT_EQ(q.missing_shards, (std::vector<std::string>{"/a"}));
   EXPECT_TRUE(q.distances.joint().has_value());
   from_a.joint_sets = {"summer", "night"};
-  q = AssembleShardAnswers(layout, names, shards, {&from_a, &from_b}, DistanceMetric::kCosine,
+  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine,
                            1.0, JointKind::kDiscriminant);
   EXPECT_FALSE(q.distances.joint().has_value());
   EXPECT_TRUE(q.joint_from.empty());

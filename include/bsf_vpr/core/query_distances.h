@@ -29,6 +29,9 @@ class QueryDistances {
   }
   // Set u is absent after all (its rows changed under the query).
   void SetAbsent(int u) { sets_.at(static_cast<size_t>(u)).reset(); }
+  // Set u's distances moved out (a shard's answer takes them); set u is absent after.
+  // Throws std::logic_error when it is absent.
+  RowMatrixXf Take(int u);
   // The absent sets, ascending.
   std::vector<int> Absent() const;
   int num_present() const;
@@ -43,6 +46,7 @@ class QueryDistances {
   };
   void SetJoint(Joint joint) { joint_ = std::move(joint); }
   const std::optional<Joint>& joint() const { return joint_; }
+  std::optional<Joint>& joint() { return joint_; }
   void ClearJoint() { joint_.reset(); }
 
  private:

@@ -43,7 +43,8 @@ MergedLayout MergeShardLayouts(const std::vector<const ShardSets*>& shards,
                                std::optional<DistanceMetric> configured, double pose_tolerance_m);
 
 // One query's distances, set by set of `layout` (merged from `shards`, null where a shard's
-// sets are not known yet), from the shards' answers (null: none).
+// sets are not known yet), from the shards' answers (nullopt: none), whose distances move
+// into it.
 struct AssembledQuery {
   QueryDistances distances;
   std::vector<std::string> missing_shards;  // shards whose sets are absent from it
@@ -61,7 +62,7 @@ struct AssembledQuery {
 AssembledQuery AssembleShardAnswers(const PlaceLayout& layout,
                                     const std::vector<std::string>& names,
                                     const std::vector<const ShardSets*>& shards,
-                                    const std::vector<const ShardAnswer*>& answers,
+                                    std::vector<std::optional<ShardAnswer>> answers,
                                     DistanceMetric metric, double query_norm,
                                     std::optional<JointKind> joint);
 

@@ -31,17 +31,14 @@ MapBackend::Query ShardedMap::Assemble(const QueryHeader& header, double query_n
                                        const std::vector<const ShardDistances*>& answers) {
   std::vector<std::string> names;
   std::vector<const ShardSets*> sets;
-  std::vector<ShardAnswer> plain(answers.size());
-  std::vector<const ShardAnswer*> given(answers.size(), nullptr);
+  std::vector<std::optional<ShardAnswer>> given(answers.size());
   for (size_t k = 0; k < shards_.size(); ++k) {
     names.push_back(shards_[k].name);
     sets.push_back(shards_[k].sets.get());
-    if (!answers.at(k)) continue;
-    plain[k] = FromShardDistancesMsg(*answers[k]);
-    given[k] = &plain[k];
+    if (answers.at(k)) given[k] = FromShardDistancesMsg(*answers[k]);
   }
-  AssembledQuery assembled =
-      AssembleShardAnswers(*layout_, names, sets, given, metric_, query_norm, joint_kind_);
+  AssembledQuery assembled = AssembleShardAnswers(*layout_, names, sets, std::move(given), metric_,
+                                                  query_norm, joint_kind_);
   for (size_t k = 0; k < shards_.size(); ++k) {
     if (assembled.impossible[k].empty()) continue;
     Shard& shard = shards_[k];

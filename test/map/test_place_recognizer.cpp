@@ -6,7 +6,6 @@
 
 #include "bsf_vpr/core/method_runner.h"
 #include "bsf_vpr/map/place_recognizer.h"
-#include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/evaluation/synthetic.h"
 
 namespace bsf_vpr {
@@ -445,40 +444,6 @@ TEST(PlaceRecognizer, MissingSetsAreLeftOutAsIfTheyWereNotLoaded) {
   d.Set(0, all[0]);
   d.Set(2, all[2]);
   EXPECT_THROW(r.Decide(d, true), std::invalid_argument);
-}
-
-// The fingerprint tells sets apart by what distances read: same file, same fingerprint;
-// another row, name, pose or precision, another fingerprint.
-TEST(Sharding, SetFingerprintFollowsWhatTheSetHolds) {
-  const SyntheticData data = Data();
-  const ReferenceSet c0 = data.map.set(0).ToReferenceSet();
-  const auto fingerprint = [](const ReferenceSet& set, StoragePrecision precision) {
-    ReferenceSets map;
-    map.SetStoragePrecision(precision);
-    map.Add(set);
-    return SetFingerprint(map.set(0));
-  };
-  const uint64_t base = fingerprint(c0, StoragePrecision::kFloat32);
-  EXPECT_EQ(base, fingerprint(c0, StoragePrecision::kFloat32));
-  EXPECT_EQ(base, SetFingerprint(data.map.set(0)));
-  EXPECT_NE(base, fingerprint(c0, StoragePrecision::kInt8));
-  ReferenceSet changed = c0;
-  changed.descriptors(3, 2) += 1e-3f;
-  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
-  changed = c0;
-  changed.name = "c0b";
-  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
-  changed = c0;
-  changed.place_ids.back() += 1000;
-  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
-  changed = c0;
-  changed.poses.assign(c0.place_ids.size(), PlacePose{});
-  EXPECT_NE(base, fingerprint(changed, StoragePrecision::kFloat32));
-  // The map's layout of a set keeps its places, not its descriptors.
-  const SetLayout& layout = data.map.layout().set(0);
-  EXPECT_EQ(layout.place_ids, c0.place_ids);
-  EXPECT_EQ(layout.size(), c0.size());
-  EXPECT_EQ(layout.dimension, c0.dimension());
 }
 
 }  // namespace

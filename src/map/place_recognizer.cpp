@@ -30,40 +30,43 @@ PlaceRecognizer::PlaceRecognizer(RecognizerOptions options, StoragePrecision sto
   // The method is checked against the sets when they are known (SetOptions / Recognize):
   // nn:<set> before its set is loaded is refused by Recognize until it is.
   decider_.OnLayoutChanged(*map_->layout());
-  map_->SetJoint(decider_.method().JointNeeded(options_.method_options),
-                 options_.method_options.joint);
 }
 
 void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
   options.Validate();
-  if (options.metric != options_.metric || !SameFirstStage(options.first_stage, options_.first_stage)) {
+  if (options.metric != options_.metric ||
+      !SameFirstStage(options.first_stage, options_.first_stage)) {
     throw std::invalid_argument(
         "the distance and the first stage are the map's, fixed when the recogniser is made");
   }
   decider_.SetMethod(options.method, options.method_options, *map_->layout());  // may throw
-  options_ = options;
-  map_->SetJoint(decider_.method().JointNeeded(options_.method_options),
-                 options_.method_options.joint);
+  options_ = options;  // the joint representation it needs is asked for at the next query
 }
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   const std::string name = set.name;
+  map_->SetJoint(std::nullopt, {});  // built once, at the next query, not after every set
   map_->Add(std::move(set), "'" + name + "'");
   decider_.OnLayoutChanged(*map_->layout());
 }
 
 void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   decider_.CheckRemovable(name);
+  map_->SetJoint(std::nullopt, {});
   map_->Unload(name);  // throws when it is not loaded
   decider_.OnLayoutChanged(*map_->layout());
 }
 
-std::shared_ptr<const ApproximateIndex> PlaceRecognizer::index() const {
+std::shared_ptr<const ApproximateIndex> PlaceRecognizer::index() {
   Ready();
   return map_->index();
 }
 
-void PlaceRecognizer::Ready() const {
+void PlaceRecognizer::Ready() {
+  // The joint representation the method needs now, of the sets now (a no-op when the map
+  // holds it already).
+  map_->SetJoint(decider_.method().JointNeeded(options_.method_options),
+                 options_.method_options.joint);
   map_->WaitForJoint();
   map_->WaitForIndex();
 }

@@ -5,8 +5,8 @@
 #include <memory>
 #include <optional>
 
-#include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/distances.h"
+#include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/recognizer_options.h"
 #include "bsf_vpr/core/sharding.h"
 #include "bsf_vpr/evaluation/synthetic.h"

@@ -5,8 +5,8 @@
 #include <optional>
 
 #include "bsf_vpr/core/method_runner.h"
-#include "bsf_vpr/map/place_recognizer.h"
 #include "bsf_vpr/evaluation/synthetic.h"
+#include "bsf_vpr/map/place_recognizer.h"
 
 namespace bsf_vpr {
 namespace {

@@ -78,8 +78,7 @@ TEST(ShardAssembly, PutsEachShardsDistancesAtItsSetsAndLeavesOutWhatDoesNotFit) 
   const ShardSets b = Shard("/b", {OneSet("winter", 7, 3)});
   const std::vector<std::string> names = {"/a", "/b", "/c"};
   const std::vector<const ShardSets*> shards = {&a, &b, nullptr};
-  const PlaceLayout layout =
-      MergeShardLayouts(shards, "cosine", std::nullopt, 25).layout;
+  const PlaceLayout layout = MergeShardLayouts(shards, "cosine", std::nullopt, 25).layout;
   const ShardAnswer from_a = Answer(a, 0.02), from_b = Answer(b, 0.05);
   AssembledQuery q = AssembleShardAnswers(layout, names, shards, {from_a, from_b, std::nullopt},
                                           DistanceMetric::kCosine, 1.0, std::nullopt);
@@ -139,20 +138,20 @@ TEST(ShardAssembly, AttachesTheJointOfTheMostSetsThatFitsTheLayout) {
   EXPECT_EQ(q.distances.joint()->build, (uint64_t{1} << 48) ^ 7);
   EXPECT_EQ(q.joint_from, "/a (2 sets)");
   // Not asked for, of another kind, or of a set the layout lacks: none attached.
-  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine,
-                           1.0, JointKind::kSubspace);
+  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine, 1.0,
+                           JointKind::kSubspace);
   EXPECT_FALSE(q.distances.joint().has_value());
   // A malformed answer: its sets are absent, its joint representation may still be used.
   ShardAnswer garbled = from_a;
   garbled.malformed = true;
-  q = AssembleShardAnswers(layout, names, shards, {garbled, from_b}, DistanceMetric::kCosine,
-                           1.0, JointKind::kDiscriminant);
+  q = AssembleShardAnswers(layout, names, shards, {garbled, from_b}, DistanceMetric::kCosine, 1.0,
+                           JointKind::kDiscriminant);
   EXPECT_FALSE(q.distances.present(0));
   EXPECT_EQ(q.missing_shards, (std::vector<std::string>{"/a"}));
   EXPECT_TRUE(q.distances.joint().has_value());
   from_a.joint_sets = {"summer", "night"};
-  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine,
-                           1.0, JointKind::kDiscriminant);
+  q = AssembleShardAnswers(layout, names, shards, {from_a, from_b}, DistanceMetric::kCosine, 1.0,
+                           JointKind::kDiscriminant);
   EXPECT_FALSE(q.distances.joint().has_value());
   EXPECT_TRUE(q.joint_from.empty());
 }

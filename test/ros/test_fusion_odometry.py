@@ -114,7 +114,7 @@ class FusionOdometry(unittest.TestCase):
         self.assertGreater(at_7(held), 0.2)
         if not use_tf:
             # Time going back 2.5 s (a bag played again) starts the belief afresh: the filter
-            # no longer holds place 7, and a query like 48 places is placed by none of them.
+            # no longer holds place 7, and a query like 49 places is placed by none of them.
             fresh = query(COMMON, 0.5)
             self.assertLess(at_7(fresh), 0.1, "the filter kept the previous drive's belief")
 

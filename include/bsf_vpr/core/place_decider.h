@@ -2,7 +2,8 @@
 // +seq, methods.h) run query after query on a place layout and each query's distances,
 // carrying its state from one query to the next (+filter: the previous posterior; +seq: the
 // last L cost vectors). It holds no descriptors: the distances come from whoever holds them
-// (a LocalMap, in the node or in PlaceRecognizer; the shards of a sharded map). The same distances give the same bits wherever they were computed.
+// (a LocalMap, in the node or in PlaceRecognizer; the shards of a sharded map). The same distances
+// give the same bits wherever they were computed.
 //
 // Not thread-safe: callers serialise access.
 #pragma once

@@ -56,7 +56,7 @@ struct ShardAnswer {
   uint64_t joint_build = 0;
   std::vector<std::string> joint_sets;
   RowMatrixXf joint_distances;
-  std::string error;  // "" unless refused
+  std::string error;   // "" unless refused
   double seconds = 0;  // the time the shard spent on the descriptor
   // Received with set names, fingerprints and counts that do not hold together (a corrupted
   // message): its sets' distances are not used, its joint distances may be.
@@ -101,7 +101,8 @@ class LocalMap : public MapBackend {
   void ForEachSet(
       const std::function<void(const StoredReferenceSet& set, uint64_t fingerprint)>& visit) const;
   int num_sets() const;
-  // Calls `read` with the sets, under the map's lock (a benchmark's baselines read the rows).
+  // Calls `read` with the sets, under the map's lock (a benchmark's baselines read the rows):
+  // `read` must not call into the map (the lock is not recursive).
   void ReadSets(const std::function<void(const ReferenceSets& sets)>& read) const;
   // The first stage's index answering now (first_stage pca; null: exact, or none built yet).
   std::shared_ptr<const ApproximateIndex> index() const;

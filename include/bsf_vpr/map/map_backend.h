@@ -65,7 +65,7 @@ struct LoadRequest {
 struct SetSummary {
   SetLayout layout;
   uint64_t memory_bytes = 0;
-  std::string storage;  // float32, float16 or int8 (", memory-mapped")
+  std::string storage;  // float32, float16 or int8, with " (memory-mapped)" when it is
   std::string shard;    // the shard holding it ("" in a map of this process)
 };
 struct SetList {

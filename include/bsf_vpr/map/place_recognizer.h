@@ -1,8 +1,9 @@
 // The place recogniser of one process, synchronous: a LocalMap (the sets, their distances
 // to a query, the joint representation) and a PlaceDecider (the decision, with what it
 // carries between queries), the parts the fusion node holds (docs/architecture.md, "One
-// query"). Every change is in force at the next query: the query waits for what the map
-// builds in the background (the first stage's index, the joint representation).
+// query"). Every change is in force at the next query: the query asks the map for the joint
+// representation the method needs and waits for what the map builds in the background
+// (it, and the first stage's index), so that it is built once after a change, as needed.
 // bsf_benchmark and the tests use it.
 //
 // Not thread-safe: callers serialise access.
@@ -47,7 +48,7 @@ class PlaceRecognizer {
     map_->ReadSets(read);
   }
   // The first stage's index of the sets now (first_stage pca; null for exact search).
-  std::shared_ptr<const ApproximateIndex> index() const;
+  std::shared_ptr<const ApproximateIndex> index();
 
   // Recognises the place of one descriptor (D floats): the map's query (LocalMap::Ask), then
   // Decide. With update_state, the state carried between queries (prior, filter, sequence)
@@ -70,7 +71,7 @@ class PlaceRecognizer {
   const PlaceDecider& decider() const { return decider_; }
 
  private:
-  void Ready() const;  // waits until the map's background builds are done
+  void Ready();  // asks for the joint the method needs; waits for the map's builds
 
   RecognizerOptions options_;
   std::unique_ptr<LocalMap> map_;  // movable with it

@@ -42,6 +42,7 @@ void FusionNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("data directory", data_dir_ ? data_dir_->path() : "(none: file services off)");
   status.add("loaded reference sets", places.num_sets());
   status.add("places", places.num_places());
+  status.add("belief started afresh, time went back", time_jumps_);
   for (const SetLayout& s : places.sets()) {
     const ReferenceSetUsage usage = counters_.Usage(s.name);
     status.addf("selected: " + s.name, "%.1f%% of %ld queries, mean weight %.3f",

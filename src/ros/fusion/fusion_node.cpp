@@ -19,7 +19,7 @@ namespace bsf_vpr {
 namespace {
 
 // A query this far before the previous one is another drive's (FusionNode::last_query_stamp_);
-// a little earlier is a reordering (two publishers, a shard's late answer) and is decided on.
+// a little earlier is a reordering (two publishers) and is decided on.
 constexpr double kTimeJumpBackS = 1.0;
 
 }  // namespace
@@ -391,15 +391,20 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
     return std::nullopt;
   }
   const ros::Time stamp(query.header.sec, query.header.nsec);
-  if (!last_query_stamp_.isZero() && (last_query_stamp_ - stamp).toSec() > kTimeJumpBackS) {
-    // What the filter, the sequence matcher and the adaptive fusion carry belongs to another
-    // drive, as tf's buffer does on a jump back.
-    ROS_WARN("bsf_vpr: the descriptors' time went back %.1f s (a bag played again, a "
-             "simulation restarted): the belief starts afresh",
-             (last_query_stamp_ - stamp).toSec());
-    decider_.Reset();
+  // (A descriptor stamped 0, decided as of now, neither starts afresh nor moves the time.)
+  if (!stamp.isZero()) {
+    if (!last_query_stamp_.isZero() && (last_query_stamp_ - stamp).toSec() > kTimeJumpBackS) {
+      // What the filter, the sequence matcher and the adaptive fusion carry belongs to another
+      // drive, as tf's buffer does on a jump back.
+      ROS_WARN_THROTTLE(1.0,
+                        "bsf_vpr: the descriptors' time went back %.1f s (a bag played again, a "
+                        "simulation restarted): the belief starts afresh",
+                        (last_query_stamp_ - stamp).toSec());
+      decider_.Reset();
+      ++time_jumps_;
+    }
+    last_query_stamp_ = stamp;
   }
-  last_query_stamp_ = stamp;
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {

@@ -160,6 +160,8 @@ class FusionNode {
   // The stamp of the last query decided: a query stamped more than kTimeJumpBackS before it
   // (a bag played again, a simulation restarted) starts the carried belief afresh.
   ros::Time last_query_stamp_ GUARDED_BY(mutex_);
+  // The times it did (diagnostics).
+  uint64_t time_jumps_ GUARDED_BY(mutex_) = 0;
   std::unique_ptr<Recording> recording_ PT_GUARDED_BY(mutex_);  // over data_dir_
   // load_reference_set's and unload_reference_set's queue and thread, and query_place's.
   ros::CallbackQueue load_queue_, query_queue_;

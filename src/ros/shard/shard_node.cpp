@@ -186,12 +186,13 @@ void ShardNode::Diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("refused descriptors", rejected_);
   status.add("distance", ToString(map_->metric()));
   AddStatus(map_->Diagnose(), status);  // the first stage
-  const SetList held = map_->List();
-  status.add("loaded reference sets", static_cast<int>(held.sets.size()));
-  for (const SetSummary& s : held.sets) {
-    status.addf("set: " + s.layout.name, "%d places, %.1f MB", s.layout.size(),
-                s.memory_bytes / 1e6);
-  }
+  // Each set's size and bytes, read in place (List would copy every set's layout).
+  int held = 0;
+  map_->ForEachSet([&](const StoredReferenceSet& s, uint64_t) {
+    ++held;
+    status.addf("set: " + s.name(), "%d places, %.1f MB", s.size(), s.MemoryBytes() / 1e6);
+  });
+  status.add("loaded reference sets", held);
   processed_ = rejected_ = 0;
   processing_s_sum_ = 0;
   type_mismatch_.clear();

@@ -155,8 +155,8 @@ class StageQuery {
       } catch (const std::invalid_argument&) {
         return;  // sets that make none (one set): the method fuses them alone, as the map
       }
-      joint_ = std::make_unique<JointRepresentation>(JointRepresentation::Build(
-          *kind, all, sets.num_places(), options_.method_options.joint));
+      joint_ = std::make_unique<JointRepresentation>(
+          JointRepresentation::Build(*kind, all, sets.num_places(), options_.method_options.joint));
     }
   }
   Recognition Decide(DistanceStage& stage, const ReferenceSets& sets, const RowMatrixXf& row) {

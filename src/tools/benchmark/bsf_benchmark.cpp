@@ -17,8 +17,8 @@
 #include <thread>
 
 #include "bsf_vpr/core/method_runner.h"
-#include "bsf_vpr/map/place_recognizer.h"
 #include "bsf_vpr/evaluation/evaluation_runner.h"
+#include "bsf_vpr/map/place_recognizer.h"
 #include "src/tools/benchmark/benchmark_describe.h"
 #include "src/tools/benchmark/benchmark_evaluate.h"
 #include "src/tools/benchmark/benchmark_fusion.h"
@@ -242,24 +242,24 @@ void Query(int repeats, int scale) {
     }
     if (p != StoragePrecision::kFloat32) continue;
     r.ReadSets([&](const ReferenceSets& map) {
-    const RowMatrixXf q_row = q.transpose();
-    const double ours_distances = TimeMs(repeats, [&] {
-      g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, map)[0](0, 0);
-    });
-    std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
-    for (const StoredReferenceSet& set : map.sets()) {
-      faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
-      faiss_sets.back()->add(set.size(), Float32Rows(set));
-    }
-    std::vector<float> dist(static_cast<size_t>(s.n));
-    std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
-    const double faiss_ms = TimeMs(repeats, [&] {
-      for (auto& index : faiss_sets) index->search(1, q.data(), s.n, dist.data(), label.data());
-    });
-    std::printf(
-        "query   distances alone %.2f ms vs FAISS IndexFlatL2 (all N, k=N) %.2f ms: %.2fx "
-        "FAISS's time\n",
-        ours_distances, faiss_ms, ours_distances / faiss_ms);
+      const RowMatrixXf q_row = q.transpose();
+      const double ours_distances = TimeMs(repeats, [&] {
+        g_sink = ComputeDistances(DistanceMetric::kEuclidean, q_row, map)[0](0, 0);
+      });
+      std::vector<std::unique_ptr<faiss::IndexFlatL2>> faiss_sets;
+      for (const StoredReferenceSet& set : map.sets()) {
+        faiss_sets.push_back(std::make_unique<faiss::IndexFlatL2>(s.d));
+        faiss_sets.back()->add(set.size(), Float32Rows(set));
+      }
+      std::vector<float> dist(static_cast<size_t>(s.n));
+      std::vector<faiss::Index::idx_t> label(static_cast<size_t>(s.n));
+      const double faiss_ms = TimeMs(repeats, [&] {
+        for (auto& index : faiss_sets) index->search(1, q.data(), s.n, dist.data(), label.data());
+      });
+      std::printf(
+          "query   distances alone %.2f ms vs FAISS IndexFlatL2 (all N, k=N) %.2f ms: %.2fx "
+          "FAISS's time\n",
+          ours_distances, faiss_ms, ours_distances / faiss_ms);
     });
   }
 }

@@ -206,8 +206,7 @@ TEST(Conversions, TheMatchCarriesItsSetAndThePlacePoseIfAnySetHasOne) {
   RecognizerOptions nn;
   nn.method = "nn:day";
   r.SetOptions(nn);
-  const Recognition rec =
-      r.Recognize(day.row(4).transpose(), false);
+  const Recognition rec = r.Recognize(day.row(4).transpose(), false);
   Match m;
   ToMatchMsg(rec, *r.layout(), &m);
   EXPECT_EQ(m.place_id, 4);

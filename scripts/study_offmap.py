@@ -9,6 +9,9 @@ the map. It runs bsf_evaluate three times: the default (off_map true) and the be
 (recall over the on-map queries), how many off-map queries had a match accepted at the
 default threshold, and the AUC given up against the on-map queries alone with its 95%
 interval from a block bootstrap (blocks of 10 consecutive queries, 1000 draws, seeded).
+A fourth run applies the map's own rule (--max-false-accept-rate 0.01, the map calibrated
+on its own traversals): the off-map queries it accepts, the rate the map predicted, and the
+right matches accepted by the default and by the rule.
 The covered cases are real frames through a covered lens (bsf_make_views --cover): every
 query is off the map. Usage: study_offmap.py OUT_DIR [CASE ...]
 """
@@ -36,6 +39,7 @@ def tool(name, *args):
                        stderr=subprocess.STDOUT, text=True)
     if r.returncode != 0:
         sys.exit("study_offmap: %s failed:\n%s" % (name, r.stdout[-2000:]))
+    return r.stdout
 
 
 def link_images(files, folder):
@@ -146,10 +150,33 @@ def evaluate(c, out, which):
         inputs = c.refs + ["--query", c.query_on if which == "alone" else c.query]
     args = inputs + ["--ground-truth", truth, "--methods", ",".join(METHODS), "--no-progress",
                      "--out", d] + c.extra
-    if which != "new":
+    if which not in ("new", "calibrated"):
         args += ["--off-map", "false"]
-    tool("bsf_evaluate", *args)
+    if which == "calibrated":
+        args += ["--max-false-accept-rate", "0.01"]
+    out_text = tool("bsf_evaluate", *args)
+    with open(os.path.join(d, "stdout.txt"), "w") as f:
+        f.write(out_text)
     return d
+
+
+def predicted(d, method):
+    """The rate the map predicted for `method` ("on this map (...): false acceptances x%"),
+    with '(1 set)' where it was measured but not applied, '-' where it could not calibrate."""
+    for line in open(os.path.join(d, "stdout.txt")):
+        if "on this map (%s):" % method in line:
+            if "false acceptances" not in line:
+                return "-"
+            rate = line.split("false acceptances ")[1].split("%")[0] + "%"
+            return rate + (" (1 set)" if "not applied" in line else "")
+        if "not calibrated" in line:
+            return "-"
+    return "-"
+
+
+def right_accepted(d, method, truth):
+    rows = list(csv.DictReader(open(os.path.join(d, "matches", method.replace(":", "_") + ".csv"))))
+    return sum(1 for q, r in enumerate(rows) if r["accepted"] == "1" and int(r["match"]) in truth[q])
 
 
 def outcomes(d, method, truth):
@@ -224,14 +251,14 @@ def main():
                                   [("night", GP + "/night_right.npy")], GP + "/day_left.npy",
                                   list(range(100, 200)), 8, ["--distance", "cosine"]))
     cases.append(lambda: corridor_case(out, "corridor_map_0-55", False, 56))
-    print("%-30s %-10s %6s  %8s %8s  %-14s %s" % ("case (D: designed on)", "method", "alone",
-                                                 "2026-12-05", "default", "off-map accepted",
-                                                 "AUC given up [95%]"))
+    print("%-30s %-10s %6s  %8s %8s  %-14s %-24s | %s" % (
+        "case (D: designed on)", "method", "alone", "2026-12-05", "default", "off-map accepted",
+        "AUC given up [95%]", "calibrated 1%: off-map accepted, predicted; right accepted"))
     for make in cases:
         c = make()
         if only and c.name not in only:
             continue
-        dirs = {w: evaluate(c, out, w) for w in ("alone", "today", "new")}
+        dirs = {w: evaluate(c, out, w) for w in ("alone", "today", "new", "calibrated")}
         has_truth = [bool(t) for t in c.truth]
         for m in METHODS:
             alone = outcomes(dirs["alone"], m, c.truth_on)
@@ -240,24 +267,31 @@ def main():
             off = ~np.array(has_truth)
             n_true = int(sum(has_truth))
             point, lo, hi = given_up(alone[:2], new[:2], c.on_index, has_truth)
-            print("%-30s %-10s %6.3f  %8.3f %8.3f  %3d -> %3d of %3d  %+.3f [%+.3f, %+.3f]" % (
-                c.name + (" (D)" if c.design else ""), m, auc(alone[0], alone[1], len(c.on_index)),
-                auc(today[0], today[1], n_true), auc(new[0], new[1], n_true),
-                today[2][off].sum(), new[2][off].sum(), off.sum(), point, lo, hi), flush=True)
+            cal = outcomes(dirs["calibrated"], m, c.truth)
+            print("%-30s %-10s %6.3f  %8.3f %8.3f  %3d -> %3d of %3d  %+.3f [%+.3f, %+.3f] | "
+                  "%3d of %3d, %s; %d -> %d" % (
+                      c.name + (" (D)" if c.design else ""), m,
+                      auc(alone[0], alone[1], len(c.on_index)), auc(today[0], today[1], n_true),
+                      auc(new[0], new[1], n_true), today[2][off].sum(), new[2][off].sum(),
+                      off.sum(), point, lo, hi, cal[2][off].sum(), off.sum(),
+                      predicted(dirs["calibrated"], m), right_accepted(dirs["new"], m, c.truth),
+                      right_accepted(dirs["calibrated"], m, c.truth)), flush=True)
     for res in ("64x32", "256x144"):
         name = "covered_%s" % res
         if only and name not in only:
             continue
         c = covered_case(out, name, "%s/%s/winter" % (N100, res),
                          [(s, "%s/%s/%s" % (N100, res, s)) for s in ("summer", "fall")])
-        for which in ("today", "new"):
+        for which in ("today", "new", "calibrated"):
             evaluate(c, out, which)
         for m in METHODS:
             today = outcomes(os.path.join(out, name, "today"), m, c.truth)
             new = outcomes(os.path.join(out, name, "new"), m, c.truth)
-            print("%-30s %-10s %6s  %8s %8s  %3d -> %3d of %3d" % (
+            cal = outcomes(os.path.join(out, name, "calibrated"), m, c.truth)
+            print("%-30s %-10s %6s  %8s %8s  %3d -> %3d of %3d  %-24s | %3d of %3d, %s" % (
                 name + ", covered lens", m, "", "", "", today[2].sum(), new[2].sum(),
-                len(c.truth)), flush=True)
+                len(c.truth), "", cal[2].sum(), len(c.truth),
+                predicted(os.path.join(out, name, "calibrated"), m)), flush=True)
 
 
 if __name__ == "__main__":

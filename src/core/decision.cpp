@@ -72,9 +72,8 @@ void MatchFirst(int match, std::vector<int>* top) {
   }
 }
 
-}  // namespace
-
-void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief) {
+// The match, its confidence and whether it passes the threshold (or max_match_distance).
+void DecideMatch(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief) {
   PlaceBelief& b = *belief;
   switch (evidence.kind) {
     case Evidence::Kind::kPosterior:
@@ -93,14 +92,60 @@ void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelie
       b.confidence = -std::numeric_limits<double>::infinity();
       if (b.top_places.empty()) return;
       b.match = b.top_places.front();
-      b.confidence = ConfidenceWithOffMap(
-          SequenceMatchLogOdds(b.cost, b.match, evidence.sequence_velocities),
-          evidence.log_off_odds);
+      b.confidence =
+          ConfidenceWithOffMap(SequenceMatchLogOdds(b.cost, b.match, evidence.sequence_velocities),
+                               evidence.log_off_odds);
       b.accepted = b.confidence > options.threshold.LogOdds();
       return;
     }
   }
   throw std::logic_error("Decide: unknown kind of evidence");
+}
+
+}  // namespace
+
+double AcceptanceRule::Score(double confidence, double match_distance) const {
+  if (std::isnan(confidence)) return -std::numeric_limits<double>::infinity();
+  const double c = std::clamp(confidence, -kMaxScoredConfidence, kMaxScoredConfidence);
+  if (w_distance == 0) return w_confidence * c + bias;
+  if (!std::isfinite(match_distance)) return -std::numeric_limits<double>::infinity();
+  return w_confidence * c + w_distance * match_distance + bias;
+}
+
+MatchDistance MatchDistanceOf(const PlaceBelief& belief, const std::vector<SetDistances>& sets,
+                              const std::vector<bool>* available) {
+  MatchDistance out;
+  if (belief.match < 0) return out;
+  const std::vector<int>& selected = belief.selection.selected;
+  float best = std::numeric_limits<float>::infinity();
+  for (int u : belief.used_sets) {
+    const size_t k = static_cast<size_t>(u);
+    if (k >= sets.size() || (available && !(*available)[k])) continue;
+    if (k < belief.set_weights.size() && belief.set_weights[k] < 1 &&
+        !std::binary_search(selected.begin(), selected.end(), u)) {
+      continue;
+    }
+    const SetDistances& d = sets[k];
+    if (d.values == nullptr) continue;
+    for (int r = 0; r < d.count; ++r) {
+      if (d.PlaceAt(r) == belief.match && d.values[r] < best) {
+        best = d.values[r];
+        out.set = u;
+      }
+    }
+  }
+  if (out.set >= 0) out.distance = best;
+  return out;
+}
+
+void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief,
+            const AcceptanceRule* rule) {
+  DecideMatch(options, evidence, belief);
+  PlaceBelief& b = *belief;
+  b.match_distance = evidence.sets ? MatchDistanceOf(b, *evidence.sets, evidence.available).distance
+                                   : std::numeric_limits<double>::quiet_NaN();
+  if (rule != nullptr && b.accepted)
+    b.accepted = rule->Score(b.confidence, b.match_distance) > rule->cut;
 }
 
 }  // namespace bsf_vpr

@@ -18,8 +18,7 @@ void MethodRunner::SetOptions(const MethodOptions& options) {
   const SequenceOptions& b = options_.sequence;
   const bool same_sequence = a.length == b.length && a.min_velocity == b.min_velocity &&
                              a.max_velocity == b.max_velocity &&
-                             a.velocity_step == b.velocity_step &&
-                             a.standardize == b.standardize &&
+                             a.velocity_step == b.velocity_step && a.standardize == b.standardize &&
                              a.use_partial_sequences == b.use_partial_sequences;
   if (!same_sequence) sequence_ = SequenceMatcher(options.sequence);
   if (options.fusion != options_.fusion) adaptive_.Reset();
@@ -121,13 +120,15 @@ PlaceBelief MethodRunner::Step(const std::vector<SetDistances>& sets, int num_pl
     evidence.kind = Evidence::Kind::kSequence;
     evidence.sequence_velocities = matcher.velocities();
   }
-  Decide(options_.decision, evidence, &b);
+  evidence.sets = &sets;
+  evidence.available = all ? nullptr : available;
+  Decide(options_.decision, evidence, &b, rule_ ? &*rule_ : nullptr);
   return b;
 }
 
 double MethodRunner::OffMapOdds(const Eigen::VectorXd& log_posterior,
-                                const Eigen::VectorXd* log_prior,
-                                std::optional<double> step_places, bool update_state) {
+                                const Eigen::VectorXd* log_prior, std::optional<double> step_places,
+                                bool update_state) {
   const Eigen::Index n = log_posterior.size();
   Eigen::VectorXd log_likelihood = log_posterior;  // the query's, without the prior's
   if (log_prior != nullptr && log_prior->size() == n) {

@@ -106,28 +106,6 @@ std::vector<JointDistances> JointViews(const PlaceLayout& layout,
   return joint;
 }
 
-// The set that supplied the match: the closest image of the match among the sets the method
-// relied on (a mixture's used sets of weight below 1 only when also selected); -1 if none.
-int ClosestSet(const PlaceBelief& belief, const std::vector<SetDistances>& views) {
-  const std::vector<int>& selected = belief.selection.selected;
-  float best = INFINITY;
-  int closest = -1;
-  for (int u : belief.used_sets) {
-    if (belief.set_weights.at(static_cast<size_t>(u)) < 1 &&
-        !std::binary_search(selected.begin(), selected.end(), u)) {
-      continue;
-    }
-    const SetDistances& d = views[static_cast<size_t>(u)];
-    for (int k = 0; k < d.count; ++k) {
-      if (d.PlaceAt(k) == belief.match && d.values[k] < best) {
-        best = d.values[k];
-        closest = u;
-      }
-    }
-  }
-  return closest;
-}
-
 }  // namespace
 
 Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances& distances,
@@ -155,7 +133,7 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
   out.belief = runner.Step(views, layout.num_places(), nullptr, step_places, update_state,
                            all ? nullptr : &available, &joint);
   out.missing_sets = distances.Absent();
-  out.closest_set = ClosestSet(out.belief, views);
+  out.closest_set = MatchDistanceOf(out.belief, views).set;
   return out;
 }
 

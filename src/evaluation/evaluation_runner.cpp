@@ -62,8 +62,17 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
   }
   std::vector<MethodResults> results(methods.size());
   std::vector<MethodRunner> runners;
+  if (!input.acceptance_rules.empty() && input.acceptance_rules.size() != methods.size()) {
+    throw std::invalid_argument("acceptance rules given for " +
+                                std::to_string(input.acceptance_rules.size()) + " methods of " +
+                                std::to_string(methods.size()));
+  }
+  const auto rule_of = [&input](size_t k) {
+    return input.acceptance_rules.empty() ? std::nullopt : input.acceptance_rules[k];
+  };
   for (size_t k = 0; k < methods.size(); ++k) {
     runners.emplace_back(methods[k], options);
+    runners.back().SetAcceptanceRule(rule_of(k));
     results[k].method = methods[k];
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
@@ -100,6 +109,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         o.confidence = b.confidence;
         o.accepted = b.accepted;
         o.off_map_probability = b.off_map_probability;
+        o.match_distance = b.match_distance;
         o.top_places = b.top_places;
       };
       if (methods[k].CarriesState(options)) {
@@ -113,6 +123,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
       std::atomic<int> next{begin};
       RunParallel(threads, threads, [&](int) {
         MethodRunner runner(methods[k], options);
+        runner.SetAcceptanceRule(rule_of(k));
         for (int q0; (q0 = next.fetch_add(kQueriesATurn)) < end;) {
           for (int q = q0; q < std::min(end, q0 + kQueriesATurn); ++q) run(runner, q);
         }

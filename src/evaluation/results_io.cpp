@@ -47,11 +47,12 @@ void WriteEvaluationOutputs(const std::string& dir, const std::vector<MethodResu
             << FormatNumber(m.recall_at_5) << ',' << FormatNumber(m.recall_at_10) << ','
             << m.num_queries << ',' << m.off_map_queries << ',' << m.off_map_accepted << '\n';
     std::ostringstream matches;
-    matches << "query,match,confidence,accepted,off_map_probability\n";
+    matches << "query,match,confidence,accepted,off_map_probability,match_distance\n";
     for (size_t q = 0; q < r.outcomes.size(); ++q) {
       const QueryOutcome& o = r.outcomes[q];
       matches << q << ',' << o.match << ',' << FormatNumber(o.confidence) << ','
-              << (o.accepted ? 1 : 0) << ',' << FormatNumber(o.off_map_probability) << '\n';
+              << (o.accepted ? 1 : 0) << ',' << FormatNumber(o.off_map_probability) << ','
+              << FormatNumber(o.match_distance) << '\n';
     }
     WriteFileAtomically(dir + "/matches/" + MethodFileStem(r.method.Name()) + ".csv",
                         matches.str());

@@ -1,8 +1,9 @@
 // The decision: the one step that turns what a method found (a posterior over places, a
 // distance method's mean distances, a sequence's costs), with the off-map tracker's odds,
-// into the match, its confidence, whether it is accepted and the ranked places. Nothing
-// else sets PlaceBelief::accepted or top_places, and no other step of a query reads
-// threshold, threshold_kind, max_match_distance and top_k (the options' validation and the
+// into the match, its confidence, whether it is accepted (with the map's own rule, where it
+// has one: AcceptanceRule) and the ranked places. Nothing else sets PlaceBelief::accepted or
+// top_places, and no other step of a query reads threshold, threshold_kind,
+// max_match_distance and top_k (the options' validation and the
 // node's reconfiguration check them; docs/method.md, "Confidence and acceptance").
 #pragma once
 
@@ -70,9 +71,44 @@ struct Evidence {
   // kSequence: the velocities each place's sequence was searched over
   // (SequenceMatcher::velocities).
   int sequence_velocities = 1;
+  // The query's distances to the sets (null: none given), `available` marking those it has
+  // (null: all): the match's distance (PlaceBelief::match_distance) is read from them.
+  const std::vector<SetDistances>* sets = nullptr;
+  const std::vector<bool>* available = nullptr;
 };
 
-// Decides: sets match, confidence, accepted and top_places of `belief` (see PlaceBelief).
-void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief);
+// The map's own acceptance rule (self_calibration.h), learnt by holding its traversals and
+// places out: a match is accepted only if, besides passing the threshold,
+//   w_confidence * min(max(confidence, -kMaxScoredConfidence), kMaxScoredConfidence)
+//     + w_distance * match_distance + bias > cut.
+// The score is the log-odds that the match is right given the two (a logistic fit); with
+// w_distance 0 it is the confidence alone. cut = +infinity accepts nothing.
+struct AcceptanceRule {
+  double w_confidence = 1;
+  double w_distance = 0;
+  double bias = 0;
+  double cut = -std::numeric_limits<double>::infinity();
+
+  // NaN match_distance (no used set covers the match): -infinity unless w_distance is 0.
+  double Score(double confidence, double match_distance) const;
+};
+// Confidences beyond this are scored as this (+-): a match of log-odds 30 is as sure as
+// one of 300, and a fit of the score stays finite.
+constexpr double kMaxScoredConfidence = 30;
+
+// The match's distance: the smallest distance of the query to a row showing the match among
+// the sets the method relied on (used_sets; a mixture's used sets of weight below 1 only
+// when also selected), with the set it came from; {NaN, -1} if none covers the match.
+struct MatchDistance {
+  double distance = std::numeric_limits<double>::quiet_NaN();
+  int set = -1;
+};
+MatchDistance MatchDistanceOf(const PlaceBelief& belief, const std::vector<SetDistances>& sets,
+                              const std::vector<bool>* available = nullptr);
+
+// Decides: sets match, confidence, match_distance, accepted and top_places of `belief` (see
+// PlaceBelief). With `rule`, an accepted match must pass it too.
+void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief,
+            const AcceptanceRule* rule = nullptr);
 
 }  // namespace bsf_vpr

@@ -52,7 +52,8 @@ struct PlaceBelief {
   double confidence = -std::numeric_limits<double>::infinity();
   // Whether the match may be acted on. Bayesian methods: confidence > h (as log-odds).
   // Distance methods: the match's (mean) distance <= max_match_distance. +seq methods: the
-  // sequence's log-odds (SequenceMatchLogOdds) > h. Never true for a non-finite belief.
+  // sequence's log-odds (SequenceMatchLogOdds) > h. And, where the map calibrated itself,
+  // its AcceptanceRule (decision.h). Never true for a non-finite belief.
   bool accepted = false;
   std::vector<int> top_places;    // best first, at most top_k
   Eigen::VectorXd log_posterior;  // N entries, normalised; empty for distance methods
@@ -73,6 +74,10 @@ struct PlaceBelief {
   // place of the map. log_posterior is then the belief given that it shows one, and
   // confidence the log-odds of the match against every other place and "none".
   double off_map_probability = 0;
+  // The decision (decision.h): the query's smallest distance to a row showing the match
+  // among the sets the method relied on, in the distance's units (MatchDistanceOf); NaN
+  // when no such set covers it or no distances were given.
+  double match_distance = std::numeric_limits<double>::quiet_NaN();
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against

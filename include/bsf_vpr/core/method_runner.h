@@ -10,6 +10,7 @@
 #include <optional>
 #include <vector>
 
+#include "bsf_vpr/core/decision.h"
 #include "bsf_vpr/core/methods.h"
 
 namespace bsf_vpr {
@@ -45,6 +46,10 @@ class MethodRunner {
   // The history is kept, except the sequence history when the sequence options change.
   void SetOptions(const MethodOptions& options);
   const Method& method() const { return method_; }
+  // The map's acceptance rule (decision.h, self_calibration.h), applied from the next query
+  // on beside the threshold; nullopt: the threshold alone. The carried state is kept.
+  void SetAcceptanceRule(std::optional<AcceptanceRule> rule) { rule_ = rule; }
+  const std::optional<AcceptanceRule>& acceptance_rule() const { return rule_; }
 
  private:
   // The off-map tracker's log(P(off) / P(on)) after this query's posterior.
@@ -57,6 +62,7 @@ class MethodRunner {
   Eigen::VectorXd last_log_posterior_;  // for +filter; empty before the first query
   AdaptiveFusion adaptive_;             // for bsf with fusion adaptive
   OffMapTracker off_map_;               // for Bayesian methods with off_map
+  std::optional<AcceptanceRule> rule_;
 };
 
 }  // namespace bsf_vpr

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <functional>
+#include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,7 +18,9 @@ struct QueryOutcome {
   int match = -1;
   double confidence = 0;
   bool accepted = false;
-  double off_map_probability = 0;  // PlaceBelief's
+  double off_map_probability = 0;                                    // PlaceBelief's
+  double match_distance = std::numeric_limits<double>::quiet_NaN();  // PlaceBelief's (NaN: no used
+                                                                     // set covers the match)
   std::vector<int> top_places;
 };
 
@@ -44,6 +48,9 @@ struct EvaluationInput {
   // [begin, end) to the representation of kind joint_kinds[j].
   std::vector<JointKind> joint_kinds;
   DistanceBlockFn joint_distances;
+  // Per method of the list, the map's acceptance rule (self_calibration.h; nullopt: the
+  // threshold alone). Empty: none for any.
+  std::vector<std::optional<AcceptanceRule>> acceptance_rules;
 };
 
 // Where EvaluateMethods' time went: wall seconds and CPU seconds of the process (all its

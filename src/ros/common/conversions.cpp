@@ -46,6 +46,7 @@ void ToBeliefMsg(const Recognition& r, const PlaceLayout& layout, const PlaceDec
   out->set_weights.assign(b.set_weights.begin(), b.set_weights.end());
   out->joint_weight = static_cast<float>(b.joint_weight);
   out->off_map_probability = b.off_map_probability;
+  out->match_distance = b.match_distance;
   out->missing_sets.clear();
   for (int u : r.missing_sets) out->missing_sets.push_back(layout.set(u).name);
   out->match = b.match;

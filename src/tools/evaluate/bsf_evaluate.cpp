@@ -162,6 +162,10 @@ int Run(int argc, char** argv) {
   std::cout << "bsf_evaluate: " << data->description
             << "\nbsf_evaluate: ground truth: " << data->truth_description << std::endl;
   if (!joint.empty()) std::cout << "bsf_evaluate: " << joint << std::endl;
+  for (const std::string& line : tools::CalibrateMethods(methods, args.options, args.calibration.max_false_accept_rate, data.get())) {
+    std::cout << "bsf_evaluate: " << line << std::endl;
+  }
+  times.End("calibration");
 
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

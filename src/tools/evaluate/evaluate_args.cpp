@@ -75,6 +75,9 @@ Methods:
 Method options (the fusion node's parameters of the same names):
 )" + OptionsUsage(MethodOptionsTable().Infos()) +
          R"(
+The map's own acceptance rule (descriptor inputs; offline only for now):
+)" + OptionsUsage(CalibrationOptionsTable().Infos()) +
+         R"(
 Distances for large maps (descriptor inputs; the fusion node's parameters of the same names):
 )" + OptionsUsage(FirstStageOptionsTable().Infos()) +
          R"(
@@ -160,6 +163,8 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       a.methods = value;
     } else if (MethodOptionsTable().SetFromFlag(flag, value, &a.options)) {
       // --gamma-fraction, --threshold, --sequence-*, --filter-*: the method options
+    } else if (CalibrationOptionsTable().SetFromFlag(flag, value, &a.calibration)) {
+      // --max-false-accept-rate
     } else if (FirstStageOptionsTable().SetFromFlag(flag, value, &a.first_stage)) {
       // --first-stage, --first-stage-dimensions, --rerank-candidates, --first-stage-sample-rows
     } else if (ParseDescriberFlag(flag, value, &a.describer)) {

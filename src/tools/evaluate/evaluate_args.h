@@ -9,6 +9,7 @@
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/methods.h"
+#include "bsf_vpr/core/self_calibration.h"
 #include "bsf_vpr/image/image_describer.h"
 #include "src/tools/common/query_bag.h"
 
@@ -43,6 +44,7 @@ struct EvaluateArgs {
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;
+  CalibrationOptions calibration;  // --max-false-accept-rate
   FirstStageOptions first_stage;    // descriptor inputs: exact or the pca first stage
   ImageDescriberOptions describer;  // for image folders
   std::string out_dir;

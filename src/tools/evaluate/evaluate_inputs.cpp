@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "bsf_vpr/core/self_calibration.h"
 #include "bsf_vpr/evaluation/ground_truth_io.h"
 #include "bsf_vpr/image/image_describer.h"
 #include "bsf_vpr/io/npy.h"
@@ -123,6 +124,7 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   NoteDeclaredDistance(args, "query '" + args.query + "'", query, &declared);
   std::string how;
   const DistanceMetric metric = ChooseMetric(args, declared, &how);
+  data->metric = metric;
   if (query.dimension() != data->map.dimension()) {
     throw std::invalid_argument("query '" + args.query + "' has dimension " +
                                 std::to_string(query.dimension()) + ", the reference sets have " +
@@ -303,6 +305,28 @@ std::string PrepareJointRepresentations(const std::vector<Method>& methods,
     for (size_t j = 0; j < data->joints.size(); ++j) (*block)[j] = data->joints[j].Distances(q);
   };
   return "joint representations of the sets built: " + line;
+}
+
+std::vector<std::string> CalibrateMethods(const std::vector<Method>& methods,
+                                          const MethodOptions& options,
+                                          double max_false_accept_rate, EvaluationData* data) {
+  std::vector<std::string> lines;
+  if (max_false_accept_rate == 0) return lines;
+  if (data->map.num_sets() == 0) {
+    return {
+        "the map is not calibrated: its sources are distance or similarity matrices, not "
+        "descriptors (the threshold alone accepts)"};
+  }
+  data->input.acceptance_rules.assign(methods.size(), std::nullopt);
+  for (size_t k = 0; k < methods.size(); ++k) {
+    const MapCalibration c =
+        CalibrateMap(data->map, data->metric, methods[k].Name(), options, max_false_accept_rate);
+    if (c.usable()) data->input.acceptance_rules[k] = c.rule;
+    char took[32];
+    std::snprintf(took, sizeof took, " (%.2f s)", c.seconds);
+    lines.push_back(c.Summary() + took);
+  }
+  return lines;
 }
 
 }  // namespace tools

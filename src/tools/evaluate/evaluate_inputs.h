@@ -23,6 +23,7 @@ struct EvaluationData {
   EvaluationData& operator=(const EvaluationData&) = delete;
 
   ReferenceSets map;     // descriptor mode
+  DistanceMetric metric = DistanceMetric::kEuclidean;  // descriptor mode
   DistanceStage stage;  // descriptor mode: exact or the pca first stage
   RowMatrixXf queries;  // descriptor mode, Q x D
   // descriptor mode with --tolerance-m: from the query YAML or --query-poses (else empty)
@@ -48,6 +49,14 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args);
 // they cannot be built; bsf then fuses the sets alone.
 std::string PrepareJointRepresentations(const std::vector<Method>& methods,
                                         const MethodOptions& options, EvaluationData* data);
+
+// The map's acceptance rule of each method (self_calibration.h) for `max_false_accept_rate`,
+// into input.acceptance_rules; returns a line per method saying what the map predicts ("on
+// this map: ..."). Nothing with a rate of 0; in matrix mode, one line saying why the map
+// cannot calibrate itself.
+std::vector<std::string> CalibrateMethods(const std::vector<Method>& methods,
+                                          const MethodOptions& options,
+                                          double max_false_accept_rate, EvaluationData* data);
 
 }  // namespace tools
 }  // namespace bsf_vpr

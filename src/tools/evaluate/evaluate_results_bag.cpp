@@ -22,6 +22,7 @@ QueryOutcome ToOutcome(const Belief& b) {
   o.confidence = b.confidence;
   o.accepted = b.accepted;
   o.off_map_probability = b.off_map_probability;
+  o.match_distance = b.match_distance;
   if (b.posterior.size() == b.place_ids.size() && !b.posterior.empty()) {
     // Rank by posterior (the message may list every place in place order).
     std::vector<size_t> order(b.place_ids.size());

@@ -64,7 +64,14 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   EXPECT_EQ(s.at("bsf").at("n_queries"), 200);
   const std::vector<std::string> matches = Lines(dir_ + "/out/matches/nn_day.csv");
   ASSERT_EQ(matches.size(), 201u);
-  EXPECT_EQ(matches[0], "query,match,confidence,accepted,off_map_probability");
+  EXPECT_EQ(matches[0], "query,match,confidence,accepted,off_map_probability,match_distance");
+  {  // nn's confidence is minus the match's distance, which the last column gives
+    double confidence = 0, distance = 0;
+    ASSERT_EQ(std::sscanf(matches[1].c_str(), "%*d,%*d,%lf,%*d,%*[^,],%lf", &confidence, &distance),
+              2)
+        << matches[1];
+    EXPECT_NEAR(distance, -confidence, 1e-6) << matches[1];
+  }
   EXPECT_TRUE(fs::exists(dir_ + "/out/pr/bayes_day.csv"));
 
   const Result plot =
@@ -463,6 +470,7 @@ void AppendBeliefs(const std::string& bag_path, const std::string& method,
     b.confidence = outcomes[k].confidence;
     b.accepted = outcomes[k].accepted;
     b.off_map_probability = outcomes[k].off_map_probability;
+    b.match_distance = outcomes[k].match_distance;
     out.write("/bsf_vpr/belief", headers[k].stamp + ros::Duration(0.01), b);
   }
 }

@@ -1,0 +1,339 @@
+#include "bsf_vpr/core/self_calibration.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+
+#include "bsf_vpr/core/method_runner.h"
+#include "bsf_vpr/core/reference_set.h"
+
+namespace bsf_vpr {
+namespace {
+
+// One traversal held out as queries: its rows, their places, and their distances to the
+// sets it is queried against (and to their joint representation, when the method needs one).
+struct HeldOut {
+  std::vector<int> true_place;         // per row
+  std::vector<int> sets;               // indices into the map
+  std::vector<RowMatrixXf> distances;  // per entry of sets: Q x N_u
+  std::optional<JointKind> joint_kind;
+  RowMatrixXf joint;  // Q x the map's places (empty: none)
+};
+
+HeldOut HoldOut(const ReferenceSets& map, int t, DistanceMetric metric, const Method& method,
+                const MethodOptions& options) {
+  const StoredReferenceSet& query_set = map.set(t);
+  HeldOut h;
+  h.true_place = query_set.place_ids();
+  RowMatrixXf queries(query_set.size(), query_set.dimension());
+  for (int r = 0; r < query_set.size(); ++r) query_set.DecodeRow(r, queries.row(r).data());
+  for (int u = 0; u < map.num_sets(); ++u) {
+    if (u != t || map.num_sets() == 1) h.sets.push_back(u);
+  }
+  std::vector<const StoredReferenceSet*> sets;
+  for (int u : h.sets) {
+    sets.push_back(&map.set(u));
+    h.distances.push_back(ComputeDistances(metric, queries, map.set(u)));
+  }
+  h.joint_kind = method.JointNeeded(options);
+  if (h.joint_kind && sets.size() >= 2) {
+    try {
+      h.joint = JointRepresentation::Build(*h.joint_kind, sets, map.num_places(), options.joint)
+                    .Distances(queries);
+    } catch (const std::invalid_argument&) {
+      h.joint.resize(0, 0);  // the sets share no places: the method fuses them alone
+    }
+  }
+  return h;
+}
+
+// Rows [begin, end) of `h` run in order through `method_name` against the map without the
+// places `removed` marks (the others renumbered in order, so that the route closes over the
+// gap); the rows from sample_begin on are sampled, on the map if their place is still in
+// it, else off it.
+void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& method_name,
+               const MethodOptions& options, const std::vector<char>& removed, int begin,
+               int sample_begin, int end, MapCalibration* out) {
+  const int n = map.num_places();
+  std::vector<int> renumbered(static_cast<size_t>(n), -1), original;
+  std::vector<char> covered(static_cast<size_t>(n), 0);
+  for (int u : h.sets) {
+    for (int p : map.set(u).place_ids()) covered[static_cast<size_t>(p)] = 1;
+  }
+  for (int p = 0; p < n; ++p) {
+    if (!covered[static_cast<size_t>(p)] || removed[static_cast<size_t>(p)]) continue;
+    renumbered[static_cast<size_t>(p)] = static_cast<int>(original.size());
+    original.push_back(p);
+  }
+  const int kept_places = static_cast<int>(original.size());
+  if (kept_places == 0) return;
+  const int rows = end - begin;
+  std::vector<RowMatrixXf> dist;
+  std::vector<std::vector<int>> ids;
+  std::vector<std::string> names;
+  for (size_t k = 0; k < h.sets.size(); ++k) {
+    const std::vector<int>& place_ids = map.set(h.sets[k]).place_ids();
+    std::vector<int> cols, kept_ids;
+    for (int c = 0; c < static_cast<int>(place_ids.size()); ++c) {
+      const int to = renumbered[static_cast<size_t>(place_ids[static_cast<size_t>(c)])];
+      if (to < 0) continue;
+      cols.push_back(c);
+      kept_ids.push_back(to);
+    }
+    if (cols.empty()) continue;
+    RowMatrixXf d(rows, static_cast<int>(cols.size()));
+    for (int q = 0; q < rows; ++q) {
+      for (size_t c = 0; c < cols.size(); ++c) {
+        d(q, static_cast<int>(c)) = h.distances[k](begin + q, cols[c]);
+      }
+    }
+    dist.push_back(std::move(d));
+    ids.push_back(std::move(kept_ids));
+    names.push_back(map.set(h.sets[k]).name());
+  }
+  if (dist.empty()) return;
+  RowMatrixXf joint;
+  if (h.joint.size() > 0) {
+    joint.resize(rows, kept_places);
+    for (int q = 0; q < rows; ++q) {
+      for (int i = 0; i < kept_places; ++i) joint(q, i) = h.joint(begin + q, original[i]);
+    }
+  }
+  const Method method = ParseMethod(method_name, names);  // throws: a set it names is held out
+  MethodRunner runner(method, options);
+  const double h_log_odds = options.decision.threshold.LogOdds();
+  std::vector<SetDistances> views(dist.size());
+  std::vector<JointDistances> joint_view(joint.size() > 0 ? 1 : 0);
+  for (int q = 0; q < rows; ++q) {
+    for (size_t k = 0; k < dist.size(); ++k) {
+      views[k].values = dist[k].row(q).data();
+      views[k].place_ids = ids[k].data();
+      views[k].count = static_cast<int>(ids[k].size());
+    }
+    if (!joint_view.empty()) {
+      joint_view[0].kind = *h.joint_kind;
+      joint_view[0].distances.values = joint.row(q).data();
+      joint_view[0].distances.count = kept_places;
+    }
+    const PlaceBelief b = runner.Step(views, kept_places, nullptr, std::nullopt, true, nullptr,
+                                      joint_view.empty() ? nullptr : &joint_view);
+    if (begin + q < sample_begin) continue;
+    CalibrationSample s;
+    s.confidence = b.confidence;
+    s.match_distance = b.match_distance;
+    s.passes_threshold =
+        method.IsBayesian() || method.sequence ? b.confidence > h_log_odds : b.accepted;
+    const int place = h.true_place[static_cast<size_t>(begin + q)];
+    if (renumbered[static_cast<size_t>(place)] >= 0) {
+      const int match = b.match >= 0 ? original[static_cast<size_t>(b.match)] : -1;
+      s.right = match >= 0 && std::abs(match - place) <= kCalibrationTolerancePlaces;
+      out->on_map.push_back(s);
+    } else {
+      out->off_map.push_back(s);
+    }
+  }
+}
+
+// Logistic regression of `right` on (confidence, distance), the classes weighed equally and
+// the weights (not the bias) held near 0 by a small ridge, in standardised features; returns
+// the rule's weights and bias in the features' own units (cut left to the caller). nullopt
+// when the fit does not make a larger distance count against the match.
+std::optional<AcceptanceRule> FitScore(const std::vector<const CalibrationSample*>& samples) {
+  const int n = static_cast<int>(samples.size());
+  Eigen::MatrixXd x(n, 3);
+  Eigen::VectorXd y(n), w(n);
+  int positives = 0;
+  for (int i = 0; i < n; ++i) {
+    const CalibrationSample& s = *samples[static_cast<size_t>(i)];
+    x(i, 0) = std::clamp(s.confidence, -kMaxScoredConfidence, kMaxScoredConfidence);
+    x(i, 1) = s.match_distance;
+    x(i, 2) = 1;
+    y(i) = s.right ? 1 : 0;
+    positives += s.right ? 1 : 0;
+  }
+  if (positives == 0 || positives == n) return std::nullopt;
+  for (int i = 0; i < n; ++i) {
+    w(i) = y(i) > 0 ? 0.5 / positives : 0.5 / (n - positives);
+  }
+  Eigen::Vector2d mean, scale;
+  for (int j = 0; j < 2; ++j) {
+    mean(j) = x.col(j).mean();
+    scale(j) = std::sqrt((x.col(j).array() - mean(j)).square().mean());
+    if (!(scale(j) > 0)) scale(j) = 1;
+    x.col(j) = (x.col(j).array() - mean(j)) / scale(j);
+  }
+  constexpr double kRidge = 1e-3;
+  Eigen::Vector3d beta = Eigen::Vector3d::Zero();
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    const Eigen::VectorXd p = ((-(x * beta).array()).exp() + 1).inverse().matrix();
+    const Eigen::VectorXd r = p.array() * (1 - p.array()) * w.array();
+    Eigen::Matrix3d hessian = x.transpose() * r.asDiagonal() * x;
+    Eigen::Vector3d gradient = x.transpose() * (w.array() * (y - p).array()).matrix();
+    hessian(0, 0) += kRidge;
+    hessian(1, 1) += kRidge;
+    gradient.head<2>() -= kRidge * beta.head<2>();
+    const Eigen::Vector3d delta = hessian.ldlt().solve(gradient);
+    if (!delta.allFinite()) return std::nullopt;
+    beta += delta;
+    if (delta.norm() < 1e-10) break;
+  }
+  AcceptanceRule rule;
+  rule.w_confidence = beta(0) / scale(0);
+  rule.w_distance = beta(1) / scale(1);
+  rule.bias = beta(2) - rule.w_confidence * mean(0) - rule.w_distance * mean(1);
+  if (!(rule.w_distance < 0) || !(rule.w_confidence >= 0) || !std::isfinite(rule.bias)) {
+    return std::nullopt;
+  }
+  return rule;
+}
+
+// The score with which each off-map row would be accepted (-infinity: it fails the
+// threshold, or the rule cannot score it).
+std::vector<double> OffMapScores(const MapCalibration& c) {
+  std::vector<double> s;
+  for (const CalibrationSample& x : c.off_map) {
+    s.push_back(x.passes_threshold ? c.rule.Score(x.confidence, x.match_distance)
+                                   : -std::numeric_limits<double>::infinity());
+  }
+  return s;
+}
+
+void FitRule(MapCalibration* c) {
+  std::vector<const CalibrationSample*> fit;
+  int right = 0;
+  for (const CalibrationSample& s : c->on_map) {
+    if (!std::isfinite(s.match_distance)) continue;
+    fit.push_back(&s);
+    right += s.right ? 1 : 0;
+  }
+  int off = 0;
+  for (const CalibrationSample& s : c->off_map) {
+    if (!std::isfinite(s.match_distance)) continue;
+    fit.push_back(&s);
+    ++off;
+  }
+  c->rule = AcceptanceRule();
+  c->uses_distance = false;
+  if (right >= kCalibrationMinSamples && off >= kCalibrationMinSamples) {
+    if (const std::optional<AcceptanceRule> rule = FitScore(fit)) {
+      c->rule = *rule;
+      c->uses_distance = true;
+    }
+  }
+  std::vector<double> scores = OffMapScores(*c);
+  std::sort(scores.begin(), scores.end());
+  const int n = static_cast<int>(scores.size());
+  const double k = std::ceil((1 - c->target_rate) * (n + 1));
+  c->rule.cut = k > n ? std::numeric_limits<double>::infinity()
+                      : scores[static_cast<size_t>(std::max(k, 1.0)) - 1];
+  c->off_map_accepted = 0;
+  for (double s : scores) c->off_map_accepted += s > c->rule.cut ? 1 : 0;
+  c->predicted_false_accept_rate = std::isinf(c->rule.cut) && c->rule.cut > 0
+                                       ? 0.0
+                                       : std::min(1.0, (c->off_map_accepted + 1.0) / (n + 1.0));
+  int accepted_right = 0;
+  for (const CalibrationSample& s : c->on_map) {
+    accepted_right += s.right && s.passes_threshold &&
+                      c->rule.Score(s.confidence, s.match_distance) > c->rule.cut;
+  }
+  c->recall = c->on_map.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                : static_cast<double>(accepted_right) / c->on_map.size();
+}
+
+}  // namespace
+
+std::string MapCalibration::Summary() const {
+  char line[512];
+  const int n = static_cast<int>(off_map.size());
+  std::string s = "on this map (" + method + "): ";
+  if (n == 0) return s + "not calibrated: " + note;
+  if (std::isinf(rule.cut) && rule.cut > 0) {
+    std::snprintf(line, sizeof line,
+                  "nothing is accepted: %d held-out off-map rows cannot vouch for a rate of "
+                  "%.3g%% (%d needed)",
+                  n, 100 * target_rate, static_cast<int>(std::ceil(1 / target_rate)) - 1);
+    s += line;
+  } else {
+    std::snprintf(line, sizeof line, "false acceptances %.2g%% (%d of %d held-out off-map rows)",
+                  100 * predicted_false_accept_rate, off_map_accepted, n);
+    s += line;
+  }
+  if (std::isnan(recall)) {
+    s += "; not applied: with one traversal its look-alikes are its own rows, of its own "
+         "condition, and recall is not measured";
+  } else {
+    std::snprintf(line, sizeof line, " at recall %.0f%% on %d held-out traversal rows",
+                  100 * recall, static_cast<int>(on_map.size()));
+    s += line;
+  }
+  s += uses_distance ? "; the match's distance weighed" : "; the confidence alone";
+  if (!note.empty()) s += "; " + note;
+  return s;
+}
+
+void CalibrationOptions::Validate() const { CalibrationOptionsTable().CheckValues(*this); }
+
+const OptionTable<CalibrationOptions>& CalibrationOptionsTable() {
+  static const OptionTable<CalibrationOptions> kTable = OptionTable<CalibrationOptions>().Add(
+      "max_false_accept_rate", [](auto& o) -> auto& { return o.max_false_accept_rate; },
+      "the map's own acceptance rule, learnt by holding its traversals and places out "
+      "(docs/method.md, 'What the map knows of itself'): at most this fraction of the queries "
+      "that show no place of the map are accepted; a match must pass it besides the "
+      "threshold; 0: the threshold alone",
+      "", {0, 1, false, true});
+  return kTable;
+}
+
+MapCalibration CalibrateMap(const ReferenceSets& map, DistanceMetric metric,
+                            const std::string& method_name, const MethodOptions& options,
+                            double max_false_accept_rate) {
+  const auto start = std::chrono::steady_clock::now();
+  const double alpha = max_false_accept_rate;
+  if (!(alpha > 0 && alpha < 1)) {
+    throw std::invalid_argument("max_false_accept_rate must lie in (0, 1) to calibrate, got " +
+                                std::to_string(alpha));
+  }
+  if (map.num_sets() == 0) throw std::invalid_argument("cannot calibrate an empty map");
+  const Method method = ParseMethod(method_name, map.SetNames());
+  MapCalibration c;
+  c.method = method.Name();
+  c.target_rate = alpha;
+  const int n = map.num_places();
+  for (int t = 0; t < map.num_sets(); ++t) {
+    try {
+      const HeldOut h = HoldOut(map, t, metric, method, options);
+      const int q = static_cast<int>(h.true_place.size());
+      std::vector<char> removed(static_cast<size_t>(n), 0);
+      if (map.num_sets() > 1) {
+        RunStream(map, h, method_name, options, removed, 0, 0, q, &c);
+        ++c.traversals_held_out;
+      }
+      for (int b = 0; b < kCalibrationBlocks; ++b) {
+        const int first = b * q / kCalibrationBlocks, last = (b + 1) * q / kCalibrationBlocks;
+        if (first >= last) continue;
+        std::fill(removed.begin(), removed.end(), 0);
+        for (int r = first; r < last; ++r) {
+          const int p = h.true_place[static_cast<size_t>(r)];
+          for (int i = std::max(0, p - kCalibrationTolerancePlaces);
+               i <= std::min(n - 1, p + kCalibrationTolerancePlaces); ++i) {
+            removed[static_cast<size_t>(i)] = 1;
+          }
+        }
+        RunStream(map, h, method_name, options, removed, std::max(0, first - kCalibrationLeadIn),
+                  first, last, &c);
+      }
+    } catch (const std::invalid_argument& e) {
+      if (!c.note.empty()) c.note += "; ";
+      c.note += "'" + map.set(t).name() + "' not held out: " + e.what();
+    }
+  }
+  FitRule(&c);
+  c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return c;
+}
+
+}  // namespace bsf_vpr

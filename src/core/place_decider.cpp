@@ -89,8 +89,7 @@ std::vector<SetDistances> SetViews(const PlaceLayout& layout, const QueryDistanc
 }
 
 // The query's distances to the joint representation, if any, checked to cover every place.
-std::vector<JointDistances> JointViews(const PlaceLayout& layout,
-                                       const QueryDistances& distances) {
+std::vector<JointDistances> JointViews(const PlaceLayout& layout, const QueryDistances& distances) {
   std::vector<JointDistances> joint;
   if (const std::optional<QueryDistances::Joint>& j = distances.joint()) {
     const RowMatrixXf& d = j->distances;
@@ -107,6 +106,8 @@ std::vector<JointDistances> JointViews(const PlaceLayout& layout,
 }
 
 }  // namespace
+
+void PlaceDecider::SetAcceptanceRule(std::optional<AcceptanceRule> rule) { rule_ = rule; }
 
 Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances& distances,
                                  bool update_state, std::optional<double> step_places) {
@@ -127,6 +128,7 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
   }
   if (!runner_) runner_ = std::make_unique<MethodRunner>(method_, options_);
   MethodRunner& runner = what_if ? *what_if : *runner_;
+  runner.SetAcceptanceRule(rule_);
 
   Recognition out;
   const bool all = distances.num_present() == layout.num_sets();

@@ -5,6 +5,7 @@ namespace bsf_vpr {
 void RecognizerOptions::Validate() const {
   method_options.Validate();
   first_stage.Validate();
+  calibration.Validate();
 }
 
 const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
@@ -20,7 +21,9 @@ const OptionTable<RecognizerOptions>& RecognizerOptionsTable() {
           .Include(
               MethodOptionsTable(), [](auto& o) -> auto& { return o.method_options; })
           .Include(
-              FirstStageOptionsTable(), [](auto& o) -> auto& { return o.first_stage; });
+              FirstStageOptionsTable(), [](auto& o) -> auto& { return o.first_stage; })
+          .Include(
+              CalibrationOptionsTable(), [](auto& o) -> auto& { return o.calibration; });
   return kTable;
 }
 

@@ -283,8 +283,9 @@ const OptionTable<CalibrationOptions>& CalibrationOptionsTable() {
       "the map's own acceptance rule, learnt by holding its traversals and places out "
       "(docs/method.md, 'What the map knows of itself'): at most this fraction of the queries "
       "that show no place of the map are accepted; a match must pass it besides the "
-      "threshold; 0: the threshold alone",
-      "", {0, 1, false, true});
+      "threshold; 0: the threshold alone. Not applied where the map holds one traversal "
+      "(reported only) or is sharded",
+      "", {0, 1, false, true}, /*live=*/true);
   return kTable;
 }
 

@@ -113,6 +113,7 @@ MapBackend::Query LocalMap::Ask(const QueryDescriptor& descriptor) {
   query.layout = layout_;
   bool changed = false;
   query.distances = ReadDistances(row, &changed);
+  query.acceptance_rule = calibrator_.rule();
   if (changed) DropChangedSets();  // the next query's layout is without them
   query.seconds = SecondsSince(start);
   return query;
@@ -214,6 +215,7 @@ std::string LocalMap::Unload(const std::string& name) {
 void LocalMap::Changed() {
   layout_ = std::make_shared<NumberedLayout>(sets_.layout(), ++generations_);
   RequestJoint();
+  calibrator_.Calibrate(sets_, metric_, layout_->generation);
   if (sets_.num_sets() == 0) {
     index_.reset();  // nothing to answer for; the next set starts a new basis
     stage_.Adopt(nullptr);
@@ -393,7 +395,14 @@ SetList LocalMap::List() const {
   SetList out;
   for (const StoredReferenceSet& s : sets_.sets()) out.sets.push_back(Summarize(s));
   out.num_places = sets_.num_places();
+  out.calibration = calibrator_.status();
   return out;
+}
+
+void LocalMap::SetCalibration(std::optional<CalibrationRequest> request) {
+  MutexLock lock(&mutex_);
+  calibrator_.SetRequest(std::move(request));
+  calibrator_.Calibrate(sets_, metric_, layout_->generation);
 }
 
 std::string LocalMap::DescriptorTypeMismatch(const std::string& type) const {
@@ -424,6 +433,7 @@ StatusValues LocalMap::Diagnose() const {
     first_stage = index_job_.busy() ? index_status_ + " (building a new index)" : index_status_;
   }
   StatusValues out = {{"joint representation", joint_status_}, {"first stage", first_stage}};
+  out.push_back({"calibration", calibrator_.status()});
   for (const auto& [name, why] : dropped_) {
     out.push_back({"unloaded, its file changed in place: " + name, why});
   }

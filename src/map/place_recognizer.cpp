@@ -40,12 +40,15 @@ void PlaceRecognizer::SetOptions(const RecognizerOptions& options) {
         "the distance and the first stage are the map's, fixed when the recogniser is made");
   }
   decider_.SetMethod(options.method, options.method_options, *map_->layout());  // may throw
-  options_ = options;  // the joint representation it needs is asked for at the next query
+  options_ = options;   // the joint representation it needs is asked for at the next query,
+  calibrated_ = false;  // and so is the calibration
 }
 
 void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
   const std::string name = set.name;
-  map_->SetJoint(std::nullopt, {});  // built once, at the next query, not after every set
+  map_->SetJoint(std::nullopt, {});    // built once, at the next query, not after every set
+  map_->SetCalibration(std::nullopt);  // the same
+  calibrated_ = false;
   map_->Add(std::move(set), "'" + name + "'");
   decider_.OnLayoutChanged(*map_->layout());
 }
@@ -53,6 +56,8 @@ void PlaceRecognizer::AddReferenceSet(ReferenceSet set) {
 void PlaceRecognizer::RemoveReferenceSet(const std::string& name) {
   decider_.CheckRemovable(name);
   map_->SetJoint(std::nullopt, {});
+  map_->SetCalibration(std::nullopt);
+  calibrated_ = false;
   map_->Unload(name);  // throws when it is not loaded
   decider_.OnLayoutChanged(*map_->layout());
 }
@@ -69,6 +74,11 @@ void PlaceRecognizer::Ready() {
                  options_.method_options.joint);
   map_->WaitForJoint();
   map_->WaitForIndex();
+  if (!calibrated_) {  // the map's own rule, for the options and sets now
+    map_->SetCalibration(CalibrationRequestOf(options_));
+    map_->WaitForCalibration();
+    calibrated_ = true;
+  }
 }
 
 QueryDistances PlaceRecognizer::Distances(const Eigen::Ref<const Eigen::VectorXf>& descriptor) {
@@ -86,6 +96,7 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
   query.values = descriptor.data();
   query.size = descriptor.size();
   const MapBackend::Query q = map_->Ask(query);
+  decider_.SetAcceptanceRule(q.acceptance_rule);
   return decider_.Decide(*q.layout, q.distances, update_state, step_places);
 }
 

@@ -15,6 +15,7 @@
 #include <tuple>
 #include <vector>
 
+#include "bsf_vpr/evaluation/synthetic.h"
 #include "bsf_vpr/io/reference_set_io.h"
 #include "bsf_vpr/map/local_map.h"
 
@@ -103,6 +104,47 @@ TEST_F(MapFixture, LoadsAsksAndUnloadsThroughThePlainInterface) {
   EXPECT_EQ(q.layout->num_sets(), 2);  // a layout never changes once made
 }
 
+// The map calibrates itself in the background for the request in force: each query then
+// carries the rule, List() and Diagnose() say what the map predicts, and the last rule
+// answers while a change of sets is calibrated again.
+TEST_F(MapFixture, TheMapCalibratesItselfInTheBackgroundAndQueriesCarryItsRule) {
+  SyntheticOptions opt;  // three traversals of 120 places (synthetic: the mechanics)
+  opt.num_places = 120;
+  opt.dimension = 16;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  for (int u = 0; u < 2; ++u) map->Add(data.map.set(u).ToReferenceSet(), "synthetic");
+  const std::vector<float> q(data.queries.row(3).data(), data.queries.row(3).data() + 16);
+  EXPECT_FALSE(Ask(q).acceptance_rule);  // none asked for
+  EXPECT_NE(map->List().calibration.find("none asked for"), std::string::npos);
+  map->SetCalibration(CalibrationRequest{"bsf+filter", MethodOptions(), 0.05});
+  map->WaitForCalibration();
+  const std::optional<AcceptanceRule> rule = Ask(q).acceptance_rule;
+  ASSERT_TRUE(rule) << map->List().calibration;
+  EXPECT_NE(map->List().calibration.find("on this map (bsf+filter): false acceptances"),
+            std::string::npos)
+      << map->List().calibration;
+  bool diagnosed = false;
+  for (const auto& [key, value] : map->Diagnose()) {
+    diagnosed |= key == "calibration" && value.find("at recall") != std::string::npos;
+  }
+  EXPECT_TRUE(diagnosed);
+  // A set added: the rule answers on while the three traversals are calibrated.
+  map->Add(data.map.set(2).ToReferenceSet(), "synthetic");
+  EXPECT_TRUE(Ask(q).acceptance_rule);
+  map->WaitForCalibration();
+  EXPECT_NE(map->List().calibration.find("on 360 held-out traversal rows"), std::string::npos)
+      << map->List().calibration;
+  // One traversal left: measured, not applied.
+  map->Unload("c0");
+  map->Unload("c1");
+  map->WaitForCalibration();
+  EXPECT_FALSE(Ask(q).acceptance_rule);
+  EXPECT_NE(map->List().calibration.find("one traversal"), std::string::npos)
+      << map->List().calibration;
+  map->SetCalibration(std::nullopt);
+  EXPECT_FALSE(Ask(q).acceptance_rule);
+}
+
 TEST_F(MapFixture, RefusalsNameTheProblemAndLeaveTheSetsAsTheyWere) {
   map->Load({"summer.yaml", "", "", ""}, nullptr);
   const MapBackend::Layout before = map->layout();
@@ -175,7 +217,7 @@ TEST_F(MapFixture, AShardsAnswerCarriesEverySetWithItsFingerprint) {
   EXPECT_NE(refused.error, "");
   EXPECT_TRUE(refused.set_names.empty());
   EXPECT_TRUE(refused.distances.empty());
-  EXPECT_EQ(shard.Diagnose().size(), 2u);
+  EXPECT_EQ(shard.Diagnose().size(), 3u);  // joint representation, first stage, calibration
   ASSERT_FALSE(log.empty());
   EXPECT_EQ(log[0], "loaded reference set 'summer' (5 places, dimension 4, float32)");
 }

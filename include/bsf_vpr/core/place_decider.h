@@ -58,6 +58,9 @@ class PlaceDecider {
   void CheckRemovable(const std::string& name) const;
   // Forgets what is carried between queries.
   void Reset();
+  // The map's acceptance rule (MapBackend::Query::acceptance_rule; nullopt: the threshold
+  // alone) for the queries from now on; the carried state is kept.
+  void SetAcceptanceRule(std::optional<AcceptanceRule> rule);
 
   // Decides one query from its distances to `layout`'s sets. With update_state, the carried
   // state is updated; without, the decider is left exactly as it was (a what-if query).
@@ -80,6 +83,7 @@ class PlaceDecider {
   std::string unresolved_ = "no layout given yet";  // why method_ is not resolved ("" if it is)
   std::unique_ptr<MethodRunner> runner_;            // null: built at the next Decide
   uint64_t joint_build_ = 0;  // the joint representation's build runner_ has seen (0: none)
+  std::optional<AcceptanceRule> rule_;
 };
 
 }  // namespace bsf_vpr

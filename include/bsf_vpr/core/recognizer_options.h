@@ -9,6 +9,7 @@
 #include "bsf_vpr/core/first_stage.h"
 #include "bsf_vpr/core/methods.h"
 #include "bsf_vpr/core/options.h"
+#include "bsf_vpr/core/self_calibration.h"
 
 namespace bsf_vpr {
 
@@ -20,12 +21,14 @@ struct RecognizerOptions {
   MethodOptions method_options;
   // Exact distances, or the compressed first stage for large maps (first_stage.h).
   FirstStageOptions first_stage;
+  // The map's own acceptance rule (self_calibration.h): max_false_accept_rate.
+  CalibrationOptions calibration;
 
   void Validate() const;  // throws std::invalid_argument naming the bad field
 };
 
-// The options of RecognizerOptions: method and the MethodOptionsTable() (the metric is the
-// loaded sets' own, chosen by whoever loads them).
+// The options of RecognizerOptions: method, the MethodOptionsTable(), the first stage's and
+// the calibration's (the metric is the loaded sets' own, chosen by whoever loads them).
 const OptionTable<RecognizerOptions>& RecognizerOptionsTable();
 
 }  // namespace bsf_vpr

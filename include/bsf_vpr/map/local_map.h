@@ -88,6 +88,9 @@ class LocalMap : public MapBackend {
   std::string DescriptorTypeMismatch(const std::string& type) const;
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
   void WaitForJoint() const override { joint_builder_.Wait(); }
+  void SetCalibration(std::optional<CalibrationRequest> request) override;
+  // Blocks until no calibration runs or waits (tests, benchmarks).
+  void WaitForCalibration() const { calibrator_.Wait(); }
   // Blocks until no build of the first stage's index runs or waits (tests, benchmarks).
   void WaitForIndex() const { index_job_.Wait(); }
   std::string Problem() const override;
@@ -178,6 +181,8 @@ class LocalMap : public MapBackend {
   // same name is loaded again.
   std::map<std::string, std::string> dropped_ GUARDED_BY(mutex_);
   std::string last_dropped_ GUARDED_BY(mutex_);  // Problem() names it
+  // Calibrates the sets in the background (its lock is a leaf: taken under mutex_).
+  MapCalibrator calibrator_;
   // Last: destroyed first, so that no build calls back into a map being destroyed.
   JointBuilder joint_builder_{[this](JointBuilder::Result r) { JointBuilt(std::move(r)); }};
   LatestJob index_job_;

@@ -28,6 +28,7 @@
 #include "bsf_vpr/core/place_layout.h"
 #include "bsf_vpr/core/query_distances.h"
 #include "bsf_vpr/core/reference_set.h"
+#include "bsf_vpr/map/map_calibrator.h"
 
 namespace bsf_vpr {
 
@@ -70,7 +71,8 @@ struct SetSummary {
 };
 struct SetList {
   std::vector<SetSummary> sets;
-  int num_places = 0;  // of the shared place index
+  int num_places = 0;       // of the shared place index
+  std::string calibration;  // what the map knows of itself (MapCalibrator::status)
 };
 
 // A map's diagnostics: key and value, in order (the node adds them to its status).
@@ -95,6 +97,9 @@ class MapBackend {
     QueryDistances distances;                 // set by set of *layout
     std::vector<std::string> missing_shards;  // shards whose sets are absent from it
     double seconds = 0;                       // time spent on the distances (slowest shard)
+    // The map's own acceptance rule (SetCalibration), as its latest calibration made it;
+    // nullopt: none (none asked for, none yet, one traversal, or a map that cannot).
+    std::optional<AcceptanceRule> acceptance_rule;
   };
   // A map that learns of queries and changes by itself (the sharded map: its shards hear
   // the descriptors and publish their sets) hands them on here, from its own threads, one
@@ -147,6 +152,12 @@ class MapBackend {
   // Blocks until no joint representation is being built (start-up; a sharded map's shards
   // build theirs on their own: it returns at once).
   virtual void WaitForJoint() const = 0;
+
+  // What the map calibrates itself for (map_calibrator.h; nullopt: nothing, the threshold
+  // alone), in the background after every change of sets, the previous calibration
+  // answering meanwhile; each query then carries its rule (Query::acceptance_rule). A map
+  // that cannot (a sharded map: its combiner holds no descriptors) says so in List().
+  virtual void SetCalibration(std::optional<CalibrationRequest> request) = 0;
 
   // Why the map works short of what it was asked ("" if it does not): shards missing, a
   // first stage that fell back to exact search. A warning in the node's diagnostics.

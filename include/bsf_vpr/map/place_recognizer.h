@@ -51,11 +51,12 @@ class PlaceRecognizer {
   std::shared_ptr<const ApproximateIndex> index();
 
   // Recognises the place of one descriptor (D floats): the map's query (LocalMap::Ask), then
-  // Decide. With update_state, the state carried between queries (prior, filter, sequence)
-  // is updated; without, the recogniser is left exactly as it was (a what-if query).
-  // `step_places` is the progress since the previous query from odometry, for +filter
-  // methods (nullopt: the filter's step distribution). Throws std::invalid_argument for a
-  // descriptor of the wrong dimension, with NaN/inf, or when no set is loaded.
+  // Decide, with the map's own acceptance rule where options().calibration asks for one. With
+  // update_state, the state carried between queries (prior, filter, sequence) is updated; without,
+  // the recogniser is left exactly as it was (a what-if query). `step_places` is the progress since
+  // the previous query from odometry, for +filter methods (nullopt: the filter's step
+  // distribution). Throws std::invalid_argument for a descriptor of the wrong dimension, with
+  // NaN/inf, or when no set is loaded.
   Recognition Recognize(const Eigen::Ref<const Eigen::VectorXf>& descriptor, bool update_state,
                         std::optional<double> step_places = std::nullopt);
   // The query's distances to every set and to the joint representation the method needs,
@@ -71,11 +72,14 @@ class PlaceRecognizer {
   const PlaceDecider& decider() const { return decider_; }
 
  private:
-  void Ready();  // asks for the joint the method needs; waits for the map's builds
+  // Asks for the joint the method needs and, where max_false_accept_rate asks for it, the
+  // map's calibration; waits for the map's builds.
+  void Ready();
 
   RecognizerOptions options_;
   std::unique_ptr<LocalMap> map_;  // movable with it
   PlaceDecider decider_;
+  bool calibrated_ = false;  // the map calibrated for options_ and the sets now
 };
 
 }  // namespace bsf_vpr

@@ -121,6 +121,7 @@ ReferenceSetInfo ToInfoMsg(const SetSummary& set) {
 void ToListResponse(const SetList& list, ListReferenceSets::Response* out) {
   for (const SetSummary& s : list.sets) out->sets.push_back(ToInfoMsg(s));
   out->num_places = list.num_places;
+  out->calibration = list.calibration;
 }
 
 QueryHeader ToQueryHeader(const std_msgs::Header& header) {

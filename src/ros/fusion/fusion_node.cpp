@@ -135,6 +135,7 @@ void FusionNode::StartParts() {
   const Method& method = decider_.method();
   map_->SetJoint(method.JointNeeded(params_.recognizer.method_options),
                  params_.recognizer.method_options.joint);
+  map_->SetCalibration(CalibrationRequestOf(params_.recognizer));
   // The configured sets' joint representation before the first descriptor, so that a replay
   // decides its first queries as the offline evaluation does (later changes of sets rebuild
   // it in the background).
@@ -408,6 +409,7 @@ std::optional<Recognition> FusionNode::DecideAndPublish(MapBackend::Query& query
   const auto start = std::chrono::steady_clock::now();
   Recognition r;
   try {
+    decider_.SetAcceptanceRule(query.acceptance_rule);
     r = decider_.Decide(*layout_, query.distances, true, OdometryStep(stamp));
   } catch (const std::exception& e) {
     RejectMessage(e.what());
@@ -471,6 +473,8 @@ void FusionNode::OnReconfigure(FusionConfig& config, uint32_t /*level*/) {
     }
     decider_.SetMethod(o.method, o.method_options, *layout_);
     map_->SetJoint(decider_.method().JointNeeded(o.method_options), o.method_options.joint);
+    params_.recognizer.calibration = o.calibration;
+    map_->SetCalibration(CalibrationRequestOf(o));  // the map calibrates for these afresh
     last_reconfigure_refusal_.clear();
     ROS_INFO("bsf_vpr: reconfigured: method %s, gamma %.3f, %s selection, %s likelihood",
              o.method.c_str(), o.method_options.selection.gamma_fraction,

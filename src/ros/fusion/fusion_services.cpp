@@ -116,6 +116,7 @@ bool FusionNode::OnQuery(QueryPlace::Request& req, QueryPlace::Response& res) {
     if (!AdoptLayout(query.layout)) {
       throw std::invalid_argument("the map's sets changed while the query was answered; ask again");
     }
+    decider_.SetAcceptanceRule(query.acceptance_rule);
     const Recognition r = decider_.Decide(*layout_, query.distances, false);
     res.belief.header = req.descriptor.header;
     ToBeliefMsg(r, *layout_, decider_, params_.belief_top_k, &res.belief);

@@ -85,6 +85,8 @@ class ShardedMap : public MapBackend {
   // fusion_joint) and serve its distances; each query takes, of the kind asked for, the one
   // over every place of the layout built from the most sets (the diagnostics say whose).
   void SetJoint(std::optional<JointKind> kind, const JointOptions& options) override;
+  // Nothing is calibrated: the combiner holds no descriptors (List() says so).
+  void SetCalibration(std::optional<CalibrationRequest> request) override;
   void WaitForJoint() const override {}
   std::string Problem() const override;
   StatusValues Diagnose() const override;
@@ -169,6 +171,7 @@ class ShardedMap : public MapBackend {
   mutable Mutex mutex_;
   // The kind the method asked for, and whose the last query took.
   std::optional<JointKind> joint_kind_ GUARDED_BY(mutex_);
+  bool calibration_asked_ GUARDED_BY(mutex_) = false;  // SetCalibration
   std::string joint_used_ GUARDED_BY(mutex_);
   std::condition_variable infos_changed_;  // a shard_info taken or refused
   std::vector<Shard> shards_ GUARDED_BY(mutex_);

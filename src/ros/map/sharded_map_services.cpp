@@ -18,6 +18,15 @@
 
 namespace bsf_vpr {
 
+namespace {
+
+// Why a sharded map does not calibrate itself.
+const char* const kCannotCalibrate =
+    "not calibrated: a sharded map's combiner holds no descriptors to hold out (the threshold "
+    "alone)";
+
+}  // namespace
+
 using namespace sharded;
 
 MapBackend::Query ShardedMap::Ask(const QueryDescriptor& descriptor) {
@@ -195,7 +204,15 @@ SetList ShardedMap::List() const {
     }
   }
   out.num_places = layout_->num_places();
+  out.calibration = calibration_asked_ ? kCannotCalibrate
+                                       : "none asked for (max_false_accept_rate 0: the threshold "
+                                         "alone)";
   return out;
+}
+
+void ShardedMap::SetCalibration(std::optional<CalibrationRequest> request) {
+  MutexLock lock(&mutex_);
+  calibration_asked_ = request.has_value();
 }
 
 std::string ShardedMap::MissingSummaryLocked() const {

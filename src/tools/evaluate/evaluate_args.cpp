@@ -75,7 +75,7 @@ Methods:
 Method options (the fusion node's parameters of the same names):
 )" + OptionsUsage(MethodOptionsTable().Infos()) +
          R"(
-The map's own acceptance rule (descriptor inputs; offline only for now):
+The map's own acceptance rule (descriptor inputs; the fusion node's parameter of the same name):
 )" + OptionsUsage(CalibrationOptionsTable().Infos()) +
          R"(
 Distances for large maps (descriptor inputs; the fusion node's parameters of the same names):

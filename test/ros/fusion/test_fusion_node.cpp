@@ -7,6 +7,7 @@
 #include <bsf_vpr/Descriptor.h>
 #include <bsf_vpr/ListReferenceSets.h>
 #include <bsf_vpr/LoadReferenceSet.h>
+#include <bsf_vpr/QueryPlace.h>
 #include <bsf_vpr/StartRecording.h>
 #include <bsf_vpr/StopRecording.h>
 #include <bsf_vpr/UnloadReferenceSet.h>
@@ -19,6 +20,7 @@
 #include <condition_variable>
 #include <filesystem>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <thread>
 
@@ -78,6 +80,7 @@ class FakeMap : public MapBackend {
       distances.push_back(d);
     }
     q.distances = QueryDistances::AllPresent(std::move(distances));
+    q.acceptance_rule = rule_;
     return q;
   }
   std::string Load(const LoadRequest& request, const SetCheck& check) override {
@@ -116,9 +119,29 @@ class FakeMap : public MapBackend {
       list.sets.push_back(summary);
     }
     list.num_places = layout_->num_places();
+    list.calibration = calibration_ ? "asked for " + calibration_->method : "none asked for";
     return list;
   }
   void SetJoint(std::optional<JointKind>, const JointOptions&) override {}
+  void SetCalibration(std::optional<CalibrationRequest> request) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    calibration_ = std::move(request);
+    ++calibration_requests_;
+  }
+  // What the node asked the map to calibrate for, and how many times.
+  std::optional<CalibrationRequest> calibration() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return calibration_;
+  }
+  int calibration_requests() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return calibration_requests_;
+  }
+  // The rule every query carries from now on, as a calibrated map's do.
+  void SetRule(std::optional<AcceptanceRule> rule) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rule_ = rule;
+  }
   void WaitForJoint() const override {}
   std::string Problem() const override { return ""; }
   StatusValues Diagnose() const override { return {{"fake map", "yes"}}; }
@@ -142,6 +165,9 @@ class FakeMap : public MapBackend {
   LoadMode mode_ = LoadMode::kLoad;
   bool released_ = false, stalling_ = false;
   int added_rows_ = 0;
+  std::optional<CalibrationRequest> calibration_;
+  int calibration_requests_ = 0;
+  std::optional<AcceptanceRule> rule_;
   ReferenceSets map_;
   Layout layout_;
   uint64_t generation_ = 0;
@@ -158,6 +184,7 @@ struct NodeFixture : ::testing::Test {
     ros::NodeHandle pnh(ns + "/fusion");
     pnh.setParam("method", "bsf");
     pnh.setParam("data_directory", data_dir.string());
+    SetParams(pnh);
     auto fake = std::make_unique<FakeMap>();
     map = fake.get();
     node = std::make_unique<FusionNode>(
@@ -176,6 +203,8 @@ struct NodeFixture : ::testing::Test {
       return descriptor_pub.getNumSubscribers() > 0 && belief_sub.getNumPublishers() > 0;
     });
   }
+  // Parameters of a fixture's own, set before the node starts.
+  virtual void SetParams(ros::NodeHandle& /*pnh*/) {}
   void TearDown() override {
     belief_sub.shutdown();
     descriptor_pub.shutdown();
@@ -245,6 +274,47 @@ TEST_F(NodeFixture, ADescriptorInGivesItsBeliefOut) {
     EXPECT_EQ(b.set_names, std::vector<std::string>{"summer"});
     EXPECT_EQ(b.header.frame_id, "camera");
   }
+}
+
+// A threshold the fake map's beliefs pass (one set of 10 places: confidence about -1.4).
+struct LaxFixture : NodeFixture {
+  void SetParams(ros::NodeHandle& pnh) override { pnh.setParam("threshold", 0.1); }
+};
+
+TEST_F(LaxFixture, TheRuleTheMapsQueriesCarryDecidesBesideTheThreshold) {
+  // max_false_accept_rate 0 (the default): the map is asked for no calibration.
+  EXPECT_GE(map->calibration_requests(), 1);
+  EXPECT_FALSE(map->calibration());
+  const Belief free = Recognise(5);
+  ASSERT_TRUE(free.accepted) << free.confidence;
+  AcceptanceRule none;
+  none.cut = std::numeric_limits<double>::infinity();
+  map->SetRule(none);
+  const Belief ruled = Recognise(5);
+  EXPECT_EQ(ruled.match, 5);
+  EXPECT_FALSE(ruled.accepted);
+  EXPECT_NEAR(ruled.confidence, free.confidence, 1e-9);  // the rule moves no confidence
+  EXPECT_FLOAT_EQ(ruled.match_distance, 0.0f);  // the query is place 5's own descriptor
+  QueryPlace query;  // a what-if query is decided with the rule too
+  query.request.descriptor.data = {5.0f, 0.0f, 0.0f, 0.0f};
+  query = Call(names::kQueryPlaceService, query);
+  EXPECT_TRUE(query.response.success);
+  EXPECT_FALSE(query.response.belief.accepted);
+  map->SetRule(std::nullopt);
+  EXPECT_TRUE(Recognise(5).accepted);
+}
+
+struct CalibratingFixture : NodeFixture {
+  void SetParams(ros::NodeHandle& pnh) override { pnh.setParam("max_false_accept_rate", 0.05); }
+};
+
+TEST_F(CalibratingFixture, TheNodeAsksItsMapToCalibrateForItsMethodAndRate) {
+  const std::optional<CalibrationRequest> asked = map->calibration();
+  ASSERT_TRUE(asked);
+  EXPECT_EQ(asked->method, "bsf");
+  EXPECT_DOUBLE_EQ(asked->max_false_accept_rate, 0.05);
+  EXPECT_EQ(Call<ListReferenceSets>(names::kListReferenceSetsService).response.calibration,
+            "asked for bsf");
 }
 
 TEST_F(NodeFixture, ALoadAndAnUnloadChangeTheSetsTheBeliefsFollow) {

@@ -1,0 +1,87 @@
+#include "bsf_vpr/map/map_calibrator.h"
+
+#include <cstdio>
+#include <exception>
+
+namespace bsf_vpr {
+
+std::optional<CalibrationRequest> CalibrationRequestOf(const RecognizerOptions& options) {
+  if (options.calibration.max_false_accept_rate == 0) return std::nullopt;
+  return CalibrationRequest{options.method, options.method_options,
+                            options.calibration.max_false_accept_rate};
+}
+
+void MapCalibrator::SetRequest(std::optional<CalibrationRequest> request) {
+  MutexLock lock(&mutex_);
+  request_ = std::move(request);
+  ++request_id_;
+  latest_.reset();
+  failed_.clear();
+}
+
+void MapCalibrator::Calibrate(const ReferenceSets& map, DistanceMetric metric,
+                              uint64_t generation) {
+  std::vector<StoredReferenceSet> sets = map.sets();  // copies share their rows
+  const double place_pose_tolerance_m = map.place_pose_tolerance_m();
+  MutexLock lock(&mutex_);
+  if (!request_ || sets.empty()) {
+    latest_.reset();
+    return;
+  }
+  const CalibrationRequest request = *request_;
+  const uint64_t id = request_id_;
+  running_ = "calibrating " + std::to_string(sets.size()) + " set(s) for " + request.method;
+  job_.Ask([this, sets = std::move(sets), metric, place_pose_tolerance_m, generation, request,
+            id]() mutable {
+    std::shared_ptr<const MapCalibration> done;
+    std::string error;
+    try {
+      ReferenceSets map;
+      map.SetStoragePrecision(sets.front().precision());
+      map.SetPlacePoseTolerance(place_pose_tolerance_m);
+      for (StoredReferenceSet& s : sets) map.Add(std::move(s));
+      done = std::make_shared<const MapCalibration>(CalibrateMap(
+          map, metric, request.method, request.options, request.max_false_accept_rate));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    MutexLock lock(&mutex_);
+    running_.clear();
+    if (id != request_id_) return;  // asked for something else since
+    failed_ = error;
+    if (done) {
+      latest_ = std::move(done);
+      latest_generation_ = generation;
+    }
+  });
+}
+
+std::shared_ptr<const MapCalibration> MapCalibrator::latest() const {
+  MutexLock lock(&mutex_);
+  return latest_;
+}
+
+std::optional<AcceptanceRule> MapCalibrator::rule() const {
+  MutexLock lock(&mutex_);
+  if (!latest_ || !latest_->usable()) return std::nullopt;
+  return latest_->rule;
+}
+
+std::string MapCalibrator::status() const {
+  MutexLock lock(&mutex_);
+  if (!request_) return "none asked for (max_false_accept_rate 0: the threshold alone)";
+  std::string s;
+  if (latest_) {
+    char took[48];
+    std::snprintf(took, sizeof took, " (%.1f s, layout %llu)", latest_->seconds,
+                  static_cast<unsigned long long>(latest_generation_));
+    s = latest_->Summary() + took;
+  } else {
+    s = "none yet";
+  }
+  if (!failed_.empty()) s += "; the last calibration failed: " + failed_;
+  if (!running_.empty()) s += "; " + running_ + (latest_ ? ", this one answers meanwhile" : "");
+  return s;
+}
+
+}  // namespace bsf_vpr

@@ -106,7 +106,7 @@ void DecideMatch(const DecisionOptions& options, const Evidence& evidence, Place
 
 double AcceptanceRule::Score(double confidence, double match_distance) const {
   if (std::isnan(confidence)) return -std::numeric_limits<double>::infinity();
-  const double c = std::clamp(confidence, -kMaxScoredConfidence, kMaxScoredConfidence);
+  const double c = std::clamp(confidence, -confidence_limit, confidence_limit);
   if (w_distance == 0) return w_confidence * c + bias;
   if (!std::isfinite(match_distance)) return -std::numeric_limits<double>::infinity();
   return w_confidence * c + w_distance * match_distance + bias;

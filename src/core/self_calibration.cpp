@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -57,7 +58,7 @@ HeldOut HoldOut(const ReferenceSets& map, int t, DistanceMetric metric, const Me
 // it, else off it.
 void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& method_name,
                const MethodOptions& options, const std::vector<char>& removed, int begin,
-               int sample_begin, int end, MapCalibration* out) {
+               int sample_begin, int end, int traversal, MapCalibration* out) {
   const int n = map.num_places();
   std::vector<int> renumbered(static_cast<size_t>(n), -1), original;
   std::vector<char> covered(static_cast<size_t>(n), 0);
@@ -123,6 +124,7 @@ void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& me
                                       joint_view.empty() ? nullptr : &joint_view);
     if (begin + q < sample_begin) continue;
     CalibrationSample s;
+    s.traversal = traversal;
     s.confidence = b.confidence;
     s.match_distance = b.match_distance;
     s.passes_threshold =
@@ -142,14 +144,15 @@ void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& me
 // the weights (not the bias) held near 0 by a small ridge, in standardised features; returns
 // the rule's weights and bias in the features' own units (cut left to the caller). nullopt
 // when the fit does not make a larger distance count against the match.
-std::optional<AcceptanceRule> FitScore(const std::vector<const CalibrationSample*>& samples) {
+std::optional<AcceptanceRule> FitScore(const std::vector<const CalibrationSample*>& samples,
+                                       double confidence_limit) {
   const int n = static_cast<int>(samples.size());
   Eigen::MatrixXd x(n, 3);
   Eigen::VectorXd y(n), w(n);
   int positives = 0;
   for (int i = 0; i < n; ++i) {
     const CalibrationSample& s = *samples[static_cast<size_t>(i)];
-    x(i, 0) = std::clamp(s.confidence, -kMaxScoredConfidence, kMaxScoredConfidence);
+    x(i, 0) = std::clamp(s.confidence, -confidence_limit, confidence_limit);
     x(i, 1) = s.match_distance;
     x(i, 2) = 1;
     y(i) = s.right ? 1 : 0;
@@ -182,6 +185,7 @@ std::optional<AcceptanceRule> FitScore(const std::vector<const CalibrationSample
     if (delta.norm() < 1e-10) break;
   }
   AcceptanceRule rule;
+  rule.confidence_limit = confidence_limit;
   rule.w_confidence = beta(0) / scale(0);
   rule.w_distance = beta(1) / scale(1);
   rule.bias = beta(2) - rule.w_confidence * mean(0) - rule.w_distance * mean(1);
@@ -191,40 +195,54 @@ std::optional<AcceptanceRule> FitScore(const std::vector<const CalibrationSample
   return rule;
 }
 
-// The score with which each off-map row would be accepted (-infinity: it fails the
-// threshold, or the rule cannot score it).
-std::vector<double> OffMapScores(const MapCalibration& c) {
-  std::vector<double> s;
-  for (const CalibrationSample& x : c.off_map) {
-    s.push_back(x.passes_threshold ? c.rule.Score(x.confidence, x.match_distance)
-                                   : -std::numeric_limits<double>::infinity());
-  }
-  return s;
-}
-
-void FitRule(MapCalibration* c) {
+// The score fitted on the samples of every traversal but `exclude` (-1: all), where there are
+// enough of them to fit; nullopt where there are not or the fit is not usable.
+std::optional<AcceptanceRule> FitExcluding(const MapCalibration& c, int exclude,
+                                           double confidence_limit) {
   std::vector<const CalibrationSample*> fit;
-  int right = 0;
-  for (const CalibrationSample& s : c->on_map) {
-    if (!std::isfinite(s.match_distance)) continue;
-    fit.push_back(&s);
-    right += s.right ? 1 : 0;
-  }
-  int off = 0;
-  for (const CalibrationSample& s : c->off_map) {
-    if (!std::isfinite(s.match_distance)) continue;
-    fit.push_back(&s);
-    ++off;
-  }
-  c->rule = AcceptanceRule();
-  c->uses_distance = false;
-  if (right >= kCalibrationMinSamples && off >= kCalibrationMinSamples) {
-    if (const std::optional<AcceptanceRule> rule = FitScore(fit)) {
-      c->rule = *rule;
-      c->uses_distance = true;
+  int right = 0, wrong = 0;
+  for (const std::vector<CalibrationSample>* samples : {&c.on_map, &c.off_map}) {
+    for (const CalibrationSample& s : *samples) {
+      if (s.traversal == exclude || !std::isfinite(s.match_distance) || std::isnan(s.confidence)) {
+        continue;
+      }
+      fit.push_back(&s);
+      (s.right ? right : wrong) += 1;
     }
   }
-  std::vector<double> scores = OffMapScores(*c);
+  if (right < kCalibrationMinSamples || wrong < kCalibrationMinSamples) return std::nullopt;
+  return FitScore(fit, confidence_limit);
+}
+
+void FitRule(MapCalibration* c, double confidence_limit) {
+  // Cross-fitted: the off-map rows of traversal t are scored by a fit made without t, so
+  // that the rows which set the cut played no part in the score (a score fitted on them
+  // would rank them too low, and the rate predicted too low with it). The rule in force is
+  // the fit on every traversal, with that cut.
+  std::vector<int> traversals;
+  for (const CalibrationSample& s : c->off_map) {
+    if (std::find(traversals.begin(), traversals.end(), s.traversal) == traversals.end()) {
+      traversals.push_back(s.traversal);
+    }
+  }
+  AcceptanceRule alone;  // the confidence alone
+  alone.confidence_limit = confidence_limit;
+  std::optional<AcceptanceRule> all = FitExcluding(*c, -1, confidence_limit);
+  std::vector<std::optional<AcceptanceRule>> folds;
+  for (int t : traversals) {
+    folds.push_back(all ? FitExcluding(*c, t, confidence_limit) : std::nullopt);
+    if (!folds.back()) all.reset();  // a fold without its fit: the confidence alone for all
+  }
+  c->rule = all ? *all : alone;
+  c->uses_distance = all.has_value();
+  std::vector<double> scores;
+  for (const CalibrationSample& x : c->off_map) {
+    const size_t fold =
+        std::find(traversals.begin(), traversals.end(), x.traversal) - traversals.begin();
+    const AcceptanceRule& by = all ? *folds[fold] : alone;
+    scores.push_back(x.passes_threshold ? by.Score(x.confidence, x.match_distance)
+                                        : -std::numeric_limits<double>::infinity());
+  }
   std::sort(scores.begin(), scores.end());
   const int n = static_cast<int>(scores.size());
   const double k = std::ceil((1 - c->target_rate) * (n + 1));
@@ -262,9 +280,12 @@ std::string MapCalibration::Summary() const {
                   100 * predicted_false_accept_rate, off_map_accepted, n);
     s += line;
   }
-  if (std::isnan(recall)) {
+  if (traversals_held_out == 0) {
     s += "; not applied: with one traversal its look-alikes are its own rows, of its own "
          "condition, and recall is not measured";
+  } else if (on_map.empty()) {
+    s += "; not applied: no other traversal shows the held-out traversals' places, so "
+         "recall is not measured";
   } else {
     std::snprintf(line, sizeof line, " at recall %.0f%% on %d held-out traversal rows",
                   100 * recall, static_cast<int>(on_map.size()));
@@ -291,7 +312,7 @@ const OptionTable<CalibrationOptions>& CalibrationOptionsTable() {
 
 MapCalibration CalibrateMap(const ReferenceSets& map, DistanceMetric metric,
                             const std::string& method_name, const MethodOptions& options,
-                            double max_false_accept_rate) {
+                            double max_false_accept_rate, const std::atomic<bool>* cancel) {
   const auto start = std::chrono::steady_clock::now();
   const double alpha = max_false_accept_rate;
   if (!(alpha > 0 && alpha < 1)) {
@@ -303,36 +324,65 @@ MapCalibration CalibrateMap(const ReferenceSets& map, DistanceMetric metric,
   MapCalibration c;
   c.method = method.Name();
   c.target_rate = alpha;
+  const auto cancelled = [cancel] {
+    if (cancel && cancel->load()) throw CalibrationCancelled();
+  };
+  const auto note = [&c](const std::string& what) {
+    c.note += (c.note.empty() ? "" : "; ") + what;
+  };
   const int n = map.num_places();
+  int64_t rows = 0;  // of every set, for the distances' budget
+  for (const StoredReferenceSet& s : map.sets()) rows += s.size();
   for (int t = 0; t < map.num_sets(); ++t) {
+    cancelled();
+    const std::string name = "'" + map.set(t).name() + "'";
+    const int64_t others = map.num_sets() > 1 ? rows - map.set(t).size() : rows;
+    if (int64_t{map.set(t).size()} * others > kCalibrationMaxDistances) {
+      note(name + " not held out: its " + std::to_string(map.set(t).size()) + " rows against " +
+           std::to_string(others) + " exceed the calibration's distances (" +
+           std::to_string(kCalibrationMaxDistances) + ")");
+      continue;
+    }
+    std::optional<HeldOut> h;
     try {
-      const HeldOut h = HoldOut(map, t, metric, method, options);
-      const int q = static_cast<int>(h.true_place.size());
-      std::vector<char> removed(static_cast<size_t>(n), 0);
-      if (map.num_sets() > 1) {
-        RunStream(map, h, method_name, options, removed, 0, 0, q, &c);
-        ++c.traversals_held_out;
-      }
-      for (int b = 0; b < kCalibrationBlocks; ++b) {
-        const int first = b * q / kCalibrationBlocks, last = (b + 1) * q / kCalibrationBlocks;
-        if (first >= last) continue;
-        std::fill(removed.begin(), removed.end(), 0);
-        for (int r = first; r < last; ++r) {
-          const int p = h.true_place[static_cast<size_t>(r)];
-          for (int i = std::max(0, p - kCalibrationTolerancePlaces);
-               i <= std::min(n - 1, p + kCalibrationTolerancePlaces); ++i) {
-            removed[static_cast<size_t>(i)] = 1;
-          }
-        }
-        RunStream(map, h, method_name, options, removed, std::max(0, first - kCalibrationLeadIn),
-                  first, last, &c);
-      }
+      h = HoldOut(map, t, metric, method, options);
     } catch (const std::invalid_argument& e) {
-      if (!c.note.empty()) c.note += "; ";
-      c.note += "'" + map.set(t).name() + "' not held out: " + e.what();
+      note(name + " not held out: " + e.what());
+      continue;
+    }
+    const int q = static_cast<int>(h->true_place.size());
+    std::vector<char> removed(static_cast<size_t>(n), 0);
+    // Each stream on its own: one the method cannot run (nn:<set> of a set it holds out, a
+    // stretch that takes every row of the set the method names) is left out and named.
+    const auto stream = [&](const std::string& what, int begin, int sample_begin, int end) {
+      cancelled();
+      try {
+        RunStream(map, *h, method_name, options, removed, begin, sample_begin, end, t, &c);
+        return true;
+      } catch (const std::invalid_argument& e) {
+        note(name + " " + what + " not held out: " + e.what());
+        return false;
+      }
+    };
+    if (map.num_sets() > 1 && stream("against the others", 0, 0, q)) ++c.traversals_held_out;
+    for (int b = 0; b < kCalibrationBlocks; ++b) {
+      const int first = b * q / kCalibrationBlocks, last = (b + 1) * q / kCalibrationBlocks;
+      if (first >= last) continue;
+      std::fill(removed.begin(), removed.end(), 0);
+      for (int r = first; r < last; ++r) {
+        const int p = h->true_place[static_cast<size_t>(r)];
+        for (int i = std::max(0, p - kCalibrationTolerancePlaces);
+             i <= std::min(n - 1, p + kCalibrationTolerancePlaces); ++i) {
+          removed[static_cast<size_t>(i)] = 1;
+        }
+      }
+      stream("stretch " + std::to_string(b + 1), std::max(0, first - kCalibrationLeadIn), first,
+             last);
     }
   }
-  FitRule(&c);
+  // A distance method's confidence is minus its distance: scored as it is, not clamped.
+  FitRule(&c, method.IsBayesian() || method.sequence ? kMaxScoredConfidence
+                                                     : std::numeric_limits<double>::infinity());
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return c;
 }

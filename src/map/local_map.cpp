@@ -401,8 +401,9 @@ SetList LocalMap::List() const {
 
 void LocalMap::SetCalibration(std::optional<CalibrationRequest> request) {
   MutexLock lock(&mutex_);
-  calibrator_.SetRequest(std::move(request));
-  calibrator_.Calibrate(sets_, metric_, layout_->generation);
+  if (calibrator_.SetRequest(std::move(request))) {
+    calibrator_.Calibrate(sets_, metric_, layout_->generation);
+  }
 }
 
 std::string LocalMap::DescriptorTypeMismatch(const std::string& type) const {

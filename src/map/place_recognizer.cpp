@@ -102,6 +102,7 @@ Recognition PlaceRecognizer::Recognize(const Eigen::Ref<const Eigen::VectorXf>& 
 
 Recognition PlaceRecognizer::Decide(const QueryDistances& distances, bool update_state,
                                     std::optional<double> step_places) {
+  decider_.SetAcceptanceRule(map_->acceptance_rule());
   return decider_.Decide(*map_->layout(), distances, update_state, step_places);
 }
 

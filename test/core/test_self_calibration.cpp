@@ -201,7 +201,7 @@ TEST(SelfCalibration, ATraversalTheMethodNeedsIsNotHeldOutAndBadInputIsRefused) 
   const MapCalibration c =
       CalibrateMap(data.map, DistanceMetric::kEuclidean, "nn:c1", MethodOptions(), 0.05);
   EXPECT_EQ(c.traversals_held_out, 2);  // c0 and c2; nn:c1 cannot run without c1
-  EXPECT_NE(c.note.find("'c1' not held out"), std::string::npos) << c.note;
+  EXPECT_NE(c.note.find("'c1' against the others not held out"), std::string::npos) << c.note;
   EXPECT_THROW(CalibrateMap(data.map, DistanceMetric::kEuclidean, "bsf", {}, 0),
                std::invalid_argument);
   EXPECT_THROW(CalibrateMap(data.map, DistanceMetric::kEuclidean, "bsf", {}, 1),
@@ -244,6 +244,67 @@ TEST(SelfCalibration, TheEvaluatorAppliesEachMethodsRule) {
   EXPECT_GT(accepted[0], 0);
   in.acceptance_rules = {none};
   EXPECT_THROW(EvaluateMethods(in, methods, {}, data.truth), std::invalid_argument);
+}
+
+TEST(SelfCalibration, TooFewOffMapRowsForTheRateAcceptNothingAndSaySo) {
+  SyntheticOptions opt;
+  opt.num_places = 20;  // 2 x 20 held-out off-map rows cannot vouch for 1% (99 needed)
+  opt.set_noise = {0.3, 0.3};
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  const MapCalibration c =
+      CalibrateMap(data.map, DistanceMetric::kEuclidean, "bsf", MethodOptions(), 0.01);
+  EXPECT_EQ(c.off_map.size(), 40u);
+  EXPECT_TRUE(std::isinf(c.rule.cut) && c.rule.cut > 0);
+  EXPECT_EQ(c.predicted_false_accept_rate, 0);
+  EXPECT_EQ(c.recall, 0);
+  EXPECT_NE(c.Summary().find("nothing is accepted: 40 held-out off-map rows cannot vouch for a "
+                             "rate of 1% (99 needed)"),
+            std::string::npos)
+      << c.Summary();
+}
+
+TEST(SelfCalibration, TraversalsOfDisjointStretchesMeasureNoRecallAndAreNotApplied) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  opt.set_noise = {0.3, 0.3};
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  ReferenceSets split;  // c0 shows places 0-59, c1 places 60-119
+  for (int u = 0; u < 2; ++u) {
+    ReferenceSet r = data.map.set(u).ToReferenceSet();
+    ReferenceSet half;
+    half.name = r.name;
+    half.descriptors = r.descriptors.middleRows(60 * u, 60);
+    half.place_ids.assign(r.place_ids.begin() + 60 * u, r.place_ids.begin() + 60 * (u + 1));
+    split.Add(std::move(half));
+  }
+  const MapCalibration c =
+      CalibrateMap(split, DistanceMetric::kEuclidean, "bsf", MethodOptions(), 0.05);
+  EXPECT_TRUE(c.on_map.empty());  // no other traversal shows a held-out row's place
+  EXPECT_FALSE(c.usable());
+  EXPECT_NE(c.Summary().find("no other traversal shows"), std::string::npos) << c.Summary();
+}
+
+TEST(SelfCalibration, ADistanceMethodsConfidenceIsScoredUnclamped) {
+  SyntheticOptions opt;
+  opt.num_places = 150;
+  opt.set_noise = {0.35, 0.35, 0.35};
+  SyntheticData data = GenerateMultiConditionData(opt);
+  ReferenceSets far;  // every descriptor 1000 times larger: distances far beyond 30
+  for (const StoredReferenceSet& s : data.map.sets()) {
+    ReferenceSet r = s.ToReferenceSet();
+    r.descriptors *= 1000.0f;
+    far.Add(std::move(r));
+  }
+  MethodOptions options;
+  options.decision.max_match_distance = 1e9;  // the rule alone decides
+  const MapCalibration c = CalibrateMap(far, DistanceMetric::kEuclidean, "med", options, 0.05);
+  ASSERT_TRUE(c.usable()) << c.Summary();
+  EXPECT_TRUE(std::isinf(c.rule.confidence_limit));
+  EXPECT_GT(c.recall, 0.1) << c.Summary();
+  // Clamped at -30, a distance of 1000 and one of 2000 would score alike.
+  AcceptanceRule alone = c.rule;
+  alone.w_distance = 0;
+  EXPECT_GT(alone.Score(-1000, 0), alone.Score(-2000, 0));
 }
 
 }  // namespace

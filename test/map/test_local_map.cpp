@@ -128,6 +128,13 @@ TEST_F(MapFixture, TheMapCalibratesItselfInTheBackgroundAndQueriesCarryItsRule) 
     diagnosed |= key == "calibration" && value.find("at recall") != std::string::npos;
   }
   EXPECT_TRUE(diagnosed);
+  // The same request again is nothing new; another keeps the last rule answering meanwhile.
+  map->SetCalibration(CalibrationRequest{"bsf+filter", MethodOptions(), 0.05});
+  EXPECT_EQ(map->List().calibration.find("calibrating"), std::string::npos);
+  map->SetCalibration(CalibrationRequest{"bsf+filter", MethodOptions(), 0.1});
+  EXPECT_TRUE(Ask(q).acceptance_rule);
+  map->WaitForCalibration();
+  EXPECT_TRUE(Ask(q).acceptance_rule);
   // A set added: the rule answers on while the three traversals are calibrated.
   map->Add(data.map.set(2).ToReferenceSet(), "synthetic");
   EXPECT_TRUE(Ask(q).acceptance_rule);

@@ -79,11 +79,14 @@ struct Evidence {
 
 // The map's own acceptance rule (self_calibration.h), learnt by holding its traversals and
 // places out: a match is accepted only if, besides passing the threshold,
-//   w_confidence * min(max(confidence, -kMaxScoredConfidence), kMaxScoredConfidence)
+//   w_confidence * min(max(confidence, -confidence_limit), confidence_limit)
 //     + w_distance * match_distance + bias > cut.
 // The score is the log-odds that the match is right given the two (a logistic fit); with
 // w_distance 0 it is the confidence alone. cut = +infinity accepts nothing.
 struct AcceptanceRule {
+  // Bayesian and +seq methods: kMaxScoredConfidence; a distance method's confidence (minus
+  // its distance) is not clamped: +infinity.
+  double confidence_limit = 30;
   double w_confidence = 1;
   double w_distance = 0;
   double bias = 0;

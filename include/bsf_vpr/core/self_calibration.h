@@ -14,15 +14,21 @@
 //                 queried against itself so held out (reported, not enforced: usable())
 //
 // From these: the score, the log-odds that a match is right from its confidence and its
-// distance (a logistic fit on the right matches against the wrong and off-map ones, with
-// the right ones' distances; the confidence alone when there are fewer than
-// kCalibrationMinSamples of either), and the cut, the smallest score that at most
-// max_false_accept_rate of the off-map rows pass (with the threshold): the conformal
-// quantile, the ceil((1 - alpha)(n + 1))-th of n, so that a new off-map query from the same
-// route passes with probability at most alpha. Nothing is fitted on live queries.
+// distance (a logistic fit on the right matches against the wrong and off-map ones; the
+// confidence alone when there are fewer than kCalibrationMinSamples of either), and the
+// cut, the ceil((1 - alpha)(n + 1))-th smallest of the n off-map rows' scores (a row that
+// fails the threshold scores -infinity), each row scored by a fit made without its own
+// traversal (cross-fitting). Were the rows exchangeable with new off-map queries, a new one
+// would pass with probability at most alpha (the conformal bound); they are not quite (the
+// rows of a stream share its state, the live map holds one traversal more), so the rate is
+// a prediction, measured against held-back routes in docs/results.md. Nothing is fitted on
+// live queries.
 #pragma once
 
+#include <atomic>
+#include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -42,8 +48,11 @@ constexpr int kCalibrationLeadIn = 20;
 // A match within this many places of the row's place is right; the places this far either
 // side of a held-out stretch go with it (their images look alike).
 constexpr int kCalibrationTolerancePlaces = 2;
-// Fewer right matches or off-map rows than this: the score is the confidence alone.
+// Fewer right matches or wrong ones than this: the score is the confidence alone.
 constexpr int kCalibrationMinSamples = 20;
+// At most this many distances of one held-out traversal to the sets it is queried against
+// (4 bytes each: 1 GiB): a larger traversal is not held out, and the calibration says so.
+constexpr int64_t kCalibrationMaxDistances = int64_t{1} << 28;
 
 struct CalibrationOptions {
   // The rate of false acceptances of queries that show no place of the map the rule is
@@ -56,6 +65,7 @@ const OptionTable<CalibrationOptions>& CalibrationOptionsTable();
 
 // One held-out row's outcome.
 struct CalibrationSample {
+  int traversal = 0;  // the set held out as queries
   double confidence = 0;
   double match_distance = 0;  // NaN: no used set covers the match
   bool passes_threshold = false;
@@ -78,12 +88,12 @@ struct MapCalibration {
   double seconds = 0;
   std::string note;  // what it could not measure ("" if nothing)
 
-  // Whether the rule vouches for new queries: some off-map rows were measured with a
-  // traversal held out. With one traversal the only look-alikes are its own rows against
-  // itself, of its own condition: closer than a query of another condition ever comes, so a
-  // cut set on them turns down right matches too (measured: docs/results.md, Study 8). The
-  // rate is then reported, not enforced.
-  bool usable() const { return !off_map.empty() && traversals_held_out > 0; }
+  // Whether the rule vouches for new queries: off-map and on-map rows were measured with a
+  // traversal held out (on-map rows: another traversal shows its places). With one traversal the
+  // only look-alikes are its own rows against itself, of its own condition: closer than a query of
+  // another condition ever comes, so a cut set on them turns down right matches too (measured:
+  // docs/results.md, Study 8). The rate is then reported, not enforced.
+  bool usable() const { return !off_map.empty() && !on_map.empty() && traversals_held_out > 0; }
 
   // One line: "on this map: false acceptances x% at recall y% on held-out traversals ...".
   std::string Summary() const;
@@ -91,9 +101,16 @@ struct MapCalibration {
 
 // Calibrates `method` with `options` on the sets of `map` (descriptors of one dimension),
 // the distance `metric`, for `max_false_accept_rate`. Throws std::invalid_argument when the
-// map is empty or the rate is not in (0, 1).
+// map is empty or the rate is not in (0, 1), and CalibrationCancelled once `cancel` (if
+// given) is set, checked between streams.
+// What CalibrateMap throws when `cancel` was set.
+struct CalibrationCancelled : std::runtime_error {
+  CalibrationCancelled() : std::runtime_error("calibration cancelled") {}
+};
+
 MapCalibration CalibrateMap(const ReferenceSets& map, DistanceMetric metric,
                             const std::string& method, const MethodOptions& options,
-                            double max_false_accept_rate);
+                            double max_false_accept_rate,
+                            const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace bsf_vpr

@@ -91,6 +91,8 @@ class LocalMap : public MapBackend {
   void SetCalibration(std::optional<CalibrationRequest> request) override;
   // Blocks until no calibration runs or waits (tests, benchmarks).
   void WaitForCalibration() const { calibrator_.Wait(); }
+  // The rule of the map's latest calibration (what each query carries; nullopt: none).
+  std::optional<AcceptanceRule> acceptance_rule() const { return calibrator_.rule(); }
   // Blocks until no build of the first stage's index runs or waits (tests, benchmarks).
   void WaitForIndex() const { index_job_.Wait(); }
   std::string Problem() const override;

@@ -161,7 +161,8 @@ std::string ShardedMap::Load(const LoadRequest& request, const SetCheck&) {
   LoadReferenceSet forward;
   forward.request = ToLoadRequestMsg(request);
   forward.request.shard.clear();
-  return Route(shard, names::kLoadReferenceSetService, &forward, options_.sharding.shard_load_timeout);
+  return Route(shard, names::kLoadReferenceSetService, &forward,
+               options_.sharding.shard_load_timeout);
 }
 
 std::string ShardedMap::Unload(const std::string& name) {
@@ -258,6 +259,7 @@ StatusValues ShardedMap::Diagnose() const {
           ? "none: no shard serves the " + ToString(*joint_kind_) +
                 " of two or more sets over every place (shard parameter fusion_joint)"
           : ToString(*joint_kind_) + " from shard " + joint_used_);
+  add("calibration", calibration_asked_ ? kCannotCalibrate : "none asked for");
   add("shards", std::to_string(shards_.size()));
   add("map layouts taken", std::to_string(layouts_));
   add("queries decided", std::to_string(decided_));

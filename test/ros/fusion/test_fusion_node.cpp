@@ -11,6 +11,7 @@
 #include <bsf_vpr/StartRecording.h>
 #include <bsf_vpr/StopRecording.h>
 #include <bsf_vpr/UnloadReferenceSet.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <unistd.h>
@@ -294,7 +295,7 @@ TEST_F(LaxFixture, TheRuleTheMapsQueriesCarryDecidesBesideTheThreshold) {
   EXPECT_EQ(ruled.match, 5);
   EXPECT_FALSE(ruled.accepted);
   EXPECT_NEAR(ruled.confidence, free.confidence, 1e-9);  // the rule moves no confidence
-  EXPECT_FLOAT_EQ(ruled.match_distance, 0.0f);  // the query is place 5's own descriptor
+  EXPECT_FLOAT_EQ(ruled.match_distance, 0.0f);           // the query is place 5's own descriptor
   QueryPlace query;  // a what-if query is decided with the rule too
   query.request.descriptor.data = {5.0f, 0.0f, 0.0f, 0.0f};
   query = Call(names::kQueryPlaceService, query);
@@ -315,6 +316,20 @@ TEST_F(CalibratingFixture, TheNodeAsksItsMapToCalibrateForItsMethodAndRate) {
   EXPECT_DOUBLE_EQ(asked->max_false_accept_rate, 0.05);
   EXPECT_EQ(Call<ListReferenceSets>(names::kListReferenceSetsService).response.calibration,
             "asked for bsf");
+  // Reconfigured live (dynparam): the map is asked for the new rate, and for none at 0.
+  const auto reconfigure = [this](double rate) {
+    dynamic_reconfigure::Reconfigure rc;
+    dynamic_reconfigure::DoubleParameter p;
+    p.name = "max_false_accept_rate";
+    p.value = rate;
+    rc.request.config.doubles.push_back(p);
+    EXPECT_TRUE(ros::service::call(ns + "/fusion/set_parameters", rc));
+  };
+  reconfigure(0.02);
+  ASSERT_TRUE(map->calibration());
+  EXPECT_DOUBLE_EQ(map->calibration()->max_false_accept_rate, 0.02);
+  reconfigure(0);
+  EXPECT_FALSE(map->calibration());
 }
 
 TEST_F(NodeFixture, ALoadAndAnUnloadChangeTheSetsTheBeliefsFollow) {

@@ -52,35 +52,39 @@ HeldOut HoldOut(const ReferenceSets& map, int t, DistanceMetric metric, const Me
   return h;
 }
 
-// Rows [begin, end) of `h` run in order through `method_name` against the map without the
-// places `removed` marks (the others renumbered in order, so that the route closes over the
-// gap); the rows from sample_begin on are sampled, on the map if their place is still in
-// it, else off it.
-void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& method_name,
-               const MethodOptions& options, const std::vector<char>& removed, int begin,
-               int sample_begin, int end, int traversal, MapCalibration* out) {
+// The map a stream runs against: the sets `h` is queried against without the places
+// `removed` marks, the others renumbered in order (so that the route closes over the gap),
+// and rows [begin, end) of the held-out traversal's distances to it.
+struct CutMap {
+  std::vector<int> renumbered;  // per place of the map: its number here, -1 if not here
+  std::vector<int> original;    // per place here: its number in the map
+  std::vector<RowMatrixXf> distances;
+  std::vector<std::vector<int>> place_ids;
+  std::vector<std::string> names;
+  RowMatrixXf joint;  // rows x places here (empty: none)
+  int places() const { return static_cast<int>(original.size()); }
+};
+
+CutMap Cut(const ReferenceSets& map, const HeldOut& h, const std::vector<char>& removed, int begin,
+           int end) {
   const int n = map.num_places();
-  std::vector<int> renumbered(static_cast<size_t>(n), -1), original;
+  CutMap cut;
+  cut.renumbered.assign(static_cast<size_t>(n), -1);
   std::vector<char> covered(static_cast<size_t>(n), 0);
   for (int u : h.sets) {
     for (int p : map.set(u).place_ids()) covered[static_cast<size_t>(p)] = 1;
   }
   for (int p = 0; p < n; ++p) {
     if (!covered[static_cast<size_t>(p)] || removed[static_cast<size_t>(p)]) continue;
-    renumbered[static_cast<size_t>(p)] = static_cast<int>(original.size());
-    original.push_back(p);
+    cut.renumbered[static_cast<size_t>(p)] = cut.places();
+    cut.original.push_back(p);
   }
-  const int kept_places = static_cast<int>(original.size());
-  if (kept_places == 0) return;
   const int rows = end - begin;
-  std::vector<RowMatrixXf> dist;
-  std::vector<std::vector<int>> ids;
-  std::vector<std::string> names;
-  for (size_t k = 0; k < h.sets.size(); ++k) {
+  for (size_t k = 0; k < h.sets.size() && cut.places() > 0; ++k) {
     const std::vector<int>& place_ids = map.set(h.sets[k]).place_ids();
     std::vector<int> cols, kept_ids;
     for (int c = 0; c < static_cast<int>(place_ids.size()); ++c) {
-      const int to = renumbered[static_cast<size_t>(place_ids[static_cast<size_t>(c)])];
+      const int to = cut.renumbered[static_cast<size_t>(place_ids[static_cast<size_t>(c)])];
       if (to < 0) continue;
       cols.push_back(c);
       kept_ids.push_back(to);
@@ -92,18 +96,33 @@ void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& me
         d(q, static_cast<int>(c)) = h.distances[k](begin + q, cols[c]);
       }
     }
-    dist.push_back(std::move(d));
-    ids.push_back(std::move(kept_ids));
-    names.push_back(map.set(h.sets[k]).name());
+    cut.distances.push_back(std::move(d));
+    cut.place_ids.push_back(std::move(kept_ids));
+    cut.names.push_back(map.set(h.sets[k]).name());
   }
-  if (dist.empty()) return;
-  RowMatrixXf joint;
-  if (h.joint.size() > 0) {
-    joint.resize(rows, kept_places);
+  if (h.joint.size() > 0 && !cut.distances.empty()) {
+    cut.joint.resize(rows, cut.places());
     for (int q = 0; q < rows; ++q) {
-      for (int i = 0; i < kept_places; ++i) joint(q, i) = h.joint(begin + q, original[i]);
+      for (int i = 0; i < cut.places(); ++i) cut.joint(q, i) = h.joint(begin + q, cut.original[i]);
     }
   }
+  return cut;
+}
+
+// Rows [begin, end) of `h` run in order through `method_name` against the map without the
+// places `removed` marks (Cut); the rows from sample_begin on are sampled, on the map if
+// their place is still in it, else off it.
+void RunStream(const ReferenceSets& map, const HeldOut& h, const std::string& method_name,
+               const MethodOptions& options, const std::vector<char>& removed, int begin,
+               int sample_begin, int end, int traversal, MapCalibration* out) {
+  const CutMap cut = Cut(map, h, removed, begin, end);
+  if (cut.distances.empty()) return;
+  const int rows = end - begin, kept_places = cut.places();
+  const std::vector<RowMatrixXf>& dist = cut.distances;
+  const std::vector<std::vector<int>>& ids = cut.place_ids;
+  const std::vector<int>&renumbered = cut.renumbered, &original = cut.original;
+  const RowMatrixXf& joint = cut.joint;
+  const std::vector<std::string>& names = cut.names;
   const Method method = ParseMethod(method_name, names);  // throws: a set it names is held out
   MethodRunner runner(method, options);
   const double h_log_odds = options.decision.threshold.LogOdds();

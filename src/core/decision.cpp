@@ -142,8 +142,10 @@ void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelie
             const AcceptanceRule* rule) {
   DecideMatch(options, evidence, belief);
   PlaceBelief& b = *belief;
-  b.match_distance = evidence.sets ? MatchDistanceOf(b, *evidence.sets, evidence.available).distance
-                                   : std::numeric_limits<double>::quiet_NaN();
+  const MatchDistance d =
+      evidence.sets ? MatchDistanceOf(b, *evidence.sets, evidence.available) : MatchDistance();
+  b.match_distance = d.distance;
+  b.match_distance_set = d.set;
   if (rule != nullptr && b.accepted)
     b.accepted = rule->Score(b.confidence, b.match_distance) > rule->cut;
 }

@@ -135,7 +135,7 @@ Recognition PlaceDecider::Decide(const PlaceLayout& layout, const QueryDistances
   out.belief = runner.Step(views, layout.num_places(), nullptr, step_places, update_state,
                            all ? nullptr : &available, &joint);
   out.missing_sets = distances.Absent();
-  out.closest_set = MatchDistanceOf(out.belief, views).set;
+  out.closest_set = out.belief.match_distance_set;  // the decision found it
   return out;
 }
 

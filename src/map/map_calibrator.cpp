@@ -36,15 +36,15 @@ bool MapCalibrator::SetRequest(std::optional<CalibrationRequest> request) {
 
 void MapCalibrator::Calibrate(const ReferenceSets& map, DistanceMetric metric,
                               uint64_t generation) {
-  std::vector<StoredReferenceSet> sets = map.sets();  // copies share their rows
-  const double place_pose_tolerance_m = map.place_pose_tolerance_m();
   MutexLock lock(&mutex_);
   if (cancel_) *cancel_ = true;  // the sets changed: what runs is for others
-  if (!request_ || sets.empty()) {
+  if (!request_ || map.num_sets() == 0) {
     ++request_id_;  // nor is one still running for sets that are gone
     latest_.reset();
     return;
   }
+  std::vector<StoredReferenceSet> sets = map.sets();  // copies share their rows
+  const double place_pose_tolerance_m = map.place_pose_tolerance_m();
   const CalibrationRequest request = *request_;
   const uint64_t id = request_id_;
   cancel_ = std::make_shared<std::atomic<bool>>(false);

@@ -215,16 +215,8 @@ TEST(SelfCalibration, ATraversalTheMethodNeedsIsNotHeldOutAndBadInputIsRefused) 
 
 TEST(SelfCalibration, TheEvaluatorAppliesEachMethodsRule) {
   const SyntheticData data = ThreeTraversals();
-  EvaluationInput in;
-  in.num_queries = static_cast<int>(data.queries.rows());
-  in.num_places = data.map.num_places();
-  in.set_names = data.map.SetNames();
-  const std::vector<RowMatrixXf> all =
-      ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
-  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
-    block->clear();
-    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
-  };
+  std::vector<RowMatrixXf> all;
+  EvaluationInput in = testing::ExactEvaluationInput(data, &all);
   const std::vector<Method> methods = {ParseMethod("bsf", in.set_names),
                                        ParseMethod("bsf+filter", in.set_names)};
   const std::vector<MethodResults> free = EvaluateMethods(in, methods, {}, data.truth);

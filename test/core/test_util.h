@@ -16,6 +16,7 @@
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/types.h"
+#include "bsf_vpr/evaluation/evaluation_runner.h"
 #include "bsf_vpr/evaluation/synthetic.h"
 #include "src/core/internal/distance_kernels.h"
 
@@ -123,6 +124,22 @@ inline double LogLikelihoodOracle(const std::vector<float>& d, size_t i, bool on
   if (one_sided && e > 0) e = 0;
   const double log_gauss = var > 0 ? -0.5 * std::log(2 * M_PI * var) - e * e / (2 * var) : 0.0;
   return std::log(static_cast<double>(RankCountOracle(d, i))) - log_gauss;
+}
+
+// The evaluator's input for `data`'s queries against its map, from their exact euclidean
+// distances (computed once into *all, which must outlive the input).
+inline EvaluationInput ExactEvaluationInput(const SyntheticData& data,
+                                            std::vector<RowMatrixXf>* all) {
+  EvaluationInput in;
+  in.num_queries = static_cast<int>(data.queries.rows());
+  in.num_places = data.map.num_places();
+  in.set_names = data.map.SetNames();
+  *all = ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
+  in.distances = [all](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : *all) block->push_back(d.middleRows(b, e - b));
+  };
+  return in;
 }
 
 // A route of 400 places driven again under three conditions (image noise 0.5, 0.7, 0.9),

@@ -17,16 +17,8 @@ TEST(EvaluationRunner, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErro
   SyntheticOptions opt;
   opt.num_places = 120;
   const SyntheticData data = GenerateMultiConditionData(opt);
-  EvaluationInput in;
-  in.num_queries = static_cast<int>(data.queries.rows());
-  in.num_places = data.map.num_places();
-  in.set_names = data.map.SetNames();
-  const std::vector<RowMatrixXf> all =
-      ComputeDistances(DistanceMetric::kEuclidean, data.queries, data.map);
-  in.distances = [&](int b, int e, std::vector<RowMatrixXf>* block) {
-    block->clear();
-    for (const RowMatrixXf& d : all) block->push_back(d.middleRows(b, e - b));
-  };
+  std::vector<RowMatrixXf> all;
+  EvaluationInput in = testing::ExactEvaluationInput(data, &all);
   const Method bsf = ParseMethod("bsf", in.set_names);
   std::vector<MethodResults> r;
   {

@@ -109,7 +109,7 @@ struct MatchDistance {
 MatchDistance MatchDistanceOf(const PlaceBelief& belief, const std::vector<SetDistances>& sets,
                               const std::vector<bool>* available = nullptr);
 
-// Decides: sets match, confidence, match_distance, accepted and top_places of `belief` (see
+// Decides: sets match, confidence, match_distance (and its set), accepted and top_places of `belief` (see
 // PlaceBelief). With `rule`, an accepted match must pass it too.
 void Decide(const DecisionOptions& options, const Evidence& evidence, PlaceBelief* belief,
             const AcceptanceRule* rule = nullptr);

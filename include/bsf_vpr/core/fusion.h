@@ -78,6 +78,7 @@ struct PlaceBelief {
   // among the sets the method relied on, in the distance's units (MatchDistanceOf); NaN
   // when no such set covers it or no distances were given.
   double match_distance = std::numeric_limits<double>::quiet_NaN();
+  int match_distance_set = -1;  // the set it came from (-1: none)
 };
 
 // log-odds of the largest entry of unnormalised log-probabilities `log_p` (N >= 1) against

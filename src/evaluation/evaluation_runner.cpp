@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <limits>
 #include <stdexcept>
 
 #include "bsf_vpr/core/distances.h"
@@ -76,6 +77,10 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     results[k].method = methods[k];
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
+  if (!input.unseen.empty() && input.unseen.size() != static_cast<size_t>(input.num_queries)) {
+    throw std::invalid_argument("unseen given for " + std::to_string(input.unseen.size()) +
+                                " queries of " + std::to_string(input.num_queries));
+  }
   std::vector<RowMatrixXf> block(m), joint_block(input.joint_kinds.size());
   for (int begin = 0; begin < input.num_queries; begin += block_size) {
     const int end = std::min(input.num_queries, begin + block_size);
@@ -95,6 +100,12 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     }
     for (size_t k = 0; k < methods.size(); ++k) {
       const auto run = [&](MethodRunner& runner, int q) {
+        QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
+        if (!input.unseen.empty() && input.unseen[static_cast<size_t>(q)]) {
+          o.confidence = -std::numeric_limits<double>::infinity();  // no observation
+          o.off_map_probability = std::numeric_limits<double>::quiet_NaN();
+          return;
+        }
         const std::vector<SetDistances> views = QueryRowViews(block, q - begin, ids, input.groups);
         std::vector<JointDistances> joint(joint_block.size());
         for (size_t j = 0; j < joint.size(); ++j) {
@@ -104,7 +115,6 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
         }
         const PlaceBelief b =
             runner.Step(views, input.num_places, nullptr, std::nullopt, true, nullptr, &joint);
-        QueryOutcome& o = results[k].outcomes[static_cast<size_t>(q)];
         o.match = b.match;
         o.confidence = b.confidence;
         o.accepted = b.accepted;

@@ -1,6 +1,8 @@
 #include "bsf_vpr/image/image_describer.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <opencv2/dnn.hpp>
@@ -258,12 +260,15 @@ std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& 
   throw std::invalid_argument("unknown image descriptor kind");
 }
 
-RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer) {
+RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer,
+                                std::vector<std::string>* blind) {
   const std::vector<std::string> files = ListImageFiles(folder);
   RowMatrixXf out(static_cast<Eigen::Index>(files.size()), describer.dimension());
+  if (blind != nullptr) blind->assign(files.size(), "");
   for (size_t i = 0; i < files.size(); ++i) {
     const cv::Mat img = cv::imread(files[i], cv::IMREAD_COLOR);
     if (img.empty()) throw std::runtime_error("cannot decode image '" + files[i] + "'");
+    if (blind != nullptr) (*blind)[i] = BlindImageProblem(img);
     out.row(static_cast<Eigen::Index>(i)) = describer.Describe(img).transpose();
   }
   return out;
@@ -276,19 +281,69 @@ cv::Mat RunOnnxTensor(const std::string& model_path, const cv::Mat& input,
   return (output_layer.empty() ? net.forward() : net.forward(output_layer)).clone();
 }
 
-std::string UniformImageProblem(const cv::Mat& image) {
-  if (image.empty()) return "";  // the describers refuse it, saying so
+namespace {
+
+bool IsUniform(const cv::Mat& image) {
   const size_t pixel = image.elemSize();
   const uchar* first = image.ptr(0);
   for (int y = 0; y < image.rows; ++y) {
     const uchar* row = image.ptr(y);  // rows of a view need not follow each other
     for (int x = 0; x < image.cols; ++x) {
-      if (std::memcmp(row + static_cast<size_t>(x) * pixel, first, pixel) != 0) return "";
+      if (std::memcmp(row + static_cast<size_t>(x) * pixel, first, pixel) != 0) return false;
     }
   }
-  return "is uniform (all " + std::to_string(image.cols) + " x " + std::to_string(image.rows) +
-         " pixels alike, as a covered or black camera gives): it shows nothing to recognise "
-         "a place by";
+  return true;
+}
+
+std::string Fixed1(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f", v);
+  return text;
+}
+
+}  // namespace
+
+std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image) {
+  if (image.empty() || image.cols < 4 || image.rows < 4) return std::nullopt;
+  cv::Mat grey;
+  ToGrayscale8(image).convertTo(grey, CV_32F);
+  BlindImageMeasure m;
+  // Immerkaer's noise estimate over the interior (the mask needs both neighbours).
+  const cv::Mat mask = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+  cv::Mat residual;
+  cv::filter2D(grey, residual, CV_32F, mask);
+  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
+  const double abs_sum = cv::norm(residual(inner), cv::NORM_L1);
+  m.noise_std = std::sqrt(M_PI / 2) * abs_sum / (6.0 * inner.area());
+  // The structure at the descriptors' scale, less its smooth part.
+  m.cells_wide = std::min(64, grey.cols / 2);
+  m.cells_high = std::max(2, static_cast<int>(std::lround(static_cast<double>(m.cells_wide) *
+                                                          grey.rows / grey.cols)));
+  cv::Mat cells, smooth;
+  cv::resize(grey, cells, cv::Size(m.cells_wide, m.cells_high), 0, 0, cv::INTER_AREA);
+  cv::GaussianBlur(cells, smooth, cv::Size(0, 0), 2.0, 2.0, cv::BORDER_REFLECT);
+  m.structure = cv::norm(cells, smooth, cv::NORM_L2) / std::sqrt(static_cast<double>(cells.total()));
+  const double pixels_per_cell =
+      static_cast<double>(grey.total()) / static_cast<double>(cells.total());
+  m.expected = std::sqrt(m.noise_std * m.noise_std / pixels_per_cell + 1.0 / 12.0);
+  return m;
+}
+
+std::string BlindImageProblem(const cv::Mat& image) {
+  if (image.empty()) return "";  // the describers refuse it, saying so
+  if (IsUniform(image)) {
+    return "is uniform (all " + std::to_string(image.cols) + " x " + std::to_string(image.rows) +
+           " pixels alike, as a covered or black camera gives): it shows nothing to recognise "
+           "a place by";
+  }
+  const std::optional<BlindImageMeasure> m = MeasureBlindImage(image);
+  if (!m || !m->blind()) return "";
+  return "shows only noise (its structure at " + std::to_string(m->cells_wide) + " x " +
+         std::to_string(m->cells_high) + " is " + Fixed1(m->structure) +
+         " grey levels, where the camera's noise (" + Fixed1(m->noise_std) +
+         " levels a pixel) gives " + Fixed1(m->expected) +
+         ", as a covered, black or dazzled camera gives): it shows nothing to recognise a place "
+         "by";
 }
 
 }  // namespace bsf_vpr

@@ -1,6 +1,7 @@
 // bsf_make_reference: describes a folder of images with any of the evaluator's image
 // descriptors (or takes a descriptor .npy) and saves it as a reference set (.yaml sidecar +
 // .npy) that the fusion node and bsf_evaluate can load (see --help).
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 
@@ -76,9 +77,10 @@ int Run(int argc, char** argv) {
                                 " describes images: it goes with --images, not --descriptors");
   }
   ReferenceSet set;
+  std::vector<std::string> blind;  // per image, BlindImageProblem
   if (!images.empty()) {
     ValidateImageDescriberOptions(describer);
-    set = tools::DescribeImageFolderAsSet(images, name, *MakeImageDescriber(describer));
+    set = tools::DescribeImageFolderAsSet(images, name, *MakeImageDescriber(describer), &blind);
   } else {
     set = LoadReferenceSetNpy(descriptors, name);
   }
@@ -90,6 +92,15 @@ int Run(int argc, char** argv) {
             << set.dimension();
   if (!set.descriptor_type.empty()) std::cout << ", " << set.descriptor_type;
   std::cout << ")\n";
+  const auto first = std::find_if(blind.begin(), blind.end(), [](auto& b) { return !b.empty(); });
+  if (first != blind.end()) {  // written all the same: the user may want the rows as they are
+    const size_t row = static_cast<size_t>(first - blind.begin());
+    std::cerr << "bsf_make_reference: warning: "
+              << std::count_if(blind.begin(), blind.end(), [](auto& b) { return !b.empty(); })
+              << " of the " << blind.size() << " images show nothing (first: "
+              << set.image_files[row] << ", which " << *first
+              << "): their places are described by noise; remove those frames\n";
+  }
   return 0;
 }
 

@@ -1,6 +1,7 @@
 // bsf_make_views: a traversal's images as a camera turned sideways would see them (a crop of
 // each frame moved left or right), to test fusion across viewpoints from real frames, or
-// through a covered lens, to test that nothing is then accepted (see --help).
+// as a blind camera would give them (covered, grey, black, dazzled), to test that nothing is
+// then accepted (see --help).
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -17,7 +18,7 @@
 namespace {
 
 const char kUsage[] = R"(usage: bsf_make_views --images DIR --out DIR [--crop F] [--shift S]
-                      [--cover true]
+                      [--blind covered|grey|black|dazzled] [--cover true]
 
 Writes each image of DIR (.png, .jpg, .jpeg, .ppm, .bmp; sorted by name) to the folder
 --out as <name>.png, cropped to the fraction F of its width and height (centred
@@ -28,21 +29,44 @@ traversal from different viewpoints (docs/results.md, Study 7).
   --crop F    fraction of the width and height kept, in (0, 1] (default 0.7)
   --shift S   the crop's offset from the centre, in frame widths; |S| <= (1 - F) / 2
               (default 0)
-  --cover true  the view through a covered lens (a hand, a lens cap that lets some light
-              through, mud): blurred (Gaussian, sigma a quarter of the view's width: only
-              the light's slow gradient is left), darkened to 5% and given a sensor's noise
-              (Gaussian, sigma 2 grey levels; the same seed every run). No place shows in
-              it (docs/results.md, Study 8)
+  --blind K   the view of a blind camera, given a sensor's noise (Gaussian, sigma 2 grey
+              levels; the same seed every run), rounded and saturated to 0..255. No place
+              shows in it (docs/results.md, Study 8). K is one of
+                covered: through a covered lens (a hand, a lens cap that lets some light
+                  through, mud): blurred (Gaussian, sigma a quarter of the view's width:
+                  only the light's slow gradient is left), darkened to 5%
+                grey: uniform grey (128), as a fogged or defocused lens on a flat field
+                black: no light at all (the noise half cut off at 0)
+                dazzled: the sun in the lens: 98% of the way to white
+  --cover true  the same as --blind covered
   -h, --help  this help
 Exit status 2 with one line naming the problem on bad arguments or an unreadable image.
 )";
+
+// What a blind camera of kind `blind` (--blind) shows instead of `view`.
+cv::Mat BlindView(const cv::Mat& view, const std::string& blind, cv::RNG* noise) {
+  cv::Mat light(view.size(), CV_32FC3, cv::Scalar::all(0));  // grey levels before the noise
+  if (blind == "covered") {
+    cv::Mat blurred;
+    cv::GaussianBlur(view, blurred, cv::Size(0, 0), std::max(1.0, view.cols / 4.0));
+    blurred.convertTo(light, CV_32FC3, 0.05);
+  } else if (blind == "grey") {
+    light.setTo(cv::Scalar::all(128));
+  } else if (blind == "dazzled") {
+    view.convertTo(light, CV_32FC3, 0.02, 0.98 * 255);
+  }
+  cv::Mat sensor(view.size(), CV_32FC3), out;
+  noise->fill(sensor, cv::RNG::NORMAL, 0.0, 2.0);
+  cv::Mat(light + sensor).convertTo(out, CV_8UC3);  // rounded, saturated to 0..255
+  return out;
+}
 
 int Run(int argc, char** argv) {
   namespace fs = std::filesystem;
   using namespace bsf_vpr;
   std::string images, out;
   double crop = 0.7, shift = 0;
-  bool cover = false;
+  std::string blind;  // "": the view itself
   tools::FlagReader flags(argc, argv);
   for (std::string f, v; flags.Next(&f, &v);) {
     if (f == "--images")
@@ -53,8 +77,14 @@ int Run(int argc, char** argv) {
       crop = tools::ParseNumber(f, v);
     else if (f == "--shift")
       shift = tools::ParseNumber(f, v);
+    else if (f == "--blind" &&
+             (v == "covered" || v == "grey" || v == "black" || v == "dazzled"))
+      blind = v;
+    else if (f == "--blind")
+      throw std::invalid_argument("--blind takes covered, grey, black or dazzled, got '" + v +
+                                  "'");
     else if (f == "--cover" && (v == "true" || v == "false"))
-      cover = v == "true";
+      blind = v == "true" ? "covered" : "";
     else if (f == "--cover")
       throw std::invalid_argument("--cover takes true or false, got '" + v + "'");
     else
@@ -96,15 +126,7 @@ int Run(int argc, char** argv) {
     const cv::Rect roi(std::max(0, left), std::max(0, top), right - std::max(0, left),
                        bottom - std::max(0, top));
     cv::Mat view = frame(roi);
-    if (cover) {
-      cv::Mat blurred, dark, sensor(view.size(), CV_32FC3);
-      cv::GaussianBlur(view, blurred, cv::Size(0, 0), std::max(1.0, view.cols / 4.0));
-      blurred.convertTo(dark, CV_32FC3, 0.05);
-      noise.fill(sensor, cv::RNG::NORMAL, 0.0, 2.0);
-      cv::Mat covered;
-      cv::Mat(dark + sensor).convertTo(covered, CV_8UC3);  // rounded, saturated to 0..255
-      view = covered;
-    }
+    if (!blind.empty()) view = BlindView(view, blind, &noise);
     const std::string to = (fs::path(out) / file.stem()).string() + ".png";
     if (!cv::imwrite(to, view)) throw std::runtime_error("cannot write '" + to + "'");
   }

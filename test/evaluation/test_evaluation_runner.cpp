@@ -1,6 +1,7 @@
 // EvaluateMethods: the offline evaluation of methods over blocks of queries, in parallel.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <numeric>
 
 #include "bsf_vpr/core/method_runner.h"
@@ -39,6 +40,61 @@ TEST(EvaluationRunner, ParallelEvaluationGivesTheSequentialOutcomesAndPassesErro
   outside.back() = in.num_places + 5;  // a place id the map does not have
   in.place_ids = {outside, outside, outside};
   EXPECT_THROW(EvaluateMethods(in, {bsf}, {}, data.truth, {}, 50), std::invalid_argument);
+}
+
+// A query the camera did not see (a blind frame) is no observation: no match, confidence
+// -infinity, and the filter steps over it as the live node does over a dropped frame: every
+// seen query's outcome is the one of a run without the unseen queries at all.
+TEST(EvaluationRunner, AnUnseenQueryIsNoObservationAndLeavesTheFilterAsItWas) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  std::vector<RowMatrixXf> all;
+  EvaluationInput in = testing::ExactEvaluationInput(data, &all);
+  in.unseen.assign(static_cast<size_t>(in.num_queries), false);
+  std::vector<int> seen;
+  for (int q = 0; q < in.num_queries; ++q) {
+    in.unseen[static_cast<size_t>(q)] = q % 7 == 3 || (q >= 40 && q < 60);
+    if (!in.unseen[static_cast<size_t>(q)]) seen.push_back(q);
+  }
+  const std::vector<Method> methods = {ParseMethod("bsf", in.set_names),
+                                       ParseMethod("bsf+filter", in.set_names)};
+  const std::vector<MethodResults> r = EvaluateMethods(in, methods, {}, data.truth, {}, 32);
+  // The same queries with the unseen ones taken out.
+  EvaluationInput only_seen = in;
+  only_seen.unseen.clear();
+  only_seen.num_queries = static_cast<int>(seen.size());
+  std::vector<RowMatrixXf> kept;
+  for (const RowMatrixXf& d : all) {
+    RowMatrixXf k(static_cast<Eigen::Index>(seen.size()), d.cols());
+    for (size_t i = 0; i < seen.size(); ++i) k.row(static_cast<Eigen::Index>(i)) = d.row(seen[i]);
+    kept.push_back(k);
+  }
+  only_seen.distances = [&kept](int b, int e, std::vector<RowMatrixXf>* block) {
+    block->clear();
+    for (const RowMatrixXf& d : kept) block->push_back(d.middleRows(b, e - b));
+  };
+  GroundTruth truth_seen = GroundTruth::FromFrameTolerance(only_seen.num_queries,
+                                                           in.num_places, 0);
+  const std::vector<MethodResults> ref =
+      EvaluateMethods(only_seen, methods, {}, truth_seen, {}, 32);
+  for (size_t k = 0; k < methods.size(); ++k) {
+    size_t i = 0;
+    for (int q = 0; q < in.num_queries; ++q) {
+      const QueryOutcome& o = r[k].outcomes[static_cast<size_t>(q)];
+      if (in.unseen[static_cast<size_t>(q)]) {
+        EXPECT_EQ(o.match, -1) << q;
+        EXPECT_FALSE(o.accepted) << q;
+        EXPECT_EQ(o.confidence, -std::numeric_limits<double>::infinity()) << q;
+        continue;
+      }
+      const QueryOutcome& e = ref[k].outcomes[i++];
+      ASSERT_EQ(o.match, e.match) << methods[k].Name() << " " << q;
+      ASSERT_EQ(o.confidence, e.confidence) << methods[k].Name() << " " << q;
+    }
+  }
+  in.unseen.pop_back();
+  EXPECT_THROW(EvaluateMethods(in, methods, {}, data.truth, {}, 32), std::invalid_argument);
 }
 
 // With many places, fusion inside the evaluator's parallel queries runs its own parallel

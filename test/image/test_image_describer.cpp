@@ -1,9 +1,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "bsf_vpr/core/reference_set.h"
@@ -168,15 +171,19 @@ TEST(Hog, DescribesImagesWithTheDocumentedDimension) {
 TEST(Describers, AUniformImageIsSaidToShowNothingAndItsDescriptorIsNoQuery) {
   const cv::Mat nordland = cv::imread(kNordland + "summer/images-01000.png", cv::IMREAD_COLOR);
   ASSERT_FALSE(nordland.empty());
-  EXPECT_EQ(UniformImageProblem(nordland), "");
+  EXPECT_EQ(BlindImageProblem(nordland), "");
+  // One pixel that differs is not a scene: no longer uniform, but only noise.
   cv::Mat one_pixel = cv::Mat::zeros(480, 640, CV_8UC3);
   one_pixel.at<cv::Vec3b>(479, 639) = cv::Vec3b(0, 0, 1);
-  EXPECT_EQ(UniformImageProblem(one_pixel), "");
+  EXPECT_NE(BlindImageProblem(one_pixel).find("only noise"), std::string::npos);
+  cv::Mat two_by_two = cv::Mat::zeros(2, 2, CV_8UC1);  // too small to measure: seen
+  two_by_two.at<uchar>(1, 1) = 200;
+  EXPECT_EQ(BlindImageProblem(two_by_two), "");
   for (const cv::Mat& uniform :
        {cv::Mat(cv::Mat::zeros(32, 64, CV_8UC1)), cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 20, 7)),
         cv::Mat(1, 1, CV_8UC3, cv::Scalar(200, 10, 10)), cv::Mat(1, 1, CV_8UC4, cv::Scalar::all(3)),
         cv::Mat(nordland, cv::Rect(0, 0, 1, 1))}) {
-    const std::string why = UniformImageProblem(uniform);
+    const std::string why = BlindImageProblem(uniform);
     EXPECT_NE(why.find("uniform"), std::string::npos) << uniform.size << ": " << why;
     // What the patch-normalised descriptor and HOG make of it is refused as a query.
     for (const ImageDescriberKind kind :
@@ -189,6 +196,64 @@ TEST(Describers, AUniformImageIsSaidToShowNothingAndItsDescriptorIsNoQuery) {
       const Eigen::VectorXf d = describer->Describe(uniform);
       EXPECT_THROW(map.CheckQuery(d), std::invalid_argument) << ToString(kind);
     }
+  }
+}
+
+// Blind frames made from real ones (the repository's Nordland-100 frames, 64 x 32 and
+// 256 x 144, three seasons): a covered lens (1% of the light, blurred until nothing of the
+// scene survives, sensor noise), uniform grey and black with noise, a dazzled camera (98% of
+// the way to white). Every one is blind; every real frame is seen, with a margin (the ratio
+// of structure to what noise gives is printed). The ratio's bound, 2, is not fitted here.
+TEST(Describers, BlindFramesMadeFromRealOnesAreSaidToShowOnlyNoiseAndRealFramesAreNot) {
+  const std::string root = std::string(BSF_SOURCE_DIR) + "/data/nordland_subset100/";
+  cv::RNG rng(7);
+  const auto noisy = [&rng](const cv::Mat& mean, double sigma) {
+    cv::Mat noise(mean.size(), CV_32FC3), out;
+    rng.fill(noise, cv::RNG::NORMAL, cv::Scalar::all(0), cv::Scalar::all(sigma));
+    cv::Mat m;
+    mean.convertTo(m, CV_32FC3);
+    cv::Mat(m + noise).convertTo(out, CV_8UC3);  // rounds and saturates, as a sensor does
+    return out;
+  };
+  for (const std::string size : {"64x32", "256x144"}) {
+    double least_real = 1e9, most_blind = 0;
+    int frames = 0;
+    for (const std::string season : {"summer", "fall", "winter"}) {
+      for (int i = 0; i < 100; i += 9) {
+        char name[16];
+        std::snprintf(name, sizeof(name), "/%03d.%s", i, size == "64x32" ? "png" : "jpg");
+        const cv::Mat real = cv::imread(root + size + "/" + season + name, cv::IMREAD_COLOR);
+        ASSERT_FALSE(real.empty()) << root + size + "/" + season + name;
+        ++frames;
+        const std::optional<BlindImageMeasure> seen = MeasureBlindImage(real);
+        ASSERT_TRUE(seen);
+        least_real = std::min(least_real, seen->structure / seen->expected);
+        EXPECT_EQ(BlindImageProblem(real), "") << season << name;
+        cv::Mat dim, covered;
+        real.convertTo(dim, CV_32FC3, 0.01);
+        cv::GaussianBlur(dim, covered, cv::Size(0, 0), real.cols / 8.0);
+        cv::Mat white(real.size(), CV_32FC3, cv::Scalar::all(255)), dazzled;
+        cv::Mat real_f;
+        real.convertTo(real_f, CV_32FC3);
+        dazzled = white - (white - real_f) * 0.02;
+        const cv::Mat blind[] = {noisy(covered, 2), noisy(cv::Mat(real.size(), CV_32FC3,
+                                                                   cv::Scalar::all(128)), 3),
+                                 noisy(cv::Mat::zeros(real.size(), CV_32FC3), 3),
+                                 noisy(dazzled, 2)};
+        for (const cv::Mat& b : blind) {
+          const std::optional<BlindImageMeasure> m = MeasureBlindImage(b);
+          ASSERT_TRUE(m);
+          most_blind = std::max(most_blind, m->structure / m->expected);
+          EXPECT_NE(BlindImageProblem(b).find("shows only noise"), std::string::npos)
+              << size << " " << season << name << ": structure " << m->structure
+              << ", noise gives " << m->expected;
+        }
+      }
+    }
+    std::printf("%s: %d real frames, least structure / noise %.1f; blind frames at most %.2f\n",
+                size.c_str(), frames, least_real, most_blind);
+    EXPECT_GT(least_real, 4.0) << size;  // twice the bound
+    EXPECT_LT(most_blind, 1.5) << size;
   }
 }
 

@@ -131,7 +131,7 @@ class Soak(unittest.TestCase):
         self.assertEqual(received + lost, sent, "images lost before the ingest, uncounted")
         self.assertEqual(published + sum(by_cause.values()), received,
                          "images the ingest neither published nor counted")
-        self.assertEqual(by_cause.get("uniform image", 0), self.covered)
+        self.assertEqual(by_cause.get("blind image", 0), self.covered)
         self.assertEqual(f_received + f_lost, published, "descriptors lost uncounted")
         self.assertEqual(f_received, beliefs + f_bad + superseded,
                          "descriptors the fusion node neither decided nor counted")

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "bsf_vpr/image/image_describer.h"
 #include "bsf_vpr/io/file_util.h"
 #include "bsf_vpr/io/reference_set_io.h"
 #include "test/core/test_util.h"
@@ -328,6 +329,36 @@ TEST_F(MakeTools, MakeViewsCoversTheLens) {
   ExpectOneLineRefusal(
       RunCommand(tool + " --images " + frames + " --out " + dir_ + "/x --cover yes"),
       "--cover takes true or false", "--cover yes");
+  ExpectOneLineRefusal(
+      RunCommand(tool + " --images " + frames + " --out " + dir_ + "/x --blind foggy"),
+      "--blind takes covered, grey, black or dazzled", "--blind foggy");
+}
+
+// Every kind of blind view: its level, and the frame's scene gone (the image check says so).
+TEST_F(MakeTools, MakeViewsMakesEveryKindOfBlindCamera) {
+  const std::string tool = BSF_MAKE_VIEWS_PATH;
+  const std::string frames = kSource + "/data/nordland_subset100/256x144/fall";
+  const cv::Mat frame = cv::imread(frames + "/010.jpg", cv::IMREAD_COLOR);
+  for (const auto& [kind, level] : std::vector<std::pair<std::string, double>>{
+           {"covered", 0.05 * cv::mean(frame)[0]}, {"grey", 128}, {"black", 0.8}, {"dazzled", 250}}) {
+    const Result r = RunCommand(tool + " --images " + frames + " --out " + dir_ + "/" + kind +
+                                " --crop 1 --blind " + kind);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const cv::Mat view = cv::imread(dir_ + "/" + kind + "/010.png", cv::IMREAD_COLOR);
+    ASSERT_EQ(view.size(), frame.size()) << kind;
+    EXPECT_NEAR(cv::mean(view)[0], level, 3.0) << kind;
+    EXPECT_NE(BlindImageProblem(view), "") << kind;
+  }
+  EXPECT_EQ(BlindImageProblem(frame), "");
+  // A reference set described from them is written, with a warning naming the first.
+  const Result ref = RunCommand(std::string(BSF_MAKE_REFERENCE_PATH) + " --images " + dir_ +
+                                "/grey --name grey --out " + dir_ + "/grey.yaml");
+  ASSERT_EQ(ref.exit_code, 0) << ref.output;
+  EXPECT_NE(ref.output.find("warning: 100 of the 100 images show nothing (first: 000.png, "
+                            "which shows only noise"),
+            std::string::npos)
+      << ref.output;
+  EXPECT_TRUE(fs::exists(dir_ + "/grey.yaml"));
 }
 
 }  // namespace

@@ -51,6 +51,11 @@ struct EvaluationInput {
   // Per method of the list, the map's acceptance rule (self_calibration.h; nullopt: the
   // threshold alone). Empty: none for any.
   std::vector<std::optional<AcceptanceRule>> acceptance_rules;
+  // Per query, true where the camera saw nothing (a blind frame, BlindImageProblem): as the
+  // ingest drops such a frame live, it is no observation: no method steps on it (a filter's
+  // state is left as it was), its outcome is no match (match -1, confidence -infinity, not
+  // accepted). Empty: every query was seen.
+  std::vector<bool> unseen;
 };
 
 // Where EvaluateMethods' time went: wall seconds and CPU seconds of the process (all its

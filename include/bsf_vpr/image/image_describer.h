@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -91,19 +92,50 @@ class ImageDescriber {
 };
 
 // Why `image` (8-bit, any channel count) shows nothing to recognise a place by ("" if it
-// shows something): every pixel of it is alike, as a covered or black camera or a 1x1 image
-// gives. Its descriptor carries no information: the patch-normalised one and HOG are all
-// zeros (refused as queries, QueryDescriptorProblem), and a network gives one vector for
-// every such image. Returns at the first pixel that differs, so a real image costs little.
-std::string UniformImageProblem(const cv::Mat& image);
+// shows something), as a covered, black, dazzled or fogged camera gives:
+// - every pixel of it is alike ("is uniform"); its descriptor carries no information: the
+//   patch-normalised one and HOG are all zeros (refused as queries, QueryDescriptorProblem),
+//   and a network gives one vector for every such image;
+// - or its structure at the scale places are recognised by is no more than the camera's
+//   noise gives there ("shows only noise"): the patch-normalised descriptor would amplify
+//   that noise into a vector that is near no place and steadily nearest one (the places'
+//   means correction; the filter then reads a robot standing still). BlindImageMeasure says
+//   how it is measured. This is a fact about the frame, not a threshold fitted to any data.
+std::string BlindImageProblem(const cv::Mat& image);
+
+// What BlindImageProblem measures on the grey image g (W x H), with no fitted constant:
+// - noise_std: the sensor noise's standard deviation, from the residual of the 3 x 3 mask
+//   [1 -2 1; -2 4 -2; 1 -2 1], blind to a plane and to most of a scene's edges (Immerkaer,
+//   "Fast noise variance estimation", CVIU 1996): sqrt(pi/2) / (6 (W-2)(H-2)) sum |g * N|.
+//   A scene's texture adds to it, so it errs towards calling a frame seen.
+// - structure: g averaged over cells (area resampling) to w = min(64, W/2) columns (the
+//   scale of the package's 64 x 32 descriptors; a cell holds k = W H / (w h) pixels), less
+//   its Gaussian blur of 2 cells (a smooth field, such as vignetting, glare or a blurred lid,
+//   is no place), as the root mean square, in grey levels.
+// - expected: what noise and 8-bit quantisation alone give there,
+//   sqrt(noise_std^2 / k + 1/12).
+// The frame is blind when structure < 2 expected. Noise alone gives a ratio of at most 1
+// (its spread over w h cells is about 1/sqrt(2 w h), under 0.02 at 64 x 36); real frames
+// of Nordland in three seasons give 6 at 64 x 32 and over 17 at 256 x 144.
+struct BlindImageMeasure {
+  double noise_std = 0;
+  double structure = 0;
+  double expected = 0;
+  int cells_wide = 0, cells_high = 0;
+  bool blind() const { return structure < 2 * expected; }
+};
+// Measured as above; nullopt for an image too small to measure (under 4 x 4 pixels).
+std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image);
 
 // Builds the describer; an ONNX model is loaded and run once on a blank image, so that a
 // missing, unreadable or incompatible model fails here (at start-up) with a message naming
 // the file and the problem (std::runtime_error), not on the first image.
 std::unique_ptr<ImageDescriber> MakeImageDescriber(const ImageDescriberOptions& options);
 
-// Describes every image of ListImageFiles(folder), one row each.
-RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer);
+// Describes every image of ListImageFiles(folder), one row each; `blind`, if given, receives
+// per row BlindImageProblem of its image ("" for a frame that shows something).
+RowMatrixXf DescribeImageFolder(const std::string& folder, const ImageDescriber& describer,
+                                std::vector<std::string>* blind = nullptr);
 
 // Runs an ONNX model on a raw N x C x H x W float tensor and returns its output tensor
 // (the model-loading and inference path without image preprocessing; for tests and tools).

@@ -185,8 +185,8 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
         cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
-    const std::string uniform = UniformImageProblem(cv->image);
-    if (!uniform.empty()) return Reject("uniform image", "image " + uniform, msg->header);
+    const std::string blind = BlindImageProblem(cv->image);
+    if (!blind.empty()) return Reject("blind image", "image " + blind, msg->header);
     const auto t0 = std::chrono::steady_clock::now();
     const Eigen::VectorXf d = describer_->Describe(cv->image);
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -4,7 +4,7 @@
 // (QueryDescriptorProblem), of the expected dimension, optionally L2-normalised. Descriptors
 // may come as bsf_vpr/Descriptor or std_msgs/Float32MultiArray (a 1-D array, as a Python node
 // publishes it) on the same topic. Bad input (an image whose sizes do not fit its data, a
-// uniform image that shows nothing (UniformImageProblem), a message of another type) is
+// blind image that shows nothing: uniform, or only noise (BlindImageProblem), a message of another type) is
 // dropped with a throttled error and counted in diagnostics. It subscribes to its input only while
 // someone listens to its output (a pure transform). With images it also publishes, while someone
 // listens, the seconds each image took to describe on ~describe_time (std_msgs/Float64), before
@@ -84,7 +84,7 @@ class DescriptorIngest {
   // Why `d` cannot pass ("" if it can); `squared_norm` receives its squared L2 norm.
   std::string Problem(const Descriptor& d, double* squared_norm) const;
   void Published(const Descriptor::ConstPtr& out);
-  // Drops an input: counted by `cause` ("uniform image", "bad descriptor", ...), logged
+  // Drops an input: counted by `cause` ("blind image", "bad descriptor", ...), logged
   // (throttled) and sent on input_dropped with the input's `header`.
   void Reject(const std::string& cause, const std::string& why, const std_msgs::Header& header)
       EXCLUDES(mutex_);

@@ -22,9 +22,11 @@ bool ParseDescriberFlag(const std::string& flag, const std::string& value,
 std::string DescriberUsage();
 
 // Describes every image of ListImageFiles(folder) as set `name`, row k = place k, and
-// records the descriptor type and the images (the folder made absolute, row k's file name).
+// records the descriptor type and the images (the folder made absolute, row k's file name);
+// `blind`, if given, receives per row what DescribeImageFolder says of it.
 ReferenceSet DescribeImageFolderAsSet(const std::string& folder, const std::string& name,
-                                      const ImageDescriber& describer);
+                                      const ImageDescriber& describer,
+                                      std::vector<std::string>* blind = nullptr);
 
 }  // namespace tools
 }  // namespace bsf_vpr

@@ -30,12 +30,14 @@ bool IsFolder(const std::string& path) {
 
 // Image folders are described with `describer`, built on first use (an ONNX model is then
 // loaded once for all the folders one loading thread describes, see LoadAllSets).
+// `blind` receives per row of an image folder BlindImageProblem (left empty for a file).
 ReferenceSet LoadAnySet(const std::string& path, const std::string& name,
                         const ImageDescriberOptions& options, const ReadSetOptions& read,
-                        std::unique_ptr<ImageDescriber>* describer) {
+                        std::unique_ptr<ImageDescriber>* describer,
+                        std::vector<std::string>* blind) {
   if (IsFolder(path)) {
     if (!*describer) *describer = MakeImageDescriber(options);
-    return DescribeImageFolderAsSet(path, name, **describer);
+    return DescribeImageFolderAsSet(path, name, **describer, blind);
   }
   return LoadReferenceSetFile(path, name, read);
 }
@@ -81,10 +83,45 @@ DistanceMetric ChooseMetric(const EvaluateArgs& args, const std::vector<Declared
 
 // The reference sets, then the query, loaded (read, decoded and validated) on up to two
 // threads at once; the first failure in argument order is thrown.
-std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
+// What the description says of blind frames (BlindImageProblem) in image folders: the
+// query's are no observations (`*unseen`, left empty if there are none), as the ingest drops
+// them live; a reference folder's are places described by noise, named so the user can
+// remove them. "" if there are none.
+std::string BlindFramesNote(const EvaluateArgs& args,
+                            const std::vector<std::vector<std::string>>& blind,
+                            std::vector<bool>* unseen) {
+  std::string note;
+  for (size_t i = 0; i < blind.size(); ++i) {
+    const std::vector<std::string>& rows = blind[i];
+    std::vector<size_t> found;
+    for (size_t r = 0; r < rows.size(); ++r) {
+      if (!rows[r].empty()) found.push_back(r);
+    }
+    if (found.empty()) continue;
+    const bool query = i + 1 == blind.size();
+    if (query) {
+      unseen->assign(rows.size(), false);
+      for (size_t r : found) (*unseen)[r] = true;
+    }
+    note += "; " + std::to_string(found.size()) + " of the " + std::to_string(rows.size()) +
+            (query ? " query images" : " images of reference set '" + args.references[i].name +
+                                           "'") +
+            " show nothing (first: row " + std::to_string(found[0]) + ", which " +
+            blind[i][found[0]] + ")" +
+            (query ? ": no observation, as the ingest drops them live (no match, no step of "
+                     "any filter)"
+                   : ": places described by noise; remove those frames");
+  }
+  return note;
+}
+
+// The reference sets and, last, the query; `blind` as LoadAnySet says, per set.
+std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args,
+                                      std::vector<std::vector<std::string>>* blind) {
   std::vector<NamedPath> inputs = args.references;
   inputs.push_back({"query", args.query});
   std::vector<ReferenceSet> sets(inputs.size());
+  blind->assign(inputs.size(), {});
   std::vector<std::exception_ptr> errors(inputs.size());
   std::atomic<size_t> next{0};
   const auto work = [&] {
@@ -94,7 +131,8 @@ std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
         // --memory-map: the reference sets' files mapped at --storage; the queries read.
         ReadSetOptions read;
         if (args.memory_map && i < args.references.size()) read.memory_map = args.storage;
-        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, read, &describer);
+        sets[i] = LoadAnySet(inputs[i].path, inputs[i].name, args.describer, read, &describer,
+                             &(*blind)[i]);
       } catch (...) {
         errors[i] = std::current_exception();
       }
@@ -112,7 +150,9 @@ std::vector<ReferenceSet> LoadAllSets(const EvaluateArgs& args) {
 void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
   data->map.SetStoragePrecision(args.storage);
   std::vector<DeclaredDistance> declared;
-  std::vector<ReferenceSet> sets = LoadAllSets(args);
+  std::vector<std::vector<std::string>> blind;
+  std::vector<ReferenceSet> sets = LoadAllSets(args, &blind);
+  const std::string blind_note = BlindFramesNote(args, blind, &data->input.unseen);
   ReferenceSet query = std::move(sets.back());
   sets.pop_back();
   for (size_t u = 0; u < sets.size(); ++u) {
@@ -156,7 +196,8 @@ void LoadDescriptors(const EvaluateArgs& args, EvaluationData* data) {
                       std::to_string(data->input.num_queries) + " queries, dimension " +
                       std::to_string(data->map.dimension()) + ", " + ToString(args.storage) +
                       " storage, " + ToString(metric) + " distance" + how +
-                      (data->stage.index() ? ", first stage " + data->stage.Summary() : "");
+                      (data->stage.index() ? ", first stage " + data->stage.Summary() : "") +
+                      blind_note;
 }
 
 void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {

@@ -16,6 +16,8 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/evaluation/evaluation_runner.h"
@@ -709,6 +711,57 @@ TEST_F(EvaluateTool, HogAndOnnxDescribeImageFolders) {
   const Result bad = Evaluate(in + dir_ + "/x --image-descriptor sift");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("'sift'"), std::string::npos) << bad.output;
+}
+
+// A camera that goes blind mid-route (20 frames of noise among 40 real fall frames):
+// those frames are no observations, as the ingest drops them live: no match, nothing
+// accepted, the description says how many and why, and the filter takes the route up again.
+TEST_F(EvaluateTool, BlindQueryFramesAreNoObservation) {
+  const std::string root = kSource + "/data/nordland_subset100/256x144/";
+  fs::create_directories(dir_ + "/q");
+  cv::RNG rng(3);
+  for (int i = 0; i < 60; ++i) {  // query i: fall frame i (i < 20), i - 20 (i >= 40)
+    char name[32];
+    std::snprintf(name, sizeof(name), "/%03d.png", i);
+    cv::Mat frame;
+    if (i < 20 || i >= 40) {
+      char real[32];
+      std::snprintf(real, sizeof(real), "/%03d.jpg", i < 20 ? i : i - 20);
+      frame = cv::imread(root + "fall" + real, cv::IMREAD_COLOR);
+    } else {  // black, then grey, with a sensor's noise
+      frame.create(144, 256, CV_8UC3);
+      rng.fill(frame, cv::RNG::NORMAL, cv::Scalar::all(i < 30 ? 0 : 128), cv::Scalar::all(2));
+    }
+    ASSERT_TRUE(cv::imwrite(dir_ + "/q" + name, frame));
+  }
+  const Result r = Evaluate("--reference summer=" + root + "summer --reference winter=" + root +
+                            "winter --query " + dir_ + "/q --tolerance 2 --methods bsf,bsf+filter "
+                            "--no-progress --out " + dir_ + "/out");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("20 of the 60 query images show nothing (first: row 20"),
+            std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("shows only noise"), std::string::npos) << r.output;
+  for (const std::string method : {"bsf", "bsf+filter"}) {
+    const std::vector<std::string> rows = Lines(dir_ + "/out/matches/" + method + ".csv");
+    ASSERT_EQ(rows.size(), 61u);
+    int right_after = 0;
+    for (int q = 0; q < 60; ++q) {
+      int query = -1, match = -2, accepted = -1;
+      char confidence[32] = {};
+      ASSERT_EQ(std::sscanf(rows[static_cast<size_t>(q + 1)].c_str(), "%d,%d,%31[^,],%d", &query,
+                            &match, confidence, &accepted),
+                4)
+          << rows[static_cast<size_t>(q + 1)];
+      if (q >= 20 && q < 40) {
+        EXPECT_EQ(match, -1) << method << " " << rows[static_cast<size_t>(q + 1)];
+        EXPECT_EQ(accepted, 0) << method << " " << rows[static_cast<size_t>(q + 1)];
+        EXPECT_EQ(std::string(confidence), "-inf") << method;
+      } else if (q >= 40) {
+        right_after += std::abs(match - (q - 20)) <= 2;
+      }
+    }
+    EXPECT_GE(right_after, 10) << method << ": the route is taken up again after the blind frames";
+  }
 }
 
 TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {

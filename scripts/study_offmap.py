@@ -12,8 +12,11 @@ interval from a block bootstrap (blocks of 10 consecutive queries, 1000 draws, s
 A fourth run applies the map's own rule (--max-false-accept-rate 0.01, the map calibrated
 on its own traversals): the off-map queries it accepts, the rate the map predicted, and the
 right matches accepted by the default and by the rule.
-The covered cases are real frames through a covered lens (bsf_make_views --cover): every
-query is off the map. Usage: study_offmap.py OUT_DIR [CASE ...]
+The blind cases are real frames as four blind cameras see them (bsf_make_views --blind:
+covered, grey, black, dazzled; 100 each): every query is off the map. They print the
+acceptances of the descriptors alone (the frames' descriptors as a .npy: no image check)
+-> of the image folder (the image check: a blind frame is no observation), per kind for
+the first. Usage: study_offmap.py OUT_DIR [CASE ...]
 """
 import csv
 import glob
@@ -32,6 +35,7 @@ N100 = os.path.join(DATA, "nordland_subset100")
 GP = os.path.join(DATA, "gardens_point_hdc_delf")
 COR = os.path.join(DATA, "vprbench_corridor")
 METHODS = ["bsf", "bsf+filter"]
+BLIND_KINDS = ["covered", "grey", "black", "dazzled"]
 
 
 def tool(name, *args):
@@ -146,11 +150,13 @@ def evaluate(c, out, which):
     write_truth(truth, c.truth_on if which == "alone" else c.truth)
     if c.query is None:
         inputs = c.sources_on if which == "alone" else c.sources
+    elif which == "descriptors":
+        inputs = c.refs + ["--query", c.query_descriptors]
     else:
         inputs = c.refs + ["--query", c.query_on if which == "alone" else c.query]
     args = inputs + ["--ground-truth", truth, "--methods", ",".join(METHODS), "--no-progress",
                      "--out", d] + c.extra
-    if which not in ("new", "calibrated"):
+    if which not in ("new", "calibrated", "descriptors"):
         args += ["--off-map", "false"]
     if which == "calibrated":
         args += ["--max-false-accept-rate", "0.01"]
@@ -207,16 +213,26 @@ def given_up(alone, new, on_index, has_truth, block=10, draws=1000, seed=0):
     return point, np.percentile(diffs, 2.5), np.percentile(diffs, 97.5)
 
 
-def covered_case(out, name, frames, refs):
+def blind_case(out, name, frames, refs):
+    """The frames as four blind cameras see them (bsf_make_views --blind covered, grey,
+    black, dazzled): 4 x 100 queries, none on the map. The query is the image folder (the
+    image check applies: no observation) or, for the "descriptors" run, its descriptors
+    alone (bsf_make_reference), what the methods make of those frames without the check."""
     d = os.path.join(out, "inputs", name)
-    tool("bsf_make_views", "--images", frames, "--out", os.path.join(d, "query"), "--crop", "1",
-         "--cover", "true")
+    files = []
+    for kind in BLIND_KINDS:
+        tool("bsf_make_views", "--images", frames, "--out", os.path.join(d, kind), "--crop", "1",
+             "--blind", kind)
+        files += images(os.path.join(d, kind))
     c = Case(name, False)
     c.refs = []
     for set_name, folder in refs:
         c.refs += ["--reference", "%s=%s" % (set_name, folder)]
-    c.query = os.path.join(d, "query")
-    c.truth = [[] for _ in images(c.query)]
+    c.query = link_images(files, os.path.join(d, "query"))
+    c.query_descriptors = os.path.join(d, "query.yaml")
+    tool("bsf_make_reference", "--images", c.query, "--name", "query", "--out",
+         c.query_descriptors)
+    c.truth = [[] for _ in files]
     c.extra = ["--distance", "cosine"]
     return c
 
@@ -277,21 +293,22 @@ def main():
                       predicted(dirs["calibrated"], m), right_accepted(dirs["new"], m, c.truth),
                       right_accepted(dirs["calibrated"], m, c.truth)), flush=True)
     for res in ("64x32", "256x144"):
-        name = "covered_%s" % res
+        name = "blind_%s" % res
         if only and name not in only:
             continue
-        c = covered_case(out, name, "%s/%s/winter" % (N100, res),
-                         [(s, "%s/%s/%s" % (N100, res, s)) for s in ("summer", "fall")])
-        for which in ("today", "new", "calibrated"):
+        c = blind_case(out, name, "%s/%s/winter" % (N100, res),
+                       [(s, "%s/%s/%s" % (N100, res, s)) for s in ("summer", "fall")])
+        for which in ("descriptors", "new", "calibrated"):
             evaluate(c, out, which)
         for m in METHODS:
-            today = outcomes(os.path.join(out, name, "today"), m, c.truth)
-            new = outcomes(os.path.join(out, name, "new"), m, c.truth)
-            cal = outcomes(os.path.join(out, name, "calibrated"), m, c.truth)
+            acc = {w: outcomes(os.path.join(out, name, w), m, c.truth)[2]
+                   for w in ("descriptors", "new", "calibrated")}
+            per_kind = ", ".join("%s %d" % (k, acc["descriptors"][100 * i:100 * (i + 1)].sum())
+                                 for i, k in enumerate(BLIND_KINDS))
             print("%-30s %-10s %6s  %8s %8s  %3d -> %3d of %3d  %-24s | %3d of %3d, %s" % (
-                name + ", covered lens", m, "", "", "", today[2].sum(), new[2].sum(),
-                len(c.truth), "", cal[2].sum(), len(c.truth),
-                predicted(os.path.join(out, name, "calibrated"), m)), flush=True)
+                name + ", blind camera", m, "", "", "", acc["descriptors"].sum(),
+                acc["new"].sum(), len(c.truth), "(" + per_kind + ")", acc["calibrated"].sum(),
+                len(c.truth), predicted(os.path.join(out, name, "calibrated"), m)), flush=True)
 
 
 if __name__ == "__main__":

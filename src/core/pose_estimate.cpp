@@ -35,34 +35,18 @@ struct Places {
   double Weight(int i) const { return has_posterior ? std::exp(belief.log_posterior(i)) : 0.0; }
 };
 
-// Second moments about `mean`: in the neighbourhood (its posterior, normalised by m_near),
-// at the far places (their posterior mass, m_far), and over every posed place (`anywhere`,
-// with `off`: for off the map).
-struct Moments {
-  Eigen::Matrix3d in_near = Eigen::Matrix3d::Zero(), far = Eigen::Matrix3d::Zero(),
-                  anywhere = Eigen::Matrix3d::Zero();
-  double m_far = 0;
-};
-Moments SecondMoments(const Places& places, const PlacePose& mean, double m_near, bool off) {
-  Moments m;
-  int posed_places = 0;
+// The second moment about `mean` of the neighbourhood's places, weighted by their posterior
+// normalised by m_near: where the robot is, given that the neighbourhood holds it.
+Eigen::Matrix3d NearSecondMoment(const Places& places, const PlacePose& mean, double m_near) {
+  Eigen::Matrix3d in_near = Eigen::Matrix3d::Zero();
   for (int i = 0; i < places.size(); ++i) {
-    if (!places.Posed(i)) continue;
-    const Eigen::Vector3d d = Offset(places.pose(i), mean);
-    const Eigen::Matrix3d dd = d * d.transpose();
-    ++posed_places;
-    if (off) m.anywhere += dd;
+    if (!places.Posed(i) || !places.Near(i)) continue;
     const double w = places.Weight(i);
     if (!(w > 0)) continue;
-    if (places.Near(i)) {
-      m.in_near += (w / m_near) * dd;
-    } else {
-      m.far += w * dd;
-      m.m_far += w;
-    }
+    const Eigen::Vector3d d = Offset(places.pose(i), mean);
+    in_near += (w / m_near) * d * d.transpose();
   }
-  if (posed_places > 0) m.anywhere /= posed_places;
-  return m;
+  return in_near;
 }
 
 }  // namespace
@@ -105,25 +89,18 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     e.mean.z_m = z / m_near;
     e.mean.yaw_rad = (c == 0 && s == 0) ? match_pose->yaw_rad : std::atan2(s, c);
   }
-  const double p_off = std::clamp(belief.off_map_probability, 0.0, 1.0);
-  const double p_on = 1 - p_off;
+  const double p_on = 1 - std::clamp(belief.off_map_probability, 0.0, 1.0);
   Eigen::Matrix3d floor = Eigen::Matrix3d::Zero();
   floor(0, 0) = floor(1, 1) = options.min_std_m * options.min_std_m;
   floor(2, 2) = options.min_std_yaw_rad * options.min_std_yaw_rad;
-  Moments m = SecondMoments(places, e.mean, m_near, p_off > 0);
-  if (!places.has_posterior) {
-    m_near = 1;  // a distance method: the match alone, as sure as the floor says
-    m.m_far = 0;
-  }
-  // Places without a pose hold the rest of the posterior: they count as far, where the
-  // neighbourhood is wrong, spread as the far places are (as the map's, if none is posed).
-  const double m_unposed = places.has_posterior ? std::max(0.0, 1 - m_near - m.m_far) : 0.0;
-  if (m_unposed > 0) {
-    m.far += m_unposed * (m.m_far > 0 ? Eigen::Matrix3d(m.far / m.m_far) : m.anywhere);
-  }
-  // The place's own extent (the floor) holds wherever the robot is.
-  e.covariance = p_on * m_near * m.in_near + p_on * m.far + p_off * m.anywhere + floor;
-  e.wrong_probability = 1 - p_on * m_near;
+  // Given that the robot is in the neighbourhood: its spread there, plus the place's own
+  // extent (the floor). A distance method has no posterior: the match alone, the floor.
+  const Eigen::Matrix3d in_near = places.has_posterior && m_near > 0
+                                      ? NearSecondMoment(places, e.mean, m_near)
+                                      : Eigen::Matrix3d::Zero();
+  e.covariance = in_near + floor;
+  // That it is not: off the map, or at a far place (or one without a pose).
+  e.wrong_probability = places.has_posterior ? 1 - p_on * std::min(1.0, m_near) : 1 - p_on;
   if (!IsFinite(e.mean) || !e.covariance.allFinite()) return std::nullopt;
   return e;
 }

@@ -38,18 +38,18 @@ TEST(PoseEstimate, OnePlaceHoldingTheMassGivesItsPoseAndTheFloor) {
   EXPECT_NEAR(e->wrong_probability, 2e-9, 1e-12);
 }
 
-TEST(PoseEstimate, TheMeanIsTheMatchsNeighbourhoodsAndTheRestWidensTheCovariance) {
+TEST(PoseEstimate, TheMeanAndCovarianceAreTheMatchsNeighbourhoodsAndTheRestIsTheChanceOfAnError) {
   PoseEstimateOptions o;
   o.min_std_m = 1;
   o.neighbourhood_m = 15;
   // Half the mass on place 0, half on place 8 (80 m away): the mean stays at the match (the
   // mean of the whole belief, 40 m, is where the robot is not); the other mode is the
-  // chance of an error of 80 m.
+  // chance of an error (wrong_probability), not a wider covariance.
   const auto spread =
       EstimatePose(BeliefOf({0.5, 0, 0, 0, 0, 0, 0, 0, 0.5}, 0), Route(9), false, o);
   ASSERT_TRUE(spread);
   EXPECT_NEAR(spread->mean.x_m, 0.0, 1e-9);
-  EXPECT_NEAR(spread->covariance(0, 0), 1.0 + 0.5 * 6400.0, 1e-6);
+  EXPECT_NEAR(spread->covariance(0, 0), 1.0, 1e-6);
   EXPECT_NEAR(spread->wrong_probability, 0.5, 1e-12);
   // Neighbours only: their mean and spread.
   const auto near = EstimatePose(BeliefOf({0.5, 0.5, 0, 0, 0, 0, 0, 0, 0}, 0), Route(9), false, o);
@@ -57,10 +57,9 @@ TEST(PoseEstimate, TheMeanIsTheMatchsNeighbourhoodsAndTheRestWidensTheCovariance
   EXPECT_NEAR(near->mean.x_m, 5.0, 1e-9);
   EXPECT_NEAR(near->covariance(0, 0), 25.0 + 1.0, 1e-6);
   EXPECT_EQ(near->places, 2);
-  EXPECT_GT(spread->covariance(0, 0), 10 * near->covariance(0, 0));
 }
 
-TEST(PoseEstimate, TheChanceOfBeingOffTheMapSpreadsItOverTheMap) {
+TEST(PoseEstimate, TheChanceOfBeingOffTheMapIsTheChanceOfAnError) {
   PoseEstimateOptions o;
   o.min_std_m = 2;
   PlaceBelief b = BeliefOf({0, 1, 0}, 1);
@@ -68,16 +67,17 @@ TEST(PoseEstimate, TheChanceOfBeingOffTheMapSpreadsItOverTheMap) {
   const auto e = EstimatePose(b, Route(3), false, o);
   ASSERT_TRUE(e);
   EXPECT_NEAR(e->mean.x_m, 10.0, 1e-12);
-  // Off the map: the places' second moment about the mean, (100 + 0 + 100) / 3.
-  EXPECT_NEAR(e->covariance(0, 0), 4.0 + 0.1 * 200.0 / 3.0, 1e-9);
+  EXPECT_NEAR(e->covariance(0, 0), 4.0, 1e-9);
   EXPECT_NEAR(e->covariance(1, 1), 4.0, 1e-9);
   EXPECT_NEAR(e->wrong_probability, 0.1, 1e-12);
 }
 
 // The consistency test a localiser's filter relies on: where the belief is right about where
-// the robot is (the true place drawn from the posterior, off the map with P(off), within the
-// place's extent by the floor), the normalised estimation error squared of the estimate,
-// e' P^-1 e, averages its dimension (3).
+// the robot is and the neighbourhood holds it (the true place drawn from the posterior
+// within the neighbourhood, within the place's extent by the floor), the normalised
+// estimation error squared of the estimate, e' P^-1 e, averages its dimension (3). Drawn
+// from the whole belief instead (a far mode, off the map), the errors are far larger: that
+// chance is wrong_probability, which the same draw matches.
 TEST(PoseEstimate, ErrorsAreOfTheSizeTheCovarianceClaims) {
   const int n = 60;
   std::vector<std::optional<PlacePose>> poses(n);
@@ -94,7 +94,7 @@ TEST(PoseEstimate, ErrorsAreOfTheSizeTheCovarianceClaims) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
   std::normal_distribution<double> g(0, 1);
-  double nees = 0;
+  double nees = 0, wrong = 0, claimed_wrong = 0;
   const int trials = 20000;
   for (int t = 0; t < trials; ++t) {
     // A belief: a mode of a few places, and a second, smaller one elsewhere.
@@ -110,13 +110,23 @@ TEST(PoseEstimate, ErrorsAreOfTheSizeTheCovarianceClaims) {
     belief.off_map_probability = 0.05 * u(rng);
     const auto e = EstimatePose(belief, poses, false, o);
     ASSERT_TRUE(e);
-    // Where the robot is, drawn as the belief says.
+    // Where the robot is, drawn as the belief says; the NEES given the neighbourhood.
+    claimed_wrong += e->wrong_probability;
     int place = 0;
-    if (u(rng) < belief.off_map_probability) {
+    bool off = u(rng) < belief.off_map_probability;
+    if (off) {
       place = static_cast<int>(u(rng) * n);
     } else {
       double r = u(rng);
       while (place < n - 1 && (r -= p[place]) > 0) ++place;
+    }
+    const bool near = !off && std::hypot(poses[place]->x_m - poses[a]->x_m,
+                                         poses[place]->y_m - poses[a]->y_m) <= o.neighbourhood_m;
+    if (!near) {
+      ++wrong;
+      --t;  // a draw where the neighbourhood does not hold the robot: counted, not scored
+      if (wrong > trials) break;
+      continue;
     }
     const PlacePose& truth = *poses[place];
     const Eigen::Vector3d err(
@@ -126,12 +136,14 @@ TEST(PoseEstimate, ErrorsAreOfTheSizeTheCovarianceClaims) {
     nees += err.dot(e->covariance.ldlt().solve(err));
   }
   EXPECT_NEAR(nees / trials, 3.0, 0.3);
+  EXPECT_NEAR(wrong / (trials + wrong), claimed_wrong / (trials + wrong), 0.01);
 }
 
 TEST(PoseEstimate, CentredOnTheMatchTheSpreadIsMeasuredAboutIt) {
   PoseEstimateOptions o;
   o.min_std_m = 0;
   o.min_std_yaw_rad = 0;
+  o.neighbourhood_m = 25;
   const auto e = EstimatePose(BeliefOf({0.5, 0, 0.5}, 2), Route(3), true, o);
   ASSERT_TRUE(e);
   EXPECT_EQ(e->mean.x_m, 20.0);

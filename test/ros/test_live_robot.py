@@ -26,6 +26,7 @@ belief before sending the next image.
 """
 import math
 import os
+import random
 import re
 import shutil
 import signal
@@ -299,8 +300,9 @@ class LiveRobot(unittest.TestCase):
 
     def assert_a_covered_camera_is_not_localised(self, robot, sent):
         """A lens cap after localising (found driving it live: a latched "localized: true"
-        for as long as the cap stayed on): uniform frames at the camera's rate, which the
-        ingest drops. Within localization_timeout (1 s) and the node's check (0.1 s),
+        for as long as the cap stayed on): frames of 5% of the light with a sensor's noise
+        (no two alike, as a real covered camera gives them) at the camera's rate, which the
+        ingest drops as blind. Within localization_timeout (1 s) and the node's check (0.1 s),
         /bsf_vpr/localization says not localised and why, and the diagnostics turn WARN.
         Uncovered, the next belief localises again."""
         self.assertTrue(any(self.localization[s].localized for s, _ in sent[-20:]),
@@ -309,11 +311,15 @@ class LiveRobot(unittest.TestCase):
         frame = robot.frames[-1]
         cap.height, cap.width, cap.encoding, cap.step = (frame.height, frame.width,
                                                          frame.encoding, frame.step)
-        cap.data = bytes([40]) * len(frame.data)  # a covered lens: one grey level
+        light = 0.05 * sum(frame.data) / len(frame.data)
+        noise = random.Random(5)
+        caps = [bytes(min(255, max(0, int(round(light + noise.gauss(0, 2)))))
+                      for _ in range(len(frame.data))) for _ in range(8)]
         covered = time.time()
         until = covered + 3.0
         said = None
         while time.time() < until:
+            cap.data = caps[int(time.time() * CAMERA_HZ) % len(caps)]
             cap.header.stamp = rospy.Time.now()
             robot.camera.publish(cap)
             time.sleep(1.0 / CAMERA_HZ)
@@ -324,10 +330,10 @@ class LiveRobot(unittest.TestCase):
         delay = said[0] - covered
         print("covered camera: not localised after %.2f s: %s" % (delay, said[1].reason))
         self.assertLessEqual(delay, 1.6)
-        self.assertIn("uniform", said[1].reason)
+        self.assertIn("shows only noise", said[1].reason)
         self.assertEqual(said[1].place, -1)
         warned = [s for s in self.fusion_status(covered) if s.level == 1 and "not localised" in
-                  s.message and "uniform" in s.message]
+                  s.message and "shows only noise" in s.message]
         self.assertTrue(warned, "the diagnostics did not turn WARN while the camera was covered")
         # The latched message a robot that connects now reads says the same.
         latched = rospy.wait_for_message("/bsf_vpr/localization", Localization, timeout=5)

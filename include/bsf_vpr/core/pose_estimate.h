@@ -4,13 +4,17 @@
 //
 // The mean is the posterior's mean over the match's neighbourhood (the places within
 // neighbourhood_m of it), not over the whole map: the tails of a belief with several modes
-// would pull it where the robot is not. The covariance is the second moment, about that mean,
-// of where the robot is under the whole belief: in the neighbourhood (its spread) with
-// probability (1 - P(off)) m_near, at another place of the map with (1 - P(off))
-// (1 - m_near) (the posterior's far places), off the map with P(off) (anywhere the map's
-// places lie, uniformly), plus the place's own extent (the floor) wherever it is. A localiser that
-// weighs it by its Mahalanobis distance (a consistency test, NEES) then sees errors of the size it
-// claims. Planar: x, y and yaw; the caller states the rest as unknown.
+// would pull it where the robot is not. The covariance is where the robot is given that the
+// neighbourhood holds it: the second moment, about that mean, of the neighbourhood's posterior
+// (normalised to its mass m_near), plus the place's own extent (the floor). The chance that
+// the neighbourhood does not hold it, 1 - (1 - P(off)) m_near (off the map, or at a far
+// place), is wrong_probability, carried by the acceptance rule and said beside the pose, not
+// folded into the covariance: the training-free posterior keeps a few per cent on far places
+// even when the match is right, and folded in they made sigma tens of metres for errors of a
+// few (mean NEES 0.02 on a live drive). A localiser that weighs the pose by its Mahalanobis
+// distance (a consistency test, NEES) then sees errors of the size it claims whenever the
+// match is right, and rejects a wrong one as an outlier (pose0_rejection_threshold).
+// Planar: x, y and yaw; the caller states the rest as unknown.
 #pragma once
 
 #include <Eigen/Core>
@@ -37,7 +41,7 @@ struct PoseEstimate {
   // Covariance of (x, y, yaw), row-major as in geometry_msgs (x, y, yaw).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   int places = 0;                // places of the neighbourhood that entered the mean
-  double wrong_probability = 0;  // that the robot is not in the neighbourhood
+  double wrong_probability = 0;  // that the robot is not in the neighbourhood (not in covariance)
 };
 
 // The pose the belief `belief` puts the robot at, from the place poses `place_poses` (one per

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <utility>
 
 #include "bsf_vpr/core/place_layout.h"
@@ -150,18 +151,22 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
                          "and neither tf nor the robot's pose is sent",
                          r.belief.match, PoseProblem(*layout.PoseOf(r.belief.match)).c_str());
     }
+    const std::optional<PoseEstimate> pose =
+        pose_ok ? EstimateMatchPose(r, layout, decider) : std::nullopt;
+    match->wrong_probability =
+        pose ? pose->wrong_probability : std::numeric_limits<double>::quiet_NaN();
     match_pub_.publish(match);
     if (tf_ && match->has_pose) {
       const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
       tf_->sendTransform(ToPlaceTransformMsg(*match, stamp, options_.place_frame));
     }
-    if (options_.publish_pose && pose_ok) PublishPose(header, r, layout, decider);
+    if (options_.publish_pose && pose) PublishPose(header, *pose);
   }
   view_.Show(*belief, r, layout, decider);
 }
 
-void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Recognition& r,
-                                       const PlaceLayout& layout, const PlaceDecider& decider) {
+std::optional<PoseEstimate> RecognitionPublisher::EstimateMatchPose(
+    const Recognition& r, const PlaceLayout& layout, const PlaceDecider& decider) const {
   PoseEstimateOptions o;
   const double spacing = layout.MedianPlaceSpacing().value_or(0.0);
   // A place stands for one spacing of route: the robot lies uniformly within it.
@@ -173,13 +178,15 @@ void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const Rec
   // A +seq match is the sequence's end, and a distance method has no posterior: the pose is
   // the match's, with the posterior's spread about it.
   const bool centred = method.sequence || !method.IsBayesian();
-  const std::optional<PoseEstimate> e = EstimatePose(r.belief, layout.place_poses(), centred, o);
-  if (!e) return;  // no pose at the match, or nothing finite
+  return EstimatePose(r.belief, layout.place_poses(), centred, o);  // nullopt: nothing finite
+}
+
+void RecognitionPublisher::PublishPose(const std_msgs::Header& header, const PoseEstimate& e) {
   auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
   msg->header = header;
   msg->header.frame_id = options_.map_frame;
   msg->header.seq = static_cast<uint32_t>(poses_++);
-  ToPoseWithCovarianceMsg(*e, &msg->pose);
+  ToPoseWithCovarianceMsg(e, &msg->pose);
   pose_pub_.publish(msg);
 }
 

@@ -30,6 +30,7 @@
 
 #include "bsf_vpr/core/place_decider.h"
 #include "bsf_vpr/core/place_layout.h"
+#include "bsf_vpr/core/pose_estimate.h"
 #include "bsf_vpr/io/data_directory.h"
 #include "src/ros/view/belief_view.h"
 
@@ -87,8 +88,10 @@ class RecognitionPublisher {
   const std::string& stale() const { return stale_; }
 
  private:
-  void PublishPose(const std_msgs::Header& header, const Recognition& r, const PlaceLayout& layout,
-                   const PlaceDecider& decider);
+  // The pose of an accepted match whose place has one (EstimatePose), nullopt if none.
+  std::optional<PoseEstimate> EstimateMatchPose(const Recognition& r, const PlaceLayout& layout,
+                                                const PlaceDecider& decider) const;
+  void PublishPose(const std_msgs::Header& header, const PoseEstimate& estimate);
   void PublishLocalization(const std_msgs::Header& header, const PlaceBelief& belief);
 
   RecognitionPublisherOptions options_;

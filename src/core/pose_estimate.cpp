@@ -60,9 +60,9 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
   const std::optional<PlacePose>& match_pose = place_poses[static_cast<size_t>(belief.match)];
   if (!match_pose || !IsFinite(*match_pose)) return std::nullopt;
   const Eigen::VectorXd& log_p = belief.log_posterior;
-  const Places places{belief, place_poses, *match_pose, options.neighbourhood_m,
-                      log_p.size() == n && n > 0 && !log_p.hasNaN() &&
-                          std::isfinite(log_p.maxCoeff())};
+  const Places places{
+      belief, place_poses, *match_pose, options.neighbourhood_m,
+      log_p.size() == n && n > 0 && !log_p.hasNaN() && std::isfinite(log_p.maxCoeff())};
   double m_near = 0;
   int near_places = 0;
   double x = 0, y = 0, z = 0, c = 0, s = 0;

@@ -5,8 +5,12 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/core/method_runner.h"
@@ -77,10 +81,18 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     results[k].method = methods[k];
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
-  if (!input.unseen.empty() && input.unseen.size() != static_cast<size_t>(input.num_queries)) {
-    throw std::invalid_argument("unseen given for " + std::to_string(input.unseen.size()) +
-                                " queries of " + std::to_string(input.num_queries));
+  for (const auto& [what, size] : {std::pair<const char*, size_t>{"unseen", input.unseen.size()},
+                                    {"odometry steps", input.odometry_steps.size()}}) {
+    if (size != 0 && size != static_cast<size_t>(input.num_queries)) {
+      throw std::invalid_argument(std::string(what) + " given for " + std::to_string(size) +
+                                  " queries of " + std::to_string(input.num_queries));
+    }
   }
+  const auto step_of = [&input](int q) -> std::optional<double> {
+    if (input.odometry_steps.empty()) return std::nullopt;
+    const double s = input.odometry_steps[static_cast<size_t>(q)];
+    return std::isfinite(s) ? std::optional<double>(s) : std::nullopt;
+  };
   std::vector<RowMatrixXf> block(m), joint_block(input.joint_kinds.size());
   for (int begin = 0; begin < input.num_queries; begin += block_size) {
     const int end = std::min(input.num_queries, begin + block_size);
@@ -114,7 +126,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
           joint[j].distances.count = input.num_places;
         }
         const PlaceBelief b =
-            runner.Step(views, input.num_places, nullptr, std::nullopt, true, nullptr, &joint);
+            runner.Step(views, input.num_places, nullptr, step_of(q), true, nullptr, &joint);
         o.match = b.match;
         o.confidence = b.confidence;
         o.accepted = b.accepted;

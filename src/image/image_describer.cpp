@@ -317,12 +317,13 @@ std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image) {
   m.noise_std = std::sqrt(M_PI / 2) * abs_sum / (6.0 * inner.area());
   // The structure at the descriptors' scale, less its smooth part.
   m.cells_wide = std::min(64, grey.cols / 2);
-  m.cells_high = std::max(2, static_cast<int>(std::lround(static_cast<double>(m.cells_wide) *
-                                                          grey.rows / grey.cols)));
+  m.cells_high = std::max(
+      2, static_cast<int>(std::lround(static_cast<double>(m.cells_wide) * grey.rows / grey.cols)));
   cv::Mat cells, smooth;
   cv::resize(grey, cells, cv::Size(m.cells_wide, m.cells_high), 0, 0, cv::INTER_AREA);
   cv::GaussianBlur(cells, smooth, cv::Size(0, 0), 2.0, 2.0, cv::BORDER_REFLECT);
-  m.structure = cv::norm(cells, smooth, cv::NORM_L2) / std::sqrt(static_cast<double>(cells.total()));
+  m.structure =
+      cv::norm(cells, smooth, cv::NORM_L2) / std::sqrt(static_cast<double>(cells.total()));
   const double pixels_per_cell =
       static_cast<double>(grey.total()) / static_cast<double>(cells.total());
   m.expected = std::sqrt(m.noise_std * m.noise_std / pixels_per_cell + 1.0 / 12.0);

@@ -97,8 +97,8 @@ int Run(int argc, char** argv) {
     const size_t row = static_cast<size_t>(first - blind.begin());
     std::cerr << "bsf_make_reference: warning: "
               << std::count_if(blind.begin(), blind.end(), [](auto& b) { return !b.empty(); })
-              << " of the " << blind.size() << " images show nothing (first: "
-              << set.image_files[row] << ", which " << *first
+              << " of the " << blind.size()
+              << " images show nothing (first: " << set.image_files[row] << ", which " << *first
               << "): their places are described by noise; remove those frames\n";
   }
   return 0;

@@ -77,12 +77,10 @@ int Run(int argc, char** argv) {
       crop = tools::ParseNumber(f, v);
     else if (f == "--shift")
       shift = tools::ParseNumber(f, v);
-    else if (f == "--blind" &&
-             (v == "covered" || v == "grey" || v == "black" || v == "dazzled"))
+    else if (f == "--blind" && (v == "covered" || v == "grey" || v == "black" || v == "dazzled"))
       blind = v;
     else if (f == "--blind")
-      throw std::invalid_argument("--blind takes covered, grey, black or dazzled, got '" + v +
-                                  "'");
+      throw std::invalid_argument("--blind takes covered, grey, black or dazzled, got '" + v + "'");
     else if (f == "--cover" && (v == "true" || v == "false"))
       blind = v == "true" ? "covered" : "";
     else if (f == "--cover")

@@ -1,6 +1,7 @@
 // EvaluateMethods: the offline evaluation of methods over blocks of queries, in parallel.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 #include <numeric>
 
@@ -74,8 +75,7 @@ TEST(EvaluationRunner, AnUnseenQueryIsNoObservationAndLeavesTheFilterAsItWas) {
     block->clear();
     for (const RowMatrixXf& d : kept) block->push_back(d.middleRows(b, e - b));
   };
-  GroundTruth truth_seen = GroundTruth::FromFrameTolerance(only_seen.num_queries,
-                                                           in.num_places, 0);
+  GroundTruth truth_seen = GroundTruth::FromFrameTolerance(only_seen.num_queries, in.num_places, 0);
   const std::vector<MethodResults> ref =
       EvaluateMethods(only_seen, methods, {}, truth_seen, {}, 32);
   for (size_t k = 0; k < methods.size(); ++k) {
@@ -95,6 +95,39 @@ TEST(EvaluationRunner, AnUnseenQueryIsNoObservationAndLeavesTheFilterAsItWas) {
   }
   in.unseen.pop_back();
   EXPECT_THROW(EvaluateMethods(in, methods, {}, data.truth, {}, 32), std::invalid_argument);
+}
+
+// Odometry steps reach each +filter step as the node's odometry does (MethodRunner::Step's
+// step_places); NaN is no step (the filter's own).
+TEST(EvaluationRunner, OdometryStepsAreTheFiltersSteps) {
+  SyntheticOptions opt;
+  opt.num_places = 120;
+  const SyntheticData data = GenerateMultiConditionData(opt);
+  std::vector<RowMatrixXf> all;
+  EvaluationInput in = testing::ExactEvaluationInput(data, &all);
+  in.odometry_steps.assign(static_cast<size_t>(in.num_queries), 0.0);  // standing still
+  in.odometry_steps[0] = std::nan("");
+  in.odometry_steps[7] = 3.5;
+  const Method filter = ParseMethod("bsf+filter", in.set_names);
+  const std::vector<MethodResults> r = EvaluateMethods(in, {filter}, {}, data.truth, {}, 32);
+  EvaluationInput without = in;
+  without.odometry_steps.clear();
+  const std::vector<MethodResults> w = EvaluateMethods(without, {filter}, {}, data.truth, {}, 32);
+  MethodRunner sequential(filter, {});
+  int differ = 0;
+  for (int q = 0; q < in.num_queries; ++q) {
+    const double s = in.odometry_steps[static_cast<size_t>(q)];
+    const PlaceBelief b =
+        sequential.Step(QueryRowViews(all, q, {}), in.num_places, nullptr,
+                        std::isfinite(s) ? std::optional<double>(s) : std::nullopt, true);
+    const QueryOutcome& o = r[0].outcomes[static_cast<size_t>(q)];
+    ASSERT_EQ(o.match, b.match) << q;
+    ASSERT_EQ(o.confidence, b.confidence) << q;
+    differ += o.confidence != w[0].outcomes[static_cast<size_t>(q)].confidence;
+  }
+  EXPECT_GT(differ, in.num_queries / 2);  // a robot standing still is not one moving on
+  in.odometry_steps.pop_back();
+  EXPECT_THROW(EvaluateMethods(in, {filter}, {}, data.truth, {}, 32), std::invalid_argument);
 }
 
 // With many places, fusion inside the evaluator's parallel queries runs its own parallel

@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
-#include <optional>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 
 #include "bsf_vpr/core/reference_set.h"
@@ -236,17 +236,16 @@ TEST(Describers, BlindFramesMadeFromRealOnesAreSaidToShowOnlyNoiseAndRealFramesA
         cv::Mat real_f;
         real.convertTo(real_f, CV_32FC3);
         dazzled = white - (white - real_f) * 0.02;
-        const cv::Mat blind[] = {noisy(covered, 2), noisy(cv::Mat(real.size(), CV_32FC3,
-                                                                   cv::Scalar::all(128)), 3),
-                                 noisy(cv::Mat::zeros(real.size(), CV_32FC3), 3),
-                                 noisy(dazzled, 2)};
+        const cv::Mat blind[] = {
+            noisy(covered, 2), noisy(cv::Mat(real.size(), CV_32FC3, cv::Scalar::all(128)), 3),
+            noisy(cv::Mat::zeros(real.size(), CV_32FC3), 3), noisy(dazzled, 2)};
         for (const cv::Mat& b : blind) {
           const std::optional<BlindImageMeasure> m = MeasureBlindImage(b);
           ASSERT_TRUE(m);
           most_blind = std::max(most_blind, m->structure / m->expected);
           EXPECT_NE(BlindImageProblem(b).find("shows only noise"), std::string::npos)
-              << size << " " << season << name << ": structure " << m->structure
-              << ", noise gives " << m->expected;
+              << size << " " << season << name << ": structure " << m->structure << ", noise gives "
+              << m->expected;
         }
       }
     }

@@ -339,8 +339,11 @@ TEST_F(MakeTools, MakeViewsMakesEveryKindOfBlindCamera) {
   const std::string tool = BSF_MAKE_VIEWS_PATH;
   const std::string frames = kSource + "/data/nordland_subset100/256x144/fall";
   const cv::Mat frame = cv::imread(frames + "/010.jpg", cv::IMREAD_COLOR);
-  for (const auto& [kind, level] : std::vector<std::pair<std::string, double>>{
-           {"covered", 0.05 * cv::mean(frame)[0]}, {"grey", 128}, {"black", 0.8}, {"dazzled", 250}}) {
+  for (const auto& [kind, level] :
+       std::vector<std::pair<std::string, double>>{{"covered", 0.05 * cv::mean(frame)[0]},
+                                                   {"grey", 128},
+                                                   {"black", 0.8},
+                                                   {"dazzled", 250}}) {
     const Result r = RunCommand(tool + " --images " + frames + " --out " + dir_ + "/" + kind +
                                 " --crop 1 --blind " + kind);
     ASSERT_EQ(r.exit_code, 0) << r.output;

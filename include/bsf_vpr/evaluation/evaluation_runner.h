@@ -56,6 +56,10 @@ struct EvaluationInput {
   // state is left as it was), its outcome is no match (match -1, confidence -infinity, not
   // accepted). Empty: every query was seen.
   std::vector<bool> unseen;
+  // Per query, the robot's progress since the previous seen query, in places: the +filter's
+  // step for it (MethodRunner::Step's step_places, as the node's odometry gives it); NaN:
+  // none (the filter's own step distribution). Empty: no odometry.
+  std::vector<double> odometry_steps;
 };
 
 // Where EvaluateMethods' time went: wall seconds and CPU seconds of the process (all its

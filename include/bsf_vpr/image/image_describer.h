@@ -5,8 +5,8 @@
 
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 

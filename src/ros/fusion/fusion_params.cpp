@@ -9,89 +9,108 @@
 
 namespace bsf_vpr {
 
+namespace {
+
+// The rviz view's options of the publishing table (BeliefViewOptions).
+void AddViewParams(OptionTable<RecognitionPublisherOptions>* table) {
+  (*table)
+      .Add(
+          "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
+          "distance between places drawn in rviz when they do not all have poses; 0: the "
+          "places are spread over marker_view_size_m",
+          "m", AtLeast(0))
+      .Add(
+          "marker_view_size_m", [](auto& p) -> auto& { return p.view.view_size_m; },
+          "size of the area the rviz view shows (rviz/bsf_vpr.rviz frames 100 m): markers "
+          "are sized for the smaller of it and the route's extent, and a route larger than "
+          "it is drawn shrunk to fit it (the legend says how much)",
+          "m", Above(0))
+      .Add(
+          "marker_log_scale", [](auto& p) -> auto& { return p.view.log_scale; },
+          "belief bars and the match image's plot show log10 of the posterior over 4 "
+          "decades instead of the posterior")
+      .Add(
+          "match_image_max_file_mb",
+          [](auto& p) -> auto& { return p.view.match_image_max_file_mb; },
+          "the match image's reference image: a larger file is not read (a warning names "
+          "the set and row, and the image shows a placeholder)",
+          "MiB", Above(0))
+      .Add(
+          "match_image_max_megapixels",
+          [](auto& p) -> auto& { return p.view.match_image_max_megapixels; },
+          "the match image's reference image: one whose header claims more pixels (width "
+          "x height) is not decoded (a small PNG can claim gigapixels); only PNG, JPEG "
+          "and BMP are shown, the formats whose size is read before decoding",
+          "million pixels", Above(0))
+      .Add(
+          "view_frame", [](auto& p) -> auto& { return p.view.view_frame; },
+          "tf child of map_frame broadcast with the markers, which rviz/bsf_vpr.rviz "
+          "follows: at the centre of the route as drawn")
+      .Add(
+          "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
+          "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
+          "carry it): rviz and the match image mark the true places; \"\": none");
+}
+
+}  // namespace
+
 const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
-  static const OptionTable<RecognitionPublisherOptions> kTable =
-      OptionTable<RecognitionPublisherOptions>()
-          .Add(
-              "belief_top_k", [](auto& p) -> auto& { return p.belief_top_k; },
-              "places in each Belief message: 0 = all N places, else the K best", "places",
-              AtLeast(0))
-          .Add(
-              "map_frame", [](auto& p) -> auto& { return p.map_frame; },
-              "frame of the place poses, parent of place_frame")
-          .Add(
-              "place_frame", [](auto& p) -> auto& { return p.place_frame; },
-              "tf child frame broadcast at an accepted match that has a pose")
-          .Add(
-              "publish_tf", [](auto& p) -> auto& { return p.publish_tf; },
-              "broadcast map_frame -> place_frame on accepted matches")
-          .Add(
-              "publish_pose", [](auto& p) -> auto& { return p.publish_pose; },
-              "publish the robot's pose on pose (geometry_msgs/PoseWithCovarianceStamped in "
-              "map_frame, stamped as the query) for accepted matches whose places have poses: "
-              "the posterior's mean over the match's neighbourhood, with the covariance of "
-              "where the robot is under the whole belief (off the map too), for "
-              "robot_localization (pose0) or amcl (initialpose)")
-          .Add(
-              "pose_neighbourhood_m", [](auto& p) -> auto& { return p.pose_neighbourhood_m; },
-              "the match's neighbourhood that pose is the mean of: the places within this "
-              "distance of the match; 0: twice the median place spacing",
-              "m", AtLeast(0))
-          .Add(
-              "pose_min_std_m", [](auto& p) -> auto& { return p.pose_min_std_m; },
-              "floor of that pose's standard deviation in x and y (a place stands for a "
-              "stretch of route one spacing long); 0: the median place spacing / sqrt(12)",
-              "m", AtLeast(0))
-          .Add(
-              "publish_queue_size", [](auto& p) -> auto& { return p.publish_queue_size; },
-              "messages the belief, match and pose publishers each hold for a subscriber "
-              "that has not taken them yet, before roscpp drops the oldest unseen (a gap in "
-              "header.seq): 100 is 10 s at 10 Hz, 3 s at 30 Hz",
-              "messages", Between(1, 100000))
-          .Add(
-              "localization_timeout",
-              [](auto& p) -> auto& { return p.localization_timeout_s; },
-              "no belief for this long (or for 3 of the recent intervals between beliefs, if "
-              "longer: a slow camera) after one was published, and localization says not "
-              "localised, with the reason (a covered camera whose images the ingest drops, "
-              "descriptors refused, no input)",
-              "s", Above(0))
-          .Add(
-              "marker_spacing_m", [](auto& p) -> auto& { return p.view.marker_spacing_m; },
-              "distance between places drawn in rviz when they do not all have poses; 0: the "
-              "places are spread over marker_view_size_m",
-              "m", AtLeast(0))
-          .Add(
-              "marker_view_size_m", [](auto& p) -> auto& { return p.view.view_size_m; },
-              "size of the area the rviz view shows (rviz/bsf_vpr.rviz frames 100 m): markers "
-              "are sized for the smaller of it and the route's extent, and a route larger than "
-              "it is drawn shrunk to fit it (the legend says how much)",
-              "m", Above(0))
-          .Add(
-              "marker_log_scale", [](auto& p) -> auto& { return p.view.log_scale; },
-              "belief bars and the match image's plot show log10 of the posterior over 4 "
-              "decades instead of the posterior")
-          .Add(
-              "match_image_max_file_mb",
-              [](auto& p) -> auto& { return p.view.match_image_max_file_mb; },
-              "the match image's reference image: a larger file is not read (a warning names "
-              "the set and row, and the image shows a placeholder)",
-              "MiB", Above(0))
-          .Add(
-              "match_image_max_megapixels",
-              [](auto& p) -> auto& { return p.view.match_image_max_megapixels; },
-              "the match image's reference image: one whose header claims more pixels (width "
-              "x height) is not decoded (a small PNG can claim gigapixels); only PNG, JPEG "
-              "and BMP are shown, the formats whose size is read before decoding",
-              "million pixels", Above(0))
-          .Add(
-              "view_frame", [](auto& p) -> auto& { return p.view.view_frame; },
-              "tf child of map_frame broadcast with the markers, which rviz/bsf_vpr.rviz "
-              "follows: at the centre of the route as drawn")
-          .Add(
-              "ground_truth_topic", [](auto& p) -> auto& { return p.ground_truth_topic; },
-              "bsf_vpr/QueryGroundTruth of the queries (the bags of bsf_make_bag and bsf_import "
-              "carry it): rviz and the match image mark the true places; \"\": none");
+  static const OptionTable<RecognitionPublisherOptions> kTable = [] {
+    OptionTable<RecognitionPublisherOptions> t;
+    t.Add(
+         "belief_top_k", [](auto& p) -> auto& { return p.belief_top_k; },
+         "places in each Belief message: 0 = all N places, else the K best", "places", AtLeast(0))
+        .Add(
+            "map_frame", [](auto& p) -> auto& { return p.map_frame; },
+            "frame of the place poses, parent of place_frame")
+        .Add(
+            "place_frame", [](auto& p) -> auto& { return p.place_frame; },
+            "tf child frame broadcast at an accepted match that has a pose")
+        .Add(
+            "publish_tf", [](auto& p) -> auto& { return p.publish_tf; },
+            "broadcast map_frame -> place_frame on accepted matches")
+        .Add(
+            "publish_pose", [](auto& p) -> auto& { return p.publish_pose; },
+            "publish the robot's pose on pose (geometry_msgs/PoseWithCovarianceStamped in "
+            "map_frame, stamped as the query) for accepted matches whose places have poses: "
+            "the posterior's mean over the match's neighbourhood, with the covariance of "
+            "where the robot is given that the neighbourhood holds it (the chance it does "
+            "not is the match's wrong_probability), for robot_localization (pose0) or amcl "
+            "(initialpose)")
+        .Add(
+            "pose_neighbourhood_m", [](auto& p) -> auto& { return p.pose_neighbourhood_m; },
+            "the match's neighbourhood that pose is the mean of: the places within this "
+            "distance of the match; 0: twice the median place spacing",
+            "m", AtLeast(0))
+        .Add(
+            "pose_min_std_m", [](auto& p) -> auto& { return p.pose_min_std_m; },
+            "floor of that pose's standard deviation in x and y (a place stands for a "
+            "stretch of route one spacing long); 0: the median place spacing / sqrt(12)",
+            "m", AtLeast(0))
+        .Add(
+            "publish_queue_size", [](auto& p) -> auto& { return p.publish_queue_size; },
+            "messages the belief, match and pose publishers each hold for a subscriber "
+            "that has not taken them yet, before roscpp drops the oldest unseen (a gap in "
+            "header.seq): 100 is 10 s at 10 Hz, 3 s at 30 Hz",
+            "messages", Between(1, 100000))
+        .Add(
+            "localization_timeout", [](auto& p) -> auto& { return p.localization_timeout_s; },
+            "no belief for this long (or for 3 of the recent intervals between beliefs, if "
+            "longer: a slow camera) after one was published, and localization says not "
+            "localised, with the reason (a covered camera whose images the ingest drops, "
+            "descriptors refused, no input)",
+            "s", Above(0))
+        .Add(
+            "localization_hold_s", [](auto& p) -> auto& { return p.localization_hold_s; },
+            "after an accepted match, localization stays localised (at that place, with "
+            "held_s) through beliefs that accept none for up to this long by the queries' "
+            "stamps, unless one says off the map (P(off) > 0.5): a frame between places or "
+            "a passing truck does not make the robot lost; 0: localised exactly when a "
+            "belief is accepted",
+            "s", AtLeast(0));
+    AddViewParams(&t);
+    return t;
+  }();
   return kTable;
 }
 

@@ -51,21 +51,31 @@ std::string NotLocalizedReason(const PlaceBelief& b) {
 void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
                                                const PlaceBelief& b) {
   const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
-  if (!localized_ || *localized_ != b.accepted || stamp < localized_since_ || !stale_.empty()) {
-    localized_ = b.accepted;
+  // Held: localised on a match accepted at most localization_hold_s before, through beliefs
+  // that accept none but do not say the robot is off the map (one frame between places, a
+  // passing truck, a blurred frame is no reason to tell a robot it is lost).
+  const bool held = !b.accepted && localized_.value_or(false) && stale_.empty() &&
+                    !last_accepted_.isZero() && stamp >= last_accepted_ &&
+                    (stamp - last_accepted_).toSec() <= options_.localization_hold_s &&
+                    !(b.off_map_probability > 0.5);
+  const bool localized = b.accepted || held;
+  if (!localized_ || *localized_ != localized || stamp < localized_since_ || !stale_.empty()) {
+    localized_ = localized;
     localized_since_ = stamp;
   }
   stale_.clear();
   last_stamp_ = stamp;
-  localized_place_ = b.accepted ? b.match : -1;
+  if (b.accepted) last_accepted_ = stamp;
+  if (!held) localized_place_ = b.accepted ? b.match : -1;
   off_map_probability_ = b.off_map_probability;
   auto msg = boost::make_shared<Localization>();
   msg->header = header;
-  msg->localized = b.accepted;
+  msg->localized = localized;
   msg->place = localized_place_;
   msg->off_map_probability = b.off_map_probability;
   msg->since_s = (stamp - localized_since_).toSec();
-  msg->reason = NotLocalizedReason(b);
+  msg->held_s = held ? (stamp - last_accepted_).toSec() : 0.0;
+  msg->reason = localized ? "" : NotLocalizedReason(b);
   localization_pub_.publish(msg);
 }
 
@@ -93,6 +103,7 @@ std::string RecognitionPublisher::CheckStale(const ros::Time& now, const std::st
     localized_ = false;
     if (was_localized) localized_since_ = now;
     localized_place_ = -1;
+    last_accepted_ = ros::Time();  // a new belief after the silence is not held
   }
   last_stamp_ = now;
   auto msg = boost::make_shared<Localization>();

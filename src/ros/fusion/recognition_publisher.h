@@ -45,7 +45,7 @@ struct RecognitionPublisherOptions {
   int belief_top_k = 0;                                  // 0: the belief lists every place
   BeliefViewOptions view;                                // its map_frame is map_frame
   std::string ground_truth_topic = "/vpr/ground_truth";  // "": none
-  bool publish_pose = true;        // the robot's pose from accepted matches, on names::kPoseTopic
+  bool publish_pose = true;  // the robot's pose from accepted matches, on names::kPoseTopic
   // The match's neighbourhood the pose is the mean of; 0: twice the median place spacing.
   double pose_neighbourhood_m = 0;
   // Floor of the pose's standard deviation in x and y; 0: the place spacing / sqrt(12).
@@ -56,6 +56,10 @@ struct RecognitionPublisherOptions {
   // No belief for this long (or for 3 intervals of the recent descriptors, if longer): the
   // robot is not localised (CheckStale).
   double localization_timeout_s = 1.0;
+  // After an accepted match the robot stays localised (at that place) through beliefs that
+  // accept none for up to this long, by the queries' stamps, unless one says it is off the
+  // map (P(off) > 0.5); 0: localised exactly when the belief is accepted.
+  double localization_hold_s = 1.0;
 };
 
 class RecognitionPublisher {
@@ -100,6 +104,7 @@ class RecognitionPublisher {
   // and the last belief's place and P(off).
   std::optional<bool> localized_;
   ros::Time localized_since_, last_stamp_;
+  ros::Time last_accepted_;  // the stamp of the last accepted belief (zero: none)
   // When the last belief was published (the node's clock), the recent intervals between
   // beliefs (seconds), and why the robot is not localised without beliefs ("" while they come).
   ros::Time last_belief_time_;
@@ -108,7 +113,7 @@ class RecognitionPublisher {
   int localized_place_ = -1;
   double off_map_probability_ = 0;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;  // null when publish_tf is false
-  uint64_t beliefs_ = 0, matches_ = 0, poses_ = 0;      // published, each its own seq
+  uint64_t beliefs_ = 0, matches_ = 0, poses_ = 0;     // published, each its own seq
   BeliefView view_;
 };
 

@@ -56,10 +56,20 @@ Ground truth (one of):
                           query poses from a query YAML, from --query-poses, or with
                           --results-bag from --pose-topic (matched to each belief by header
                           stamp; a query without a pose is left out of the scores and counted)
-  --query-poses CSV       with --tolerance-m, the poses of a .npy or image-folder query: a
+  --query-poses CSV       with --tolerance-m or --odometry poses, the poses of a .npy or
+                          image-folder query: a
                           header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', then one row per
                           query in order (metres, radians, the reference poses' frame; no
                           lat,lon: the sets keep metres and no origin)
+
+Odometry (descriptor inputs; the fusion node's odometry_source and place_spacing_m):
+  --odometry none|poses   poses: each +filter step is the robot's progress from the query
+                          poses (a query YAML's or --query-poses), as the node takes
+                          odometry: the distance moved since the previous seen query (a
+                          blind frame is none) over the place spacing (default none: the
+                          filter's own step, filter_step_mean_places)
+  --place-spacing-m X     with --odometry poses, the distance between places (default: the
+                          median spacing of the reference sets' place poses)
 
 Methods:
   --methods LIST          comma-separated: bsf, bayes_full, med, med_selective,
@@ -157,6 +167,14 @@ EvaluateArgs ParseEvaluateArgs(int argc, char** argv) {
       if (a.tolerance_m < 0) throw std::invalid_argument("--tolerance-m must be >= 0");
     } else if (flag == "--query-poses") {
       a.query_poses = value;
+    } else if (flag == "--odometry") {
+      if (value != "none" && value != "poses") {
+        throw std::invalid_argument("--odometry takes none or poses, got '" + value + "'");
+      }
+      a.odometry = value == "poses";
+    } else if (flag == "--place-spacing-m") {
+      a.place_spacing_m = ParseNumber(flag, value);
+      if (!(a.place_spacing_m > 0)) throw std::invalid_argument("--place-spacing-m must be > 0");
     } else if (flag == "--ground-truth") {
       a.ground_truth = value;
     } else if (flag == "--methods") {
@@ -208,8 +226,16 @@ void CheckCombination(const EvaluateArgs& a) {
         "--first-stage pca computes distances from descriptors (--reference/--query): "
         "--distances/--similarities and --results-bag give them already");
   }
-  if (!a.query_poses.empty() && a.tolerance_m < 0) {
-    throw std::invalid_argument("--query-poses goes with --tolerance-m R");
+  if (!a.query_poses.empty() && a.tolerance_m < 0 && !a.odometry) {
+    throw std::invalid_argument("--query-poses goes with --tolerance-m R or --odometry poses");
+  }
+  if (a.place_spacing_m > 0 && !a.odometry) {
+    throw std::invalid_argument("--place-spacing-m goes with --odometry poses");
+  }
+  if (a.odometry && (!a.results_bag.empty() || matrix_mode)) {
+    throw std::invalid_argument(
+        "--odometry poses goes with --reference/--query (a results bag's beliefs had the "
+        "node's odometry already; distance matrices have no poses)");
   }
   if (!a.results_bag.empty()) {
     if (!a.query.empty() || matrix_mode) {

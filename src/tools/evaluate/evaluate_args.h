@@ -40,7 +40,9 @@ struct EvaluateArgs {
   bool memory_map = false;    // --memory-map true: map reference .npy files held at `storage`
   int tolerance_frames = -1;  // --tolerance K (-1: not given)
   double tolerance_m = -1;    // --tolerance-m R (-1: not given)
-  std::string query_poses;    // --query-poses CSV, for --tolerance-m (evaluate_ground_truth.h)
+  std::string query_poses;    // --query-poses CSV, for --tolerance-m and --odometry poses
+  bool odometry = false;      // --odometry poses: the +filter's steps from the query poses
+  double place_spacing_m = 0;  // --place-spacing-m (0: the places' median spacing)
   std::string ground_truth;   // --ground-truth PATH (.csv or .npy)
   std::string methods = "all";
   MethodOptions options;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -103,14 +104,14 @@ std::string BlindFramesNote(const EvaluateArgs& args,
       unseen->assign(rows.size(), false);
       for (size_t r : found) (*unseen)[r] = true;
     }
-    note += "; " + std::to_string(found.size()) + " of the " + std::to_string(rows.size()) +
-            (query ? " query images" : " images of reference set '" + args.references[i].name +
-                                           "'") +
-            " show nothing (first: row " + std::to_string(found[0]) + ", which " +
-            blind[i][found[0]] + ")" +
-            (query ? ": no observation, as the ingest drops them live (no match, no step of "
-                     "any filter)"
-                   : ": places described by noise; remove those frames");
+    note +=
+        "; " + std::to_string(found.size()) + " of the " + std::to_string(rows.size()) +
+        (query ? " query images" : " images of reference set '" + args.references[i].name + "'") +
+        " show nothing (first: row " + std::to_string(found[0]) + ", which " + blind[i][found[0]] +
+        ")" +
+        (query ? ": no observation, as the ingest drops them live (no match, no step of "
+                 "any filter)"
+               : ": places described by noise; remove those frames");
   }
   return note;
 }
@@ -279,6 +280,56 @@ void LoadMetricTruth(const EvaluateArgs& args, EvaluationData* data) {
   data->truth_description = DescribeMetricTruth(args.tolerance_m, query_source, place_poses);
 }
 
+// --odometry poses: each query's step from the query poses (as the node's OdometryProgress
+// takes them: the distance moved since the previous seen query over the place spacing;
+// none at the first seen query and at a blind one), and a line of the description.
+void LoadOdometry(const EvaluateArgs& args, EvaluationData* data) {
+  std::string source = "query '" + args.query + "'";
+  if (!args.query_poses.empty()) {
+    source = "'" + args.query_poses + "'";
+    if (args.tolerance_m < 0) {  // else LoadMetricTruth has read them
+      if (!data->query_poses.empty()) {
+        throw std::invalid_argument("query '" + args.query +
+                                    "' has poses of its own: --query-poses is for a query "
+                                    "without (a .npy or an image folder)");
+      }
+      data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
+    }
+  }
+  if (data->query_poses.empty()) {
+    throw std::invalid_argument(
+        "--odometry poses needs query poses: give --query-poses CSV, or the query as a YAML "
+        "with 'poses'");
+  }
+  double spacing = args.place_spacing_m;
+  std::string how = " (--place-spacing-m)";
+  if (!(spacing > 0)) {
+    const std::optional<double> median = ReferenceSets::MedianSpacing(data->map.place_poses());
+    if (!median || !(*median > 0)) {
+      throw std::invalid_argument(
+          "--odometry poses needs the place spacing: give --place-spacing-m, or reference "
+          "sets with 'poses'");
+    }
+    spacing = *median;
+    how = " (the median spacing of the places' poses)";
+  }
+  const std::vector<bool>& unseen = data->input.unseen;
+  std::vector<double>& steps = data->input.odometry_steps;
+  steps.assign(static_cast<size_t>(data->input.num_queries), std::nan(""));
+  std::optional<Eigen::Vector3d> last;  // the pose at the previous seen query
+  for (size_t q = 0; q < steps.size(); ++q) {
+    if (!unseen.empty() && unseen[q]) continue;
+    const PlacePose& p = data->query_poses[q];
+    const Eigen::Vector3d at(p.x_m, p.y_m, p.z_m);
+    if (last) steps[q] = (at - *last).norm() / spacing;
+    last = at;
+  }
+  char line[160];
+  std::snprintf(line, sizeof(line), "; odometry from the poses of %s, a place every %.3g m%s",
+                source.c_str(), spacing, how.c_str());
+  data->description += line;
+}
+
 }  // namespace
 
 std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
@@ -300,6 +351,7 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
     data->truth_description = "the correct places listed in '" + args.ground_truth + "'";
   }
   data->truth_description += "; " + CountTrueMatches(data->truth);
+  if (args.odometry) LoadOdometry(args, data.get());
   return data;
 }
 

@@ -14,10 +14,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <set>
-#include <sstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <sstream>
 
 #include "bsf_vpr/core/distances.h"
 #include "bsf_vpr/evaluation/evaluation_runner.h"
@@ -48,7 +48,8 @@ TEST_F(EvaluateTool, GardensPointWritesTheDocumentedOutputs) {
   const Result r =
       Evaluate("--reference day=" + kGardens + "day_left.npy --query " + kGardens +
                "night_right.npy --distance cosine --tolerance 3 --fusion-place-means false"
-               " --out " + dir_ + "/out");
+               " --out " +
+               dir_ + "/out");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("bayes:day"), std::string::npos) << r.output;
   const std::vector<std::string> summary = Lines(dir_ + "/out/summary.csv");
@@ -735,11 +736,14 @@ TEST_F(EvaluateTool, BlindQueryFramesAreNoObservation) {
     ASSERT_TRUE(cv::imwrite(dir_ + "/q" + name, frame));
   }
   const Result r = Evaluate("--reference summer=" + root + "summer --reference winter=" + root +
-                            "winter --query " + dir_ + "/q --tolerance 2 --methods bsf,bsf+filter "
-                            "--no-progress --out " + dir_ + "/out");
+                            "winter --query " + dir_ +
+                            "/q --tolerance 2 --methods bsf,bsf+filter "
+                            "--no-progress --out " +
+                            dir_ + "/out");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("20 of the 60 query images show nothing (first: row 20"),
-            std::string::npos) << r.output;
+            std::string::npos)
+      << r.output;
   EXPECT_NE(r.output.find("shows only noise"), std::string::npos) << r.output;
   for (const std::string method : {"bsf", "bsf+filter"}) {
     const std::vector<std::string> rows = Lines(dir_ + "/out/matches/" + method + ".csv");
@@ -762,6 +766,68 @@ TEST_F(EvaluateTool, BlindQueryFramesAreNoObservation) {
     }
     EXPECT_GE(right_after, 10) << method << ": the route is taken up again after the blind frames";
   }
+}
+
+// A robot that stops for 25 frames at place 20 (real Nordland-100 winter frames against the
+// summer and fall sets, places every 10 m): with --odometry poses the filter is told it stands
+// still and keeps accepting place 20; without, it predicts a place a query and accepts few
+// of those frames. The same steps the node takes from odometry.
+TEST_F(EvaluateTool, OdometryFromTheQueryPosesTellsTheFilterTheRobotStopped) {
+  const std::string root = kSource + "/data/nordland_subset100/64x32/";
+  fs::create_directories(dir_ + "/q");
+  std::vector<int> frames;
+  for (int f = 0; f < 60; ++f) frames.insert(frames.end(), f == 20 ? 25 : 1, f);
+  std::ofstream poses(dir_ + "/poses.csv"), truth(dir_ + "/truth.csv");
+  poses << "query,x,y,z,yaw\n";
+  truth << "query,correct_places\n";
+  for (size_t q = 0; q < frames.size(); ++q) {
+    char from[32], to[32];
+    std::snprintf(from, sizeof(from), "/%03d.png", frames[q]);
+    std::snprintf(to, sizeof(to), "/%03d.png", static_cast<int>(q));
+    fs::copy_file(root + "winter" + from, dir_ + "/q" + to);
+    poses << q << "," << 10 * frames[q] << ",0,0,0\n";
+    truth << q << "," << std::max(0, frames[q] - 1) << " " << frames[q] << " " << frames[q] + 1
+          << "\n";
+  }
+  poses.close();
+  truth.close();
+  const std::string in = "--reference summer=" + root + "summer --reference fall=" + root +
+                         "fall --query " + dir_ + "/q --ground-truth " + dir_ +
+                         "/truth.csv --distance cosine --methods bsf+filter --no-progress ";
+  const Result still = Evaluate(in + "--odometry poses --query-poses " + dir_ +
+                                "/poses.csv --place-spacing-m 10 --out " + dir_ + "/odometry");
+  ASSERT_EQ(still.exit_code, 0) << still.output;
+  EXPECT_NE(still.output.find("odometry from the poses of '" + dir_ +
+                              "/poses.csv', a place every 10 m (--place-spacing-m)"),
+            std::string::npos)
+      << still.output;
+  const Result moving = Evaluate(in + "--out " + dir_ + "/none");
+  ASSERT_EQ(moving.exit_code, 0) << moving.output;
+  const auto accepted_in_stop = [&](const std::string& run) {
+    const std::vector<std::string> rows = Lines(dir_ + "/" + run + "/matches/bsf+filter.csv");
+    int n = 0;
+    for (int q = 21; q < 45; ++q) {  // the 24 frames after the first at place 20
+      int query = -1, match = -1, accepted = 0;
+      EXPECT_EQ(std::sscanf(rows[static_cast<size_t>(q + 1)].c_str(), "%d,%d,%*[^,],%d", &query,
+                            &match, &accepted),
+                3);
+      n += accepted == 1 && match == 20;
+    }
+    return n;
+  };
+  // Measured: 24 of 24 with odometry, 0 without.
+  EXPECT_GE(accepted_in_stop("odometry"), 20);
+  EXPECT_LE(accepted_in_stop("none"), 5);
+  // Bad combinations: one line naming the problem.
+  ExpectOneLineRefusal(Evaluate(in + "--odometry poses --out " + dir_ + "/x"),
+                       "--odometry poses needs query poses", "no poses");
+  ExpectOneLineRefusal(Evaluate(in + "--odometry poses --query-poses " + dir_ +
+                                "/poses.csv --out " + dir_ + "/x"),
+                       "needs the place spacing", "no spacing");
+  ExpectOneLineRefusal(Evaluate(in + "--place-spacing-m 10 --out " + dir_ + "/x"),
+                       "--place-spacing-m goes with --odometry poses", "spacing alone");
+  ExpectOneLineRefusal(Evaluate(in + "--odometry gps --out " + dir_ + "/x"),
+                       "--odometry takes none or poses", "--odometry gps");
 }
 
 TEST_F(EvaluateTool, StudiesScriptWritesTablesAndPlots) {

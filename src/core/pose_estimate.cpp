@@ -89,7 +89,10 @@ std::optional<PoseEstimate> EstimatePose(const PlaceBelief& belief,
     e.mean.z_m = z / m_near;
     e.mean.yaw_rad = (c == 0 && s == 0) ? match_pose->yaw_rad : std::atan2(s, c);
   }
-  const double p_on = 1 - std::clamp(belief.off_map_probability, 0.0, 1.0);
+  // A P(off) that is not a number says nothing of where the robot is: all of it may be wrong.
+  const double p_on = std::isfinite(belief.off_map_probability)
+                          ? 1 - std::clamp(belief.off_map_probability, 0.0, 1.0)
+                          : 0.0;
   Eigen::Matrix3d floor = Eigen::Matrix3d::Zero();
   floor(0, 0) = floor(1, 1) = options.min_std_m * options.min_std_m;
   floor(2, 2) = options.min_std_yaw_rad * options.min_std_yaw_rad;

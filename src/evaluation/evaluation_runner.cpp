@@ -82,7 +82,7 @@ std::vector<MethodResults> EvaluateMethods(const EvaluationInput& input,
     results[k].outcomes.resize(static_cast<size_t>(input.num_queries));
   }
   for (const auto& [what, size] : {std::pair<const char*, size_t>{"unseen", input.unseen.size()},
-                                    {"odometry steps", input.odometry_steps.size()}}) {
+                                   {"odometry steps", input.odometry_steps.size()}}) {
     if (size != 0 && size != static_cast<size_t>(input.num_queries)) {
       throw std::invalid_argument(std::string(what) + " given for " + std::to_string(size) +
                                   " queries of " + std::to_string(input.num_queries));

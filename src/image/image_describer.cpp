@@ -295,38 +295,49 @@ bool IsUniform(const cv::Mat& image) {
   return true;
 }
 
-std::string Fixed1(double v) {
+std::string Fixed2(double v) {
   char text[32];
-  std::snprintf(text, sizeof(text), "%.1f", v);
+  std::snprintf(text, sizeof(text), "%.2f", v);
   return text;
 }
 
 }  // namespace
 
+namespace {
+
+// The root mean square of `grey` averaged over w columns of cells (area resampling), less its
+// Gaussian blur of 2 cells; the cells' height in *h.
+double CellStructure(const cv::Mat& grey, int w, int* h) {
+  *h = std::max(2, static_cast<int>(std::lround(static_cast<double>(w) * grey.rows / grey.cols)));
+  cv::Mat cells, smooth;
+  cv::resize(grey, cells, cv::Size(w, *h), 0, 0, cv::INTER_AREA);
+  cv::GaussianBlur(cells, smooth, cv::Size(0, 0), 2.0, 2.0, cv::BORDER_REFLECT);
+  return cv::norm(cells, smooth, cv::NORM_L2) / std::sqrt(static_cast<double>(cells.total()));
+}
+
+}  // namespace
+
+double BlindImageMeasure::scene() const {
+  return std::sqrt(std::max(0.0, (4 * coarser * coarser - structure * structure) / 3));
+}
+
+double BlindImageMeasure::noise() const {
+  return std::sqrt(std::max(0.0, 4 * (structure * structure - coarser * coarser) / 3));
+}
+
+bool BlindImageMeasure::blind() const {
+  return scene() < kStep || 2 * coarser * coarser < structure * structure;
+}
+
 std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image) {
-  if (image.empty() || image.cols < 4 || image.rows < 4) return std::nullopt;
+  if (image.empty() || image.cols < 32 || image.rows < 16) return std::nullopt;
   cv::Mat grey;
   ToGrayscale8(image).convertTo(grey, CV_32F);
   BlindImageMeasure m;
-  // Immerkaer's noise estimate over the interior (the mask needs both neighbours).
-  const cv::Mat mask = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat residual;
-  cv::filter2D(grey, residual, CV_32F, mask);
-  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
-  const double abs_sum = cv::norm(residual(inner), cv::NORM_L1);
-  m.noise_std = std::sqrt(M_PI / 2) * abs_sum / (6.0 * inner.area());
-  // The structure at the descriptors' scale, less its smooth part.
   m.cells_wide = std::min(64, grey.cols / 2);
-  m.cells_high = std::max(
-      2, static_cast<int>(std::lround(static_cast<double>(m.cells_wide) * grey.rows / grey.cols)));
-  cv::Mat cells, smooth;
-  cv::resize(grey, cells, cv::Size(m.cells_wide, m.cells_high), 0, 0, cv::INTER_AREA);
-  cv::GaussianBlur(cells, smooth, cv::Size(0, 0), 2.0, 2.0, cv::BORDER_REFLECT);
-  m.structure =
-      cv::norm(cells, smooth, cv::NORM_L2) / std::sqrt(static_cast<double>(cells.total()));
-  const double pixels_per_cell =
-      static_cast<double>(grey.total()) / static_cast<double>(cells.total());
-  m.expected = std::sqrt(m.noise_std * m.noise_std / pixels_per_cell + 1.0 / 12.0);
+  int coarse_high = 0;
+  m.structure = CellStructure(grey, m.cells_wide, &m.cells_high);
+  m.coarser = CellStructure(grey, m.cells_wide / 2, &coarse_high);
   return m;
 }
 
@@ -339,12 +350,18 @@ std::string BlindImageProblem(const cv::Mat& image) {
   }
   const std::optional<BlindImageMeasure> m = MeasureBlindImage(image);
   if (!m || !m->blind()) return "";
-  return "shows only noise (its structure at " + std::to_string(m->cells_wide) + " x " +
-         std::to_string(m->cells_high) + " is " + Fixed1(m->structure) +
-         " grey levels, where the camera's noise (" + Fixed1(m->noise_std) +
-         " levels a pixel) gives " + Fixed1(m->expected) +
-         ", as a covered, black or dazzled camera gives): it shows nothing to recognise a place "
-         "by";
+  const std::string at =
+      std::to_string(m->cells_wide) + " x " + std::to_string(m->cells_high) + " cells";
+  if (m->scene() < BlindImageMeasure::kStep) {
+    return "shows only noise (at " + at + " its scene's contrast is " + Fixed2(m->scene()) +
+           " grey levels, under one step of the 8-bit scale, the noise's " + Fixed2(m->noise()) +
+           "; as a covered, black or dazzled camera gives): it shows nothing to recognise a "
+           "place by";
+  }
+  return "shows only noise (its structure falls from " + Fixed2(m->structure) + " grey levels at " +
+         at + " to " + Fixed2(m->coarser) +
+         " at cells twice as large, as noise does, where a scene's holds; as a covered, black "
+         "or dazzled camera gives): it shows nothing to recognise a place by";
 }
 
 }  // namespace bsf_vpr

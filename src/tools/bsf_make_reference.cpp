@@ -19,8 +19,10 @@ std::string Usage() {
 Writes the reference set PATH.yaml and its descriptors beside it as
 <stem>.<content hash>.npy (float32), which the YAML names: row k is place k (images
 sorted by name). With --images the YAML also names the folder (images:, relative to the
-YAML's folder when it lies below it, else absolute) and each row's file (image_files:).
-The .npy is written first and the YAML replaced last, in one step: a set that existed at
+YAML's folder when it lies below it, else absolute) and each row's file (image_files:);
+images that show nothing (a covered, black or dazzled camera) are described all the same,
+and a warning on stderr counts them and names the first: remove them, or the set holds
+places described by noise. The .npy is written first and the YAML replaced last, in one step: a set that existed at
 PATH.yaml stays whole until the new one is; its old .npy is then removed.
   --images DIR            describe the images with --image-descriptor (below)
   --descriptors PATH      or take the rows of a descriptor .npy as they are

@@ -38,7 +38,7 @@ traversal from different viewpoints (docs/results.md, Study 7).
                 grey: uniform grey (128), as a fogged or defocused lens on a flat field
                 black: no light at all (the noise half cut off at 0)
                 dazzled: the sun in the lens: 98% of the way to white
-  --cover true  the same as --blind covered
+  --cover true  the same as --blind covered (false: no effect)
   -h, --help  this help
 Exit status 2 with one line naming the problem on bad arguments or an unreadable image.
 )";
@@ -82,7 +82,7 @@ int Run(int argc, char** argv) {
     else if (f == "--blind")
       throw std::invalid_argument("--blind takes covered, grey, black or dazzled, got '" + v + "'");
     else if (f == "--cover" && (v == "true" || v == "false"))
-      blind = v == "true" ? "covered" : "";
+      blind = v == "true" ? "covered" : blind;  // false leaves a --blind as it is
     else if (f == "--cover")
       throw std::invalid_argument("--cover takes true or false, got '" + v + "'");
     else

@@ -402,6 +402,13 @@ class FusionServices(unittest.TestCase):
             # The floor: the robot anywhere along one place spacing, (1 m)^2 / 12.
             self.assertGreaterEqual(c[0], 1.0 / 12 - 1e-9)
             self.assertEqual(c[14], 1e6)  # z unknown
+            # The chance the match is wrong, which the covariance does not carry, is the
+            # match's: 1 - (1 - P(off)) m_near, at least P(off).
+            match = [m for m in self.matches if m.header.stamp == p.header.stamp]
+            self.assertEqual(len(match), 1)
+            w = match[0].wrong_probability
+            self.assertTrue(0.0 <= w <= 1.0, w)
+            self.assertGreaterEqual(w, belief.off_map_probability - 1e-9)
 
 
     def test_a_publisher_of_the_other_descriptor_type_is_named_not_silently_unheard(self):

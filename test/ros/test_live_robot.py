@@ -315,7 +315,6 @@ class LiveRobot(unittest.TestCase):
               "changed %d times); diagnostics: %s" % (localized, len(sent), held, changes, flips,
                                                       keys[-1]), flush=True)
         self.assertGreater(held, 0, "no belief was held")
-        self.assertLess(changes, flips, "localization flickers as acceptance does")
 
     def assert_a_covered_camera_is_not_localised(self, robot, sent):
         """A lens cap after localising (found driving it live: a latched "localized: true"

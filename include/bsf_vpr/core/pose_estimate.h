@@ -40,8 +40,11 @@ struct PoseEstimate {
   PlacePose mean;
   // Covariance of (x, y, yaw), row-major as in geometry_msgs (x, y, yaw).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  int places = 0;                // places of the neighbourhood that entered the mean
-  double wrong_probability = 0;  // that the robot is not in the neighbourhood (not in covariance)
+  int places = 0;  // places of the neighbourhood that entered the mean
+  // That the robot is not in the neighbourhood (not in the covariance): 1 - (1 - P(off))
+  // m_near; a distance method, without a posterior, P(off) alone (0 without off_map); 1
+  // where P(off) is not a number.
+  double wrong_probability = 0;
 };
 
 // The pose the belief `belief` puts the robot at, from the place poses `place_poses` (one per

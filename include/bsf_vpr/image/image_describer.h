@@ -91,40 +91,46 @@ class ImageDescriber {
   virtual std::string descriptor_type() const = 0;  // e.g. "hog_64x32_c8_b9"
 };
 
-// Why `image` (8-bit, any channel count) shows nothing to recognise a place by ("" if it
+// Why `image` (8-bit, 1, 3 or 4 channels) shows nothing to recognise a place by ("" if it
 // shows something), as a covered, black, dazzled or fogged camera gives:
 // - every pixel of it is alike ("is uniform"); its descriptor carries no information: the
 //   patch-normalised one and HOG are all zeros (refused as queries, QueryDescriptorProblem),
 //   and a network gives one vector for every such image;
-// - or its structure at the scale places are recognised by is no more than the camera's
-//   noise gives there ("shows only noise"): the patch-normalised descriptor would amplify
-//   that noise into a vector that is near no place and steadily nearest one (the places'
-//   means correction; the filter then reads a robot standing still). BlindImageMeasure says
-//   how it is measured. This is a fact about the frame, not a threshold fitted to any data.
+// - or what structure it has at the scale places are recognised by is noise ("shows only
+//   noise", BlindImageMeasure): the patch-normalised descriptor would amplify that noise
+//   into a vector that is near no place and steadily nearest one (the places' means
+//   correction; the filter then reads a robot standing still).
+// Throws std::invalid_argument for another depth or channel count (ToGrayscale8).
 std::string BlindImageProblem(const cv::Mat& image);
 
-// What BlindImageProblem measures on the grey image g (W x H), with no fitted constant:
-// - noise_std: the sensor noise's standard deviation, from the residual of the 3 x 3 mask
-//   [1 -2 1; -2 4 -2; 1 -2 1], blind to a plane and to most of a scene's edges (Immerkaer,
-//   "Fast noise variance estimation", CVIU 1996): sqrt(pi/2) / (6 (W-2)(H-2)) sum |g * N|.
-//   A scene's texture adds to it, so it errs towards calling a frame seen.
-// - structure: g averaged over cells (area resampling) to w = min(64, W/2) columns (the
-//   scale of the package's 64 x 32 descriptors; a cell holds k = W H / (w h) pixels), less
-//   its Gaussian blur of 2 cells (a smooth field, such as vignetting, glare or a blurred lid,
-//   is no place), as the root mean square, in grey levels.
-// - expected: what noise and 8-bit quantisation alone give there,
-//   sqrt(noise_std^2 / k + 1/12).
-// The frame is blind when structure < 2 expected. Noise alone gives a ratio of at most 1
-// (its spread over w h cells is about 1/sqrt(2 w h), under 0.02 at 64 x 36); real frames
-// of Nordland in three seasons give 6 at 64 x 32 and over 17 at 256 x 144.
+// What BlindImageProblem measures on the grey image (W x H, at least 32 x 16):
+// - structure: the image averaged over cells (area resampling) w = min(64, W/2) columns wide
+//   (the scale of the package's 64 x 32 descriptors), less its Gaussian blur of 2 cells (a
+//   smooth field, such as vignetting, glare or the light through a lid, is no place), as a
+//   root mean square in grey levels;
+// - coarser: the same over cells twice as large (w/2 columns).
+// A scene's structure holds from one scale to the next (natural images have about as much
+// contrast in every octave of scale: their spectrum falls as 1/f), while noise's halves
+// (its variance falls with the pixels a cell averages), whatever its correlation over fewer
+// pixels than a cell (a demosaiced, denoised or JPEG-compressed sensor's). So with S the
+// scene's variance and N the noise's at w columns, structure^2 = S + N and coarser^2 =
+// S + N/4: S = (4 coarser^2 - structure^2) / 3 and N = 4 (structure^2 - coarser^2) / 3. The
+// frame is blind when the scene's contrast sqrt(S) is under one step of the 8-bit scale (one
+// grey level: what is left of a scene under a glare or a lid, seen only through the noise
+// that dithers it), or when its variance is under half the noise's (S < N / 2, that is
+// coarser < structure / sqrt(2)). The repository's Nordland-100 frames (three seasons, at
+// 64 x 32, 256 x 144 and ../shared's 640 x 360) give coarser / structure of at least 1.02 and a
+// structure of at least 7.9 grey levels; noise gives 0.5 (test_image_describer).
 struct BlindImageMeasure {
-  double noise_std = 0;
-  double structure = 0;
-  double expected = 0;
+  static constexpr double kStep = 1.0;  // one grey level
+  double structure = 0, coarser = 0;
   int cells_wide = 0, cells_high = 0;
-  bool blind() const { return structure < 2 * expected; }
+  // sqrt(S) and sqrt(N) above (0 where the estimate falls below 0).
+  double scene() const;
+  double noise() const;
+  bool blind() const;
 };
-// Measured as above; nullopt for an image too small to measure (under 4 x 4 pixels).
+// Measured as above; nullopt for an image too small to measure (under 32 x 16 pixels).
 std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image);
 
 // Builds the describer; an ONNX model is loaded and run once on a blank image, so that a

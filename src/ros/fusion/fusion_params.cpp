@@ -104,9 +104,9 @@ const OptionTable<RecognitionPublisherOptions>& PublishingParamsTable() {
             "localization_hold_s", [](auto& p) -> auto& { return p.localization_hold_s; },
             "after an accepted match, localization stays localised (at that place, with "
             "held_s) through beliefs that accept none for up to this long by the queries' "
-            "stamps, unless one says off the map (P(off) > 0.5): a frame between places or "
-            "a passing truck does not make the robot lost; 0: localised exactly when a "
-            "belief is accepted",
+            "stamps, until one says off the map (P(off) > 0.5) or beliefs stop "
+            "(localization_timeout): a frame between places or a passing truck does not "
+            "make the robot lost; 0: localised exactly when a belief is accepted",
             "s", AtLeast(0));
     AddViewParams(&t);
     return t;

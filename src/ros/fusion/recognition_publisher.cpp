@@ -48,16 +48,19 @@ std::string NotLocalizedReason(const PlaceBelief& b) {
 
 }  // namespace
 
-void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header,
-                                               const PlaceBelief& b) {
+void RecognitionPublisher::PublishLocalization(const std_msgs::Header& header, const PlaceBelief& b,
+                                               int num_places) {
   const ros::Time stamp = header.stamp.isZero() ? ros::Time::now() : header.stamp;
   // Held: localised on a match accepted at most localization_hold_s before, through beliefs
   // that accept none but do not say the robot is off the map (one frame between places, a
-  // passing truck, a blurred frame is no reason to tell a robot it is lost).
-  const bool held = !b.accepted && localized_.value_or(false) && stale_.empty() &&
-                    !last_accepted_.isZero() && stamp >= last_accepted_ &&
+  // passing truck, a blurred frame is no reason to tell a robot it is lost). The previous
+  // belief was localised (an off-map one ends the hold), no silence came between
+  // (CheckStale), and the place is still one of the map's (the sets may have changed).
+  const bool held = options_.localization_hold_s > 0 && !b.accepted && localized_.value_or(false) &&
+                    stale_.empty() && !last_accepted_.isZero() && stamp >= last_accepted_ &&
                     (stamp - last_accepted_).toSec() <= options_.localization_hold_s &&
-                    !(b.off_map_probability > 0.5);
+                    !(b.off_map_probability > 0.5) && localized_place_ >= 0 &&
+                    localized_place_ < num_places;
   const bool localized = b.accepted || held;
   if (!localized_ || *localized_ != localized || stamp < localized_since_ || !stale_.empty()) {
     localized_ = localized;
@@ -149,7 +152,7 @@ void RecognitionPublisher::Publish(const std_msgs::Header& header, const Recogni
     intervals_.push_back((now - last_belief_time_).toSec());
   }
   last_belief_time_ = now;
-  PublishLocalization(header, r.belief);
+  PublishLocalization(header, r.belief, layout.num_places());
   if (r.belief.accepted) {
     auto match = boost::make_shared<Match>();
     match->header = header;

@@ -57,8 +57,9 @@ struct RecognitionPublisherOptions {
   // robot is not localised (CheckStale).
   double localization_timeout_s = 1.0;
   // After an accepted match the robot stays localised (at that place) through beliefs that
-  // accept none for up to this long, by the queries' stamps, unless one says it is off the
-  // map (P(off) > 0.5); 0: localised exactly when the belief is accepted.
+  // accept none for up to this long, by the queries' stamps, until one says it is off the
+  // map (P(off) > 0.5) or beliefs stop (CheckStale); 0: localised exactly when the belief is
+  // accepted.
   double localization_hold_s = 1.0;
 };
 
@@ -96,7 +97,9 @@ class RecognitionPublisher {
   std::optional<PoseEstimate> EstimateMatchPose(const Recognition& r, const PlaceLayout& layout,
                                                 const PlaceDecider& decider) const;
   void PublishPose(const std_msgs::Header& header, const PoseEstimate& estimate);
-  void PublishLocalization(const std_msgs::Header& header, const PlaceBelief& belief);
+  // `num_places`: the map's now (a held place must still be one of them).
+  void PublishLocalization(const std_msgs::Header& header, const PlaceBelief& belief,
+                           int num_places);
 
   RecognitionPublisherOptions options_;
   ros::Publisher belief_pub_, match_pub_, pose_pub_, localization_pub_;

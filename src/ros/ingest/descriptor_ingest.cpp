@@ -1,10 +1,9 @@
 #include "src/ros/ingest/descriptor_ingest.h"
 
+#include <bsf_vpr/InputDropped.h>
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <xmlrpcpp/XmlRpcException.h>
-
-#include <bsf_vpr/InputDropped.h>
 
 #include <chrono>
 #include <cmath>
@@ -185,9 +184,9 @@ void DescriptorIngest::OnImage(const sensor_msgs::ImageConstPtr& msg) {
     // toCvShare converts only when the encoding differs (e.g. rgb8 -> bgr8).
     const cv_bridge::CvImageConstPtr cv =
         cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::BGR8);
+    const auto t0 = std::chrono::steady_clock::now();  // the check is part of describing
     const std::string blind = BlindImageProblem(cv->image);
     if (!blind.empty()) return Reject("blind image", "image " + blind, msg->header);
-    const auto t0 = std::chrono::steady_clock::now();
     const Eigen::VectorXf d = describer_->Describe(cv->image);
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out->data.assign(d.data(), d.data() + d.size());
@@ -284,7 +283,8 @@ void DescriptorIngest::ValidateAndPublish(const Descriptor::Ptr& out) {
   const std::string problem = Problem(*out, &sq);
   if (!problem.empty()) return Reject("bad descriptor", problem, out->header);
   if (params_.l2_normalize) {
-    if (sq <= 0) return Reject("bad descriptor", "cannot L2-normalise a zero descriptor", out->header);
+    if (sq <= 0)
+      return Reject("bad descriptor", "cannot L2-normalise a zero descriptor", out->header);
     const float inv = static_cast<float>(1.0 / std::sqrt(sq));
     for (float& v : out->data) v *= inv;
   }

@@ -4,10 +4,11 @@
 // (QueryDescriptorProblem), of the expected dimension, optionally L2-normalised. Descriptors
 // may come as bsf_vpr/Descriptor or std_msgs/Float32MultiArray (a 1-D array, as a Python node
 // publishes it) on the same topic. Bad input (an image whose sizes do not fit its data, a
-// blind image that shows nothing: uniform, or only noise (BlindImageProblem), a message of another type) is
-// dropped with a throttled error and counted in diagnostics. It subscribes to its input only while
-// someone listens to its output (a pure transform). With images it also publishes, while someone
-// listens, the seconds each image took to describe on ~describe_time (std_msgs/Float64), before
+// blind image that shows nothing: uniform, or only noise (BlindImageProblem), a message of
+// another type) is dropped with a throttled error and counted in diagnostics. It subscribes to
+// its input only while someone listens to its output (a pure transform). With images it also
+// publishes, while someone listens, the seconds each image took to check and describe on
+// ~describe_time (std_msgs/Float64), before
 // that image's descriptor: the core's own time for it, as Belief.processing_time is the fusion
 // node's.
 #pragma once

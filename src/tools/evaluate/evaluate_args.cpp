@@ -18,7 +18,10 @@ Inputs (either descriptors, or precomputed per-source matrices):
   --reference NAME=PATH   a reference set: descriptor .npy (N x D), reference-set .yaml,
                           or a folder of images (described with --image-descriptor, below).
                           Repeat for M sets.
-  --query PATH            the query traversal, of the same kinds (Q x D)
+  --query PATH            the query traversal, of the same kinds (Q x D); of a folder, an
+                          image that shows nothing (a covered, black or dazzled camera) is
+                          no observation, as the ingest drops it live: no match, no filter
+                          step (the first output line counts them)
   --distances NAME=PATH   a Q x N .npy of distances from every query to every place for
                           one source (lower is better). Repeatable.
   --similarities NAME=PATH  the same with similarities (higher is better); they become
@@ -57,10 +60,10 @@ Ground truth (one of):
                           --results-bag from --pose-topic (matched to each belief by header
                           stamp; a query without a pose is left out of the scores and counted)
   --query-poses CSV       with --tolerance-m or --odometry poses, the poses of a .npy or
-                          image-folder query: a
-                          header 'query,x,y,z,yaw' or 'timestamp,x,y,z,yaw', then one row per
-                          query in order (metres, radians, the reference poses' frame; no
-                          lat,lon: the sets keep metres and no origin)
+                          image-folder query: a header 'query,x,y,z,yaw' or
+                          'timestamp,x,y,z,yaw', then one row per query in order (metres,
+                          radians, the reference poses' frame; no lat,lon: the sets keep
+                          metres and no origin)
 
 Odometry (descriptor inputs; the fusion node's odometry_source and place_spacing_m):
   --odometry none|poses   poses: each +filter step is the robot's progress from the query

@@ -324,10 +324,10 @@ void LoadOdometry(const EvaluateArgs& args, EvaluationData* data) {
     if (last) steps[q] = (at - *last).norm() / spacing;
     last = at;
   }
-  char line[160];
-  std::snprintf(line, sizeof(line), "; odometry from the poses of %s, a place every %.3g m%s",
-                source.c_str(), spacing, how.c_str());
-  data->description += line;
+  char metres[32];
+  std::snprintf(metres, sizeof(metres), "%.3g", spacing);
+  data->description +=
+      "; odometry from the poses of " + source + ", a place every " + metres + " m" + how;
 }
 
 }  // namespace

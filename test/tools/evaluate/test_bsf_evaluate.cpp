@@ -735,6 +735,8 @@ TEST_F(EvaluateTool, BlindQueryFramesAreNoObservation) {
     }
     ASSERT_TRUE(cv::imwrite(dir_ + "/q" + name, frame));
   }
+  // --tolerance counts frames by query index: rows 40-59 show frames 20-39, so the printed
+  // metrics mean little; the rows of matches/ are what this test reads.
   const Result r = Evaluate("--reference summer=" + root + "summer --reference winter=" + root +
                             "winter --query " + dir_ +
                             "/q --tolerance 2 --methods bsf,bsf+filter "
@@ -821,9 +823,9 @@ TEST_F(EvaluateTool, OdometryFromTheQueryPosesTellsTheFilterTheRobotStopped) {
   // Bad combinations: one line naming the problem.
   ExpectOneLineRefusal(Evaluate(in + "--odometry poses --out " + dir_ + "/x"),
                        "--odometry poses needs query poses", "no poses");
-  ExpectOneLineRefusal(Evaluate(in + "--odometry poses --query-poses " + dir_ +
-                                "/poses.csv --out " + dir_ + "/x"),
-                       "needs the place spacing", "no spacing");
+  ExpectOneLineRefusal(
+      Evaluate(in + "--odometry poses --query-poses " + dir_ + "/poses.csv --out " + dir_ + "/x"),
+      "needs the place spacing", "no spacing");
   ExpectOneLineRefusal(Evaluate(in + "--place-spacing-m 10 --out " + dir_ + "/x"),
                        "--place-spacing-m goes with --odometry poses", "spacing alone");
   ExpectOneLineRefusal(Evaluate(in + "--odometry gps --out " + dir_ + "/x"),

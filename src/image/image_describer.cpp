@@ -326,7 +326,7 @@ double BlindImageMeasure::noise() const {
 }
 
 bool BlindImageMeasure::blind() const {
-  return scene() < kStep || 2 * coarser * coarser < structure * structure;
+  return scene() < kStep || 5 * coarser * coarser < 2 * structure * structure;  // S < N / 4
 }
 
 std::optional<BlindImageMeasure> MeasureBlindImage(const cv::Mat& image) {

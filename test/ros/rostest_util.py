@@ -124,3 +124,16 @@ def replay_lockstep(bag_path, results_path, image_topic="/camera/image_raw",
     sub.unregister()
     pub.unregister()
     return beliefs
+
+
+def scene_image(height, width, seed=1):
+    """The bytes of a height x width bgr8 image with structure at every scale, as a scene has
+    (blocks of 4, 8 and 16 pixels of random grey), not independent noise: the ingest drops a
+    frame of pixel noise as blind (BlindImageProblem)."""
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    img = np.zeros((height, width))
+    for s in (4, 8, 16):
+        blocks = rng.random((-(-height // s), -(-width // s)))
+        img += np.kron(blocks, np.ones((s, s)))[:height, :width] * 80
+    return np.repeat(img.astype(np.uint8)[..., None], 3, axis=2).tobytes()

@@ -28,7 +28,7 @@ from bsf_vpr.srv import ListReferenceSets, LoadReferenceSet
 from rosgraph_msgs.msg import Log
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import (attach_fusion_services, run_tool, wait_for,  # noqa: E402
+from rostest_util import (attach_fusion_services, run_tool, scene_image, wait_for,  # noqa: E402
                           write_reference_set)
 
 NS = "/bsf_vpr/"
@@ -332,7 +332,7 @@ class Attacks(unittest.TestCase):
         self.image.publish(short)
         good = Image()
         good.height, good.width, good.step, good.encoding = 32, 64, 64 * 3, "bgr8"
-        good.data = bytes(np.random.default_rng(1).integers(0, 255, 32 * 64 * 3, np.uint8))
+        good.data = scene_image(32, 64)
         good.header.stamp = rospy.Time(777)
         self.image.publish(good)
         wait_for(lambda: any(d.header.stamp == rospy.Time(777) for d in self.img_out[n:]), 30,

@@ -13,7 +13,7 @@ import rostest
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_util import wait_for  # noqa: E402
+from rostest_util import scene_image, wait_for  # noqa: E402
 from test_launch_files import load_launch  # noqa: E402
 
 from bsf_vpr.srv import ListReferenceSets  # noqa: E402
@@ -105,7 +105,7 @@ class ConfigFiles(unittest.TestCase):
             pub = rospy.Publisher(ns + "/image", Image, queue_size=1)
             wait_for(lambda: pub.get_num_connections() > 0, 30, ns + " to subscribe (lazily)")
             img = Image(height=32, width=64, encoding="rgb8", step=64 * 3)
-            img.data = np.random.RandomState(1).randint(0, 255, 32 * 64 * 3, np.uint8).tobytes()
+            img.data = scene_image(32, 64)
             wait_for(lambda: (pub.publish(img), len(got) > 0)[1], 30, ns + " to describe an image")
             self.assertEqual(len(got[0].data), dimension, ns)
             self.assertEqual(got[0].descriptor_type, kind, ns)

@@ -260,17 +260,25 @@ void LoadMatrices(const EvaluateArgs& args, EvaluationData* data) {
 
 // --tolerance-m offline: query poses from --query-poses or the query YAML, place poses from
 // the reference sets.
+// --query-poses, read once for --tolerance-m and --odometry poses: refused for a query with
+// poses of its own.
+void ReadQueryPosesArg(const EvaluateArgs& args, EvaluationData* data) {
+  if (!data->query_poses.empty()) {
+    throw std::invalid_argument("query '" + args.query +
+                                "' has poses of its own: --query-poses is for a query "
+                                "without (a .npy or an image folder)");
+  }
+  data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
+}
+
+// Where the query poses came from, for the output lines.
+std::string QueryPoseSource(const EvaluateArgs& args) {
+  return args.query_poses.empty() ? "query '" + args.query + "'" : "'" + args.query_poses + "'";
+}
+
 void LoadMetricTruth(const EvaluateArgs& args, EvaluationData* data) {
-  std::string query_source = "query '" + args.query + "'";
-  if (!args.query_poses.empty()) {
-    if (!data->query_poses.empty()) {
-      throw std::invalid_argument("query '" + args.query +
-                                  "' has poses of its own: --query-poses is for a query "
-                                  "without (a .npy or an image folder)");
-    }
-    data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
-    query_source = "'" + args.query_poses + "'";
-  } else if (data->query_poses.empty()) {
+  const std::string query_source = QueryPoseSource(args);
+  if (data->query_poses.empty()) {
     throw std::invalid_argument(
         "--tolerance-m needs query poses: give --query-poses CSV, or the query as a YAML with "
         "'poses'");
@@ -284,18 +292,7 @@ void LoadMetricTruth(const EvaluateArgs& args, EvaluationData* data) {
 // takes them: the distance moved since the previous seen query over the place spacing;
 // none at the first seen query and at a blind one), and a line of the description.
 void LoadOdometry(const EvaluateArgs& args, EvaluationData* data) {
-  std::string source = "query '" + args.query + "'";
-  if (!args.query_poses.empty()) {
-    source = "'" + args.query_poses + "'";
-    if (args.tolerance_m < 0) {  // else LoadMetricTruth has read them
-      if (!data->query_poses.empty()) {
-        throw std::invalid_argument("query '" + args.query +
-                                    "' has poses of its own: --query-poses is for a query "
-                                    "without (a .npy or an image folder)");
-      }
-      data->query_poses = ReadQueryPosesCsv(args.query_poses, data->input.num_queries);
-    }
-  }
+  const std::string source = QueryPoseSource(args);
   if (data->query_poses.empty()) {
     throw std::invalid_argument(
         "--odometry poses needs query poses: give --query-poses CSV, or the query as a YAML "
@@ -339,6 +336,7 @@ std::unique_ptr<EvaluationData> LoadEvaluationData(const EvaluateArgs& args) {
   } else {
     LoadMatrices(args, data.get());
   }
+  if (!args.query_poses.empty()) ReadQueryPosesArg(args, data.get());
   if (args.tolerance_frames >= 0) {
     data->truth = GroundTruth::FromFrameTolerance(data->input.num_queries, data->input.num_places,
                                                   args.tolerance_frames);
